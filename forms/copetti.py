@@ -1,0 +1,110 @@
+"""Copetti's fully discrete scheme (3.1)–(3.4) as UFL forms.
+
+The rod is I = (0, 1) with P1 elements; S_E holds the P1 functions that vanish at x = 0. The
+unknowns are the shifted temperature Θ = θ + θ_A r, r(x) = c x − 1, c = k/(k + 1) (Remark 2.2),
+and the displacement U. Every function below takes UFL arguments, coefficients and constants and
+returns a UFL form or expression; nothing but ufl is imported, so the same functions feed dolfinx's
+JIT at run time and ``ffcx`` ahead of time.
+
+Measures are passed in, because the scheme's L2 products (·,·) and the point x = 1 are choices of
+the discretisation, not of the equations:
+
+* ``dx_m``: the measure of the mass terms (Θⁿ − Θⁿ⁻¹, w) and (Uⁿ − 2Uⁿ⁻¹ + Uⁿ⁻², v). Exact
+  quadrature gives the consistent mass matrix M; vertex quadrature gives the paper's lumped M.
+* ``dx``: every other integral over I (all are exact for P1 with any rule of degree ≥ 2).
+* ``ds_1``: the boundary point x = 1, so that ``f * ds_1`` is f(1).
+"""
+
+import ufl
+
+
+def positive_part(s):
+    """[s]_+ = max(s, 0)."""
+    return ufl.max_value(s, 0.0)
+
+
+def robin_shift(x, k):
+    """r(x) = c x − 1 with c = k/(k + 1): θ̂ = θ + θ_A r vanishes at x = 0 and satisfies
+    the homogeneous Robin condition −θ̂_x(1) = k θ̂(1) (Remark 2.2)."""
+    c = k / (k + 1.0)
+    return c * x[0] - 1.0
+
+
+def heat(Θ, Θ_prev, U, U_prev, w, dt, a, k, dx_m, dx, ds_1):
+    """Residual of (3.1), tested with w:
+
+        (Θⁿ − Θⁿ⁻¹, w)/Δt + (Θⁿ_x, w_x) + a (Uⁿ_x − Uⁿ⁻¹_x, w)/Δt + k Θⁿ(1) w(1).
+
+    With U the previous Picard iterate U^{n,l−1} this is (3.3)."""
+    return (
+        (Θ - Θ_prev) / dt * w * dx_m
+        + Θ.dx(0) * w.dx(0) * dx
+        + a / dt * (U.dx(0) - U_prev.dx(0)) * w * dx
+        + k * Θ * w * ds_1
+    )
+
+
+def momentum(U, U_prev, U_prev2, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx):
+    """Residual of (3.2) without its contact term, tested with v:
+
+        b (Uⁿ − 2Uⁿ⁻¹ + Uⁿ⁻², v)/Δt² + (Uⁿ_x − aΘⁿ + aθ_A r, v_x) + ζ (Uⁿ_x − Uⁿ⁻¹_x, v_x)/Δt.
+
+    With Θ = Θ^{n,l} and U = U^{n,l} this is (3.4) less its contact term."""
+    return (
+        b * (U - 2.0 * U_prev + U_prev2) / dt**2 * v * dx_m
+        + (U.dx(0) - a * Θ + a * theta_A * r) * v.dx(0) * dx
+        + zeta / dt * (U.dx(0) - U_prev.dx(0)) * v.dx(0) * dx
+    )
+
+
+def contact_pressure(U, epsilon, gap):
+    """(1/ε) [U(1) − g]_+ = −σ(1): the elastic obstacle's reaction (1.5)."""
+    return positive_part(U - gap) / epsilon
+
+
+def contact(p, v, ds_1):
+    """The contact term p v(1) of (3.2), p = (1/ε)[Uⁿ(1) − g]_+. In (3.4) the pressure is taken at
+    the previous iterate, p = (1/ε)[U^{n,l−1}(1) − g]_+, which makes it a load."""
+    return p * v * ds_1
+
+
+def energy(Θ, U, U_prev, dt, b, a, theta_A, r, epsilon, gap, dx_m, dx, ds_1):
+    """Êⁿ of Remark 4.4, with δⁿ = (Uⁿ − Uⁿ⁻¹)/Δt and the norms of the scheme's inner product:
+
+        ½ (‖Θⁿ‖² + b‖δⁿ‖² + ‖Uⁿ_x‖² + (1/ε)[Uⁿ(1) − g]_+²) + a θ_A (r, Uⁿ_x)."""
+    δ = (U - U_prev) / dt
+    return 0.5 * (
+        Θ**2 * dx_m
+        + b * δ**2 * dx_m
+        + U.dx(0) ** 2 * dx
+        + positive_part(U - gap) ** 2 / epsilon * ds_1
+    ) + a * theta_A * r * U.dx(0) * dx
+
+
+def temperature(Θ, theta_A, r):
+    """The physical temperature θ = Θ − θ_A r."""
+    return Θ - theta_A * r
+
+
+def stress(U, U_prev, θ, dt, zeta, a):
+    """The Kelvin–Voigt stress σ = u_x + ζ u_xt − a θ, with u_xt ≈ (Uⁿ_x − Uⁿ⁻¹_x)/Δt."""
+    return U.dx(0) + zeta * (U.dx(0) - U_prev.dx(0)) / dt - a * θ
+
+
+# The matrices of Section 3 that the discrete energy needs: M_ij = (η_i, η_j), K_ij = (η_i', η_j')
+# and z_i = (r, η_i').
+
+
+def mass(u, v, dx_m):
+    """(u, v) in the scheme's inner product: M."""
+    return u * v * dx_m
+
+
+def stiffness(u, v, dx):
+    """(u_x, v_x): K."""
+    return u.dx(0) * v.dx(0) * dx
+
+
+def thermal_load(r, v, dx):
+    """(r, v_x): z."""
+    return r * v.dx(0) * dx

@@ -1,0 +1,62 @@
+"""Every dolfinx call whose spelling differs between the versions rodfem runs on.
+
+Debian 12 ships dolfinx 0.5.2, Debian 13 (the container) 0.9.0. Everything else in rodfem uses
+calls that are the same in both; anything version-specific goes here and nowhere else.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import dolfinx
+import dolfinx.fem.petsc
+import ffcx  # noqa: F401  (calls logging.basicConfig(): its handler is quietened below)
+from dolfinx import fem
+
+VERSION = tuple(int(part) for part in dolfinx.__version__.split(".")[:2])
+
+# Each JIT build runs setuptools, which sets the root logger to INFO and reports every compiler
+# call through the handler ffcx installed. Handler levels are left alone by that: raise them.
+for _handler in logging.getLogger().handlers:
+    _handler.setLevel(logging.WARNING)
+
+
+def function_space(mesh, family: str, degree: int):
+    """A scalar Lagrange/DG function space."""
+    if VERSION < (0, 7):
+        return fem.FunctionSpace(mesh, (family, degree))
+    return fem.functionspace(mesh, (family, degree))
+
+
+def petsc_vector(f: fem.Function):
+    """The PETSc vector (with ghosts) that holds the values of a Function."""
+    if VERSION < (0, 7):
+        return f.vector
+    return f.x.petsc_vec
+
+
+def interpolation_points(V):
+    """The reference points at which V's element interpolates."""
+    points = V.element.interpolation_points
+    return points() if callable(points) else points
+
+
+def set_bc(b, bcs) -> None:
+    """Set the Dirichlet rows of b to the (homogeneous) boundary values."""
+    dolfinx.fem.petsc.set_bc(b, bcs)
+
+
+def assemble_matrix(a, bcs, diagonal: float):
+    """Assemble a bilinear form into an assembled PETSc matrix."""
+    A = dolfinx.fem.petsc.assemble_matrix(a, bcs=bcs, diagonal=diagonal)
+    A.assemble()
+    return A
+
+
+def assemble_vector(L):
+    """Assemble a linear form into a PETSc vector, with ghost contributions summed."""
+    from petsc4py import PETSc
+
+    b = dolfinx.fem.petsc.assemble_vector(L)
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    return b

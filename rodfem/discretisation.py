@@ -1,0 +1,100 @@
+"""The discrete setting of Section 3: mesh, S_E, measures, and the scheme's operators.
+
+Each residual of ``forms.copetti`` is affine in every function it holds. The operators that the
+time loop needs are read off the forms by linearity, once per run:
+
+    F(x; y_1, …, y_m) = A x − Σ_k N_k y_k − b,   A = ∂F/∂x,  N_k = −∂F/∂y_k,  b = −F(0; 0).
+
+So the heat step (3.3) becomes A_h c = N_Θ c^{n−1} + N_U d^{n,l−1} + N_U' d^{n−1} + b_h, which is
+the paper's (M + ΔtK + ΔtkB) c^{n,l} = M c^{n−1} + aC(d^{n−1} − d^{n,l−1}) divided by Δt, and the
+same for (3.4). Rows and columns of the Dirichlet node x = 0 are removed from every operator
+(identity in A, zero in N_k and b), so every vector stays in S_E.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import ufl
+from dolfinx import fem, mesh
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import forms.copetti as copetti
+from rodfem import compat
+from rodfem.scene import Scene
+
+OBSTACLE = 1  # facet tag of the point x = 1
+
+
+@dataclasses.dataclass
+class AffineOperator:
+    """A x = Σ_k N_k y_k + b for a residual F(x; y) affine in all its functions."""
+
+    A: PETSc.Mat
+    N: dict[str, PETSc.Mat]
+    b: PETSc.Vec
+
+
+class Discretisation:
+    """P1 on a uniform mesh of I = (0, 1), the space S_E and the measures of the scheme."""
+
+    def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD):
+        self.scene = scene
+        self.comm = comm
+        self.mesh = mesh.create_interval(comm, scene["mesh.cells"], [0.0, 1.0])
+        self.V = compat.function_space(self.mesh, "Lagrange", 1)
+        self.W = compat.function_space(self.mesh, "DG", 0)  # for the stress σ, constant per cell
+        tdim = self.mesh.topology.dim
+        self.mesh.topology.create_connectivity(tdim - 1, tdim)
+
+        clamped = mesh.locate_entities_boundary(self.mesh, 0, lambda x: np.isclose(x[0], 0.0))
+        dofs = fem.locate_dofs_topological(self.V, 0, clamped)
+        self.bcs = [fem.dirichletbc(PETSc.ScalarType(0.0), dofs, self.V)]
+
+        right = mesh.locate_entities_boundary(self.mesh, 0, lambda x: np.isclose(x[0], 1.0))
+        tags = mesh.meshtags(self.mesh, 0, right, np.full(right.size, OBSTACLE, dtype=np.int32))
+        self.ds_1 = ufl.Measure("ds", domain=self.mesh, subdomain_data=tags)(OBSTACLE)
+        self.dx = ufl.dx(domain=self.mesh)
+        # The paper's lumped M: 2-point Gauss–Lobatto on each cell is the vertex (trapezoidal)
+        # rule, which makes (η_i, η_j) diagonal. Exact quadrature gives the consistent M.
+        if scene["discretisation.mass"] == "lumped":
+            self.dx_m = ufl.dx(domain=self.mesh, scheme="GLL", degree=1)
+        else:
+            self.dx_m = self.dx
+        self.r = copetti.robin_shift(ufl.SpatialCoordinate(self.mesh), scene["model.k"])
+
+    def function(self, name: str) -> fem.Function:
+        f = fem.Function(self.V)
+        f.name = name
+        return f
+
+    @property
+    def owned_coordinates(self) -> np.ndarray:
+        """x of the nodes this rank owns, in the order of its PETSc vectors."""
+        n = self.V.dofmap.index_map.size_local
+        return self.V.tabulate_dof_coordinates()[:n, 0]
+
+    def affine_operator(self, F: ufl.Form, x: fem.Function, y: dict[str, fem.Function]):
+        """Read A, N_k and b off the residual F(x; y), which must be affine in x and each y_k.
+
+        Every function in F must be zero when this is called, so that F itself is F(0; 0).
+        """
+        du = ufl.TrialFunction(self.V)
+        A = compat.assemble_matrix(fem.form(ufl.derivative(F, x, du)), self.bcs, 1.0)
+        N = {
+            name: compat.assemble_matrix(fem.form(-ufl.derivative(F, yk, du)), self.bcs, 0.0)
+            for name, yk in y.items()
+        }
+        b = compat.assemble_vector(fem.form(-F))
+        compat.set_bc(b, self.bcs)
+        return AffineOperator(A, N, b)
+
+    def matrix(self, a: ufl.Form, diagonal: float = 0.0) -> PETSc.Mat:
+        return compat.assemble_matrix(fem.form(a), self.bcs, diagonal)
+
+    def vector(self, L: ufl.Form) -> PETSc.Vec:
+        b = compat.assemble_vector(fem.form(L))
+        compat.set_bc(b, self.bcs)
+        return b

@@ -1,0 +1,254 @@
+"""Scenes: what a user asks to simulate, read from TOML and validated before anything runs.
+
+A scene is a TOML file with the sections below; every key has a default (the paper's common data
+and its first experiment), so a scene names only what differs. The built-in scenes ``paper1`` …
+``paper5`` are the paper's five experiments. Every value is checked here, and each mistake is
+reported as a :class:`SceneError` whose message is one line naming the key and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import json
+import math
+import tomllib
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rodfem.expressions import Expression, ExpressionError
+
+
+class SceneError(ValueError):
+    """A scene value that is wrong: the message names the key and what is allowed."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Key:
+    """One scene key: its kind ("real", "integer", "choice", "expression"), default and range."""
+
+    kind: str
+    default: Any
+    minimum: float | None = None  # inclusive
+    above: float | None = None  # exclusive lower bound
+    choices: tuple[str, ...] = ()
+    help: str = ""
+
+
+SCHEMA: dict[str, dict[str, Key]] = {
+    "model": {
+        "a": Key("real", 0.017, minimum=0.0, help="thermal coupling"),
+        "b": Key("real", 1.0, minimum=0.0, help="inertia"),
+        "zeta": Key("real", 0.2, minimum=0.0, help="Kelvin-Voigt viscosity"),
+        "k": Key("real", 1.0, minimum=0.0, help="heat exchange at x = 1"),
+        "theta_A": Key("real", 10.0, help="temperature at x = 0"),
+    },
+    "obstacle": {
+        "epsilon": Key("real", 0.01, above=0.0, help="compliance: stiffness is 1/epsilon"),
+        "gap": Key("real", 0.1, help="distance g of the obstacle from x = 1"),
+    },
+    "initial": {
+        "theta0": Key("expression", "theta_A*(cos(2*pi*x) - sin(pi*x/2))"),
+        "u0": Key("expression", "0"),
+        "u1": Key("expression", "20*x*(x - 1)**2"),
+    },
+    "mesh": {"cells": Key("integer", 250, minimum=2)},
+    "time": {"dt": Key("real", 0.001, above=0.0), "end": Key("real", 8.0, above=0.0)},
+    "discretisation": {"mass": Key("choice", "lumped", choices=("lumped", "consistent"))},
+    "solver": {
+        "method": Key("choice", "picard", choices=("picard",)),
+        "tol": Key("real", 1e-10, above=0.0, help="max-norm of a Picard increment"),
+        "max_iterations": Key("integer", 100, minimum=1),
+    },
+    "output": {"every": Key("integer", 50, minimum=1, help="save fields every n steps")},
+}
+TOP_LEVEL = {"description": ""}
+MODEL_NAMES = tuple(SCHEMA["model"])
+BUILTIN = tuple(f"paper{i}" for i in range(1, 6))
+
+
+@dataclasses.dataclass(frozen=True)
+class Scene:
+    """A validated scene: ``values[section][key]`` holds every key, defaults filled in."""
+
+    values: dict[str, dict[str, Any]]
+    description: str = ""
+    source: str = ""
+
+    def __getitem__(self, dotted: str) -> Any:
+        section, key = dotted.split(".")
+        return self.values[section][key]
+
+    @property
+    def steps(self) -> int:
+        """N = T/Δt."""
+        return int(round(self["time.end"] / self["time.dt"]))
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """The model's parameters, the names an initial-data expression may use."""
+        return dict(self.values["model"])
+
+    def initial(self, name: str) -> Expression:
+        return Expression(self.values["initial"][name], MODEL_NAMES)
+
+    def to_toml(self) -> str:
+        """The resolved scene as TOML: loading it gives the same scene."""
+        lines = []
+        if self.description:
+            lines += [f"description = {json.dumps(self.description)}", ""]
+        for section, keys in SCHEMA.items():
+            lines.append(f"[{section}]")
+            for key in keys:
+                lines.append(f"{key} = {_toml_value(self.values[section][key])}")
+            lines.append("")
+        return "\n".join(lines)
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, str):
+        return json.dumps(value)
+    return repr(value)
+
+
+def _suggest(name: str, allowed) -> str:
+    close = difflib.get_close_matches(name, list(allowed), n=1, cutoff=0.5)
+    hint = f"did you mean '{close[0]}'? " if close else ""
+    return f"{hint}allowed: {', '.join(allowed)}"
+
+
+def _check_value(dotted: str, spec: Key, value: Any) -> Any:
+    if spec.kind in ("real", "integer"):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            noun = "a number" if spec.kind == "real" else "an integer"
+            raise SceneError(f"{dotted}: must be {noun}, got {_toml_value(value)}")
+        if spec.kind == "integer" and not isinstance(value, int):
+            raise SceneError(f"{dotted}: must be an integer, got {value!r}")
+        if not math.isfinite(value):
+            raise SceneError(f"{dotted}: must be finite, got {value!r}")
+        if spec.minimum is not None and value < spec.minimum:
+            raise SceneError(f"{dotted}: must be >= {spec.minimum:g}, got {value!r}")
+        if spec.above is not None and value <= spec.above:
+            raise SceneError(f"{dotted}: must be > {spec.above:g}, got {value!r}")
+        return float(value) if spec.kind == "real" else int(value)
+    if spec.kind == "choice":
+        if value not in spec.choices:
+            choices = " | ".join(f'"{c}"' for c in spec.choices)
+            raise SceneError(f"{dotted}: must be one of {choices}, got {_toml_value(value)}")
+        return value
+    assert spec.kind == "expression"
+    try:
+        Expression(value, MODEL_NAMES)
+    except ExpressionError as err:
+        raise SceneError(f"{dotted}: {_toml_value(value)} {err}") from None
+    return value
+
+
+def validate(data: dict[str, Any], source: str = "") -> Scene:
+    """Check a scene's raw TOML data and fill in the defaults.
+
+    Raises:
+        SceneError: for the first value that is wrong.
+    """
+    if not isinstance(data, dict):
+        raise SceneError("a scene must be a TOML table")
+    values: dict[str, dict[str, Any]] = {}
+    for name in data:
+        if name not in SCHEMA and name not in TOP_LEVEL:
+            raise SceneError(f"unknown section '{name}': {_suggest(name, [*SCHEMA, *TOP_LEVEL])}")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise SceneError("description: must be a string")
+    for section, keys in SCHEMA.items():
+        given = data.get(section, {})
+        if not isinstance(given, dict):
+            raise SceneError(f"{section}: must be a section [{section}] with keys {', '.join(keys)}")
+        for key in given:
+            if key not in keys:
+                raise SceneError(f"unknown key '{section}.{key}': {_suggest(key, keys)}")
+        values[section] = {
+            key: _check_value(f"{section}.{key}", spec, given.get(key, spec.default))
+            for key, spec in keys.items()
+        }
+    scene = Scene(values, description, source)
+    _check_consistency(scene)
+    return scene
+
+
+def _check_consistency(scene: Scene) -> None:
+    dt, end = scene["time.dt"], scene["time.end"]
+    if dt > end:
+        raise SceneError(f"time.dt: must be <= time.end = {end!r}, got {dt!r}")
+    ratio = end / dt
+    if abs(ratio - round(ratio)) > 1e-9 * ratio:
+        raise SceneError(
+            f"time.end: must be a whole number of steps time.dt = {dt!r}, got {end!r} "
+            f"({ratio:.6g} steps)"
+        )
+    # The initial data are interpolated at the nodes; they must be finite there and, since the
+    # rod is clamped at a temperature θ_A, compatible with the boundary conditions at x = 0.
+    x = np.linspace(0.0, 1.0, scene["mesh.cells"] + 1)
+    at_zero = {"theta0": scene["model.theta_A"], "u0": 0.0, "u1": 0.0}
+    for name, required in at_zero.items():
+        values = scene.initial(name)(x, scene.parameters)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise SceneError(
+                f"initial.{name}: not finite at x = {x[bad[0]]:g} "
+                f"({_toml_value(scene.values['initial'][name])})"
+            )
+        if abs(values[0] - required) > 1e-12 * max(1.0, abs(required)):
+            raise SceneError(
+                f"initial.{name}: must equal {required:g} at x = 0 (boundary condition), "
+                f"got {values[0]:g}"
+            )
+
+
+def _parse_override(item: str) -> tuple[str, str, Any]:
+    if "=" not in item or "." not in item.split("=", 1)[0]:
+        raise SceneError(f"--set {item}: must be section.key=value, e.g. model.zeta=1")
+    dotted, text = item.split("=", 1)
+    section, key = dotted.strip().split(".", 1)
+    try:
+        value = tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = text  # a bare string, e.g. an expression or a choice
+    return section, key, value
+
+
+def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
+    """Load a built-in scene by name or a TOML file by path, apply ``--set`` overrides, validate.
+
+    Raises:
+        SceneError: if the scene cannot be read or any value is wrong.
+    """
+    if scene in BUILTIN:
+        text = resources.files("rodfem").joinpath("scenes", f"{scene}.toml").read_text()
+        source = scene
+    else:
+        path = Path(scene)
+        if not path.is_file():
+            raise SceneError(
+                f"scene '{scene}': not a built-in scene ({', '.join(BUILTIN)}) nor a TOML file"
+            )
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as err:
+            raise SceneError(f"scene '{scene}': cannot be read ({err})") from None
+        source = str(path)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SceneError(f"scene '{scene}': invalid TOML ({err})") from None
+    for item in overrides:
+        section, key, value = _parse_override(item)
+        if section not in SCHEMA:
+            raise SceneError(f"--set {item}: unknown section '{section}': {_suggest(section, SCHEMA)}")
+        data.setdefault(section, {})
+        if not isinstance(data[section], dict):
+            raise SceneError(f"{section}: must be a section [{section}]")
+        data[section][key] = value
+    return validate(data, source)

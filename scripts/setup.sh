@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Bring a Debian root machine to a working rodfem: Debian's FEniCSx packages, a virtual environment
+# .venv made from /usr/bin/python3 with --system-site-packages, and rodfem installed into it
+# (editable). Idempotent: a second run checks and changes nothing. The container runs this too.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+APT_PACKAGES=(
+  python3-dolfinx python3-petsc4py python3-mpi4py python3-ufl python3-basix python3-ffcx
+  python3-meshio python3-h5py python3-scipy python3-numpy python3-venv python3-pip
+  openmpi-bin libopenmpi-dev build-essential
+)
+
+missing=()
+for pkg in "${APT_PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
+done
+if ((${#missing[@]})); then
+  if [ "$(id -u)" != 0 ]; then
+    echo "setup: missing Debian packages (${missing[*]}); run as root to install them" >&2
+    exit 1
+  fi
+  echo "setup: apt-get install ${missing[*]}"
+  apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" \
+    >/dev/null
+fi
+
+if [ ! -x .venv/bin/python ]; then
+  echo "setup: creating .venv from /usr/bin/python3 (--system-site-packages)"
+  /usr/bin/python3 -m venv --system-site-packages .venv
+fi
+
+# Debian's petsc4py and dolfinx are built against the system NumPy: keep pip from replacing it
+# (on Debian 12 that means numpy<2; NumPy 2 breaks their import).
+numpy_pin=$(/usr/bin/python3 -c 'import numpy; v = numpy.__version__
+print("numpy<2" if int(v.split(".")[0]) < 2 else "numpy==" + v)')
+stamp=.venv/.rodfem-installed
+if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ "$0" -nt "$stamp" ]; then
+  echo "setup: pip install -e .[test] ($numpy_pin)"
+  echo "$numpy_pin" > .venv/constraints.txt
+  .venv/bin/python -m pip install -q --disable-pip-version-check -c .venv/constraints.txt \
+    "$numpy_pin" -e ".[test]"
+  touch "$stamp"
+fi
