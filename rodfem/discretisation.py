@@ -9,6 +9,9 @@ So the heat step (3.3) becomes A_h c = N_Θ c^{n−1} + N_U d^{n,l−1} + N_U' d
 the paper's (M + ΔtK + ΔtkB) c^{n,l} = M c^{n−1} + aC(d^{n−1} − d^{n,l−1}) divided by Δt, and the
 same for (3.4). Rows and columns of the Dirichlet node x = 0 are removed from every operator
 (identity in A, zero in N_k and b), so every vector stays in S_E.
+
+Assembly is distributed; the operators handed to the time loop are sequential copies in node order
+(see :mod:`rodfem.nodes`).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from petsc4py import PETSc
 
 import forms.copetti as copetti
 from rodfem import compat
+from rodfem.nodes import NodeOrder
 from rodfem.scene import Scene
 
 OBSTACLE = 1  # facet tag of the point x = 1
@@ -30,7 +34,7 @@ OBSTACLE = 1  # facet tag of the point x = 1
 
 @dataclasses.dataclass
 class AffineOperator:
-    """A x = Σ_k N_k y_k + b for a residual F(x; y) affine in all its functions."""
+    """A x = Σ_k N_k y_k + b for a residual F(x; y) affine in all its functions (node order)."""
 
     A: PETSc.Mat
     N: dict[str, PETSc.Mat]
@@ -64,17 +68,12 @@ class Discretisation:
         else:
             self.dx_m = self.dx
         self.r = copetti.robin_shift(ufl.SpatialCoordinate(self.mesh), scene["model.k"])
+        self.nodes = NodeOrder(self.V)
 
     def function(self, name: str) -> fem.Function:
         f = fem.Function(self.V)
         f.name = name
         return f
-
-    @property
-    def owned_coordinates(self) -> np.ndarray:
-        """x of the nodes this rank owns, in the order of its PETSc vectors."""
-        n = self.V.dofmap.index_map.size_local
-        return self.V.tabulate_dof_coordinates()[:n, 0]
 
     def affine_operator(self, F: ufl.Form, x: fem.Function, y: dict[str, fem.Function]):
         """Read A, N_k and b off the residual F(x; y), which must be affine in x and each y_k.
@@ -82,19 +81,16 @@ class Discretisation:
         Every function in F must be zero when this is called, so that F itself is F(0; 0).
         """
         du = ufl.TrialFunction(self.V)
-        A = compat.assemble_matrix(fem.form(ufl.derivative(F, x, du)), self.bcs, 1.0)
-        N = {
-            name: compat.assemble_matrix(fem.form(-ufl.derivative(F, yk, du)), self.bcs, 0.0)
-            for name, yk in y.items()
-        }
-        b = compat.assemble_vector(fem.form(-F))
-        compat.set_bc(b, self.bcs)
-        return AffineOperator(A, N, b)
+        A = self.matrix(ufl.derivative(F, x, du), diagonal=1.0)
+        N = {name: self.matrix(-ufl.derivative(F, yk, du)) for name, yk in y.items()}
+        return AffineOperator(A, N, self.vector(-F))
 
     def matrix(self, a: ufl.Form, diagonal: float = 0.0) -> PETSc.Mat:
-        return compat.assemble_matrix(fem.form(a), self.bcs, diagonal)
+        """The matrix of a bilinear form on S_E (``diagonal`` in the row of x = 0), node order."""
+        return self.nodes.matrix(compat.assemble_matrix(fem.form(a), self.bcs, diagonal))
 
     def vector(self, L: ufl.Form) -> PETSc.Vec:
+        """The vector of a linear form on S_E (0 in the row of x = 0), node order."""
         b = compat.assemble_vector(fem.form(L))
         compat.set_bc(b, self.bcs)
-        return b
+        return self.nodes.vector(b)

@@ -1,27 +1,25 @@
 """What a run records at every step: the rows of ``history.csv``.
 
-Point values are taken on the rank that owns them and kept as per-rank shares; the shares of a
-block of steps are summed over ranks in one reduction when the block is handed out, so a parallel
-run pays one message per block, not per step.
+The state is held whole, in node order, on every rank (:mod:`rodfem.nodes`), so point values and
+the energy are read locally and every rank computes the same rows; rank 0 writes them.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import ufl
-from mpi4py import MPI
 from petsc4py import PETSc
 
 import forms.copetti as copetti
 from rodfem.discretisation import Discretisation
-from rodfem.probes import PointProbe
 
 COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
 
 
 class Energy:
     """Êⁿ of Remark 4.4 without its contact term, in the norms of the scheme's inner product:
-    ½ (cᵀMc + b δᵀMδ + dᵀKd) + a θ_A zᵀd, with δ = (d − d_prev)/Δt."""
+    ½ (cᵀMc + b δᵀMδ + dᵀKd) + a θ_A zᵀd, with δ = (d − d_prev)/Δt. The contact term needs only
+    Uⁿ(1) and is added with the other point values in :meth:`History.take`."""
 
     def __init__(self, disc: Discretisation):
         scene = disc.scene
@@ -34,7 +32,6 @@ class Energy:
         self._x, self._y = self.M.createVecs()
 
     def bulk(self, theta: PETSc.Vec, u: PETSc.Vec, u_prev: PETSc.Vec) -> float:
-        """Collective: every rank gets the value."""
         x, y = self._x, self._y
         self.M.mult(theta, y)
         thermal = y.dot(theta)
@@ -51,13 +48,12 @@ class History:
 
     def __init__(self, disc: Discretisation, block: int = 1024):
         scene = disc.scene
-        self.comm = disc.comm
         self.dt = scene["time.dt"]
         self.epsilon, self.gap = scene["obstacle.epsilon"], scene["obstacle.gap"]
         self.energy = Energy(disc)
-        self.at_1 = PointProbe(disc.V, 1.0)
-        self.at_half = PointProbe(disc.V, 0.5)
-        # Per step: n, iterations, shares of Uⁿ(1), Uⁿ⁻¹(1), Uⁿ(0.5), and the bulk energy.
+        self.last = disc.nodes.size - 1  # x = 1
+        self.half = disc.nodes.interpolation(0.5)
+        # Per step: n, iterations, Uⁿ(1), Uⁿ⁻¹(1), Uⁿ(0.5), and the energy but its contact term.
         self._rows = np.zeros((block, 6))
         self._count = 0
 
@@ -66,19 +62,17 @@ class History:
         return self._count == len(self._rows)
 
     def record(self, n: int, iterations: int, theta, u, u_prev) -> None:
-        shares = (self.at_1.local(u), self.at_1.local(u_prev), self.at_half.local(u))
-        self._rows[self._count] = (n, iterations, *shares, self.energy.bulk(theta, u, u_prev))
+        nodes, weights = self.half
+        u_half = float(np.dot(weights, u.getValues(nodes)))
+        u_1, u_1_prev = u.getValue(self.last), u_prev.getValue(self.last)
+        self._rows[self._count] = (n, iterations, u_1, u_1_prev, u_half,
+                                   self.energy.bulk(theta, u, u_prev))
         self._count += 1
 
     def take(self) -> np.ndarray:
-        """The recorded rows since the last call, as an array with the columns ``COLUMNS``
-        (collective)."""
+        """The rows recorded since the last call, with the columns ``COLUMNS``."""
         rows = self._rows[: self._count].copy()
         self._count = 0
-        if self.comm.size > 1:
-            shares = np.ascontiguousarray(rows[:, 2:5])
-            self.comm.Allreduce(MPI.IN_PLACE, shares)
-            rows[:, 2:5] = shares
         n, iterations, u_1, u_1_prev, u_half, bulk = rows.T
         penetration = np.maximum(u_1 - self.gap, 0.0)
         energy = bulk + 0.5 * penetration**2 / self.epsilon

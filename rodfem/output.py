@@ -88,13 +88,14 @@ class FieldFile:
                            scene["model.a"])
         self.theta_expr = fem.Expression(θ, compat.interpolation_points(disc.V))
         self.sigma_expr = fem.Expression(σ, compat.interpolation_points(disc.W))
+        self.nodes = disc.nodes
         self.file = XDMFFile(disc.comm, str(path), "w")
         self.file.write_mesh(disc.mesh)
 
     def write(self, t: float, theta, u, u_prev) -> None:
-        """Write the fields of the step whose Θ, U, U_prev are the given PETSc vectors."""
+        """Write the fields of the step whose Θ, U, U_prev are the given node-ordered vectors."""
         for f, values in ((self.Θ, theta), (self.U, u), (self.U_prev, u_prev)):
-            compat.petsc_vector(f).array[:] = values.array_r
+            compat.petsc_vector(f).array[:] = self.nodes.owned_values(values)
             f.x.scatter_forward()
         self.theta.interpolate(self.theta_expr)
         self.sigma.interpolate(self.sigma_expr)

@@ -2,7 +2,8 @@
 
 Both equations are linear once the other unknown and the contact pressure are frozen, so each has
 a constant operator: it is assembled and LU-factored once per run, and every step and iteration
-only multiplies and back-substitutes. Θ and U live in PETSc vectors that are rotated, not copied.
+only multiplies and back-substitutes. Θ and U live in sequential PETSc vectors in node order
+(:mod:`rodfem.nodes`), rotated rather than copied; x = 1 is the last node.
 """
 
 from __future__ import annotations
@@ -13,12 +14,15 @@ from petsc4py import PETSc
 
 import forms.copetti as copetti
 from rodfem.discretisation import Discretisation
-from rodfem.probes import PointProbe
 
-# One dict of default options per solver, merged under the user's (PETSC_OPTIONS can override).
-LU_OPTIONS = {"ksp_type": "preonly", "pc_type": "lu"}
-SERIAL_LU = {"pc_factor_mat_solver_type": "petsc", "pc_factor_mat_ordering_type": "natural"}
-PARALLEL_LU = {"pc_factor_mat_solver_type": "mumps"}
+# Default options of both solvers, merged under the user's (PETSC_OPTIONS can override). In node
+# order the operators are tridiagonal, so LU in the natural ordering has no fill.
+LU_OPTIONS = {
+    "ksp_type": "preonly",
+    "pc_type": "lu",
+    "pc_factor_mat_solver_type": "petsc",
+    "pc_factor_mat_ordering_type": "natural",
+}
 INF = PETSc.NormType.INFINITY
 
 
@@ -37,8 +41,7 @@ def lu_factor(A: PETSc.Mat, prefix: str) -> tuple[PETSc.KSP, PETSc.Mat]:
     """Factor A once (KSP preonly + LU, options under ``prefix``). Returns the KSP, which owns the
     factorisation, and the factor, whose ``solve`` is a plain forward/back substitution."""
     options = PETSc.Options()
-    parallel = A.getComm().getSize() > 1
-    for key, value in {**LU_OPTIONS, **(PARALLEL_LU if parallel else SERIAL_LU)}.items():
+    for key, value in LU_OPTIONS.items():
         if not options.hasName(prefix + key):
             options[prefix + key] = value
     ksp = PETSc.KSP().create(A.getComm())
@@ -82,7 +85,7 @@ class PicardScheme:
         )
         # The contact term p v(1) for p = 1: the load of a unit pressure at x = 1.
         self.contact_load = disc.vector(copetti.contact(1.0, w, ds_1))
-        self.contact_point = PointProbe(disc.V, 1.0)
+        self.last = disc.nodes.size - 1  # the node x = 1
 
         self.heat_ksp, heat_factor = lu_factor(self.heat.A, "rodfem_heat_")
         self.momentum_ksp, momentum_factor = lu_factor(self.momentum.A, "rodfem_momentum_")
@@ -99,7 +102,7 @@ class PicardScheme:
     def _set_initial_state(self, scene, theta_A: float, k: float) -> None:
         """Θ⁰ = P(θ₀ + θ_A r), U⁰ = P u₀ and P u₁, P the H¹_E projection: in 1D with P1, nodal
         interpolation. The node x = 0 is set to exactly 0 (the scene checked compatibility)."""
-        x = self.disc.owned_coordinates
+        x = self.disc.nodes.x
         clamped = x == 0.0
         params = scene.parameters
         r = k / (k + 1.0) * x - 1.0
@@ -146,7 +149,7 @@ class PicardScheme:
         Nm["u_prev2"].multAdd(self.u_prev, m_step, m_step)
         N_u, N_theta = Nh["u_iterate"], Nm["theta_iterate"]
         solve_heat, solve_momentum = self.solve_heat, self.solve_momentum
-        load, point = self.contact_load, self.contact_point
+        load, last = self.contact_load, self.last
         gap, epsilon, tol = self.gap, self.epsilon, self.tol
 
         theta_it, theta_new, u_it, u_new = self._work
@@ -157,7 +160,7 @@ class PicardScheme:
             N_u.multAdd(u_it, h_step, rhs)
             solve_heat(rhs, theta_new)
             N_theta.multAdd(theta_new, m_step, rhs)
-            pressure = max(point.local(u_it) - gap, 0.0) / epsilon
+            pressure = max(u_it.getValue(last) - gap, 0.0) / epsilon
             if pressure:
                 rhs.axpy(-pressure, load)
             solve_momentum(rhs, u_new)
