@@ -45,11 +45,12 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _say(message: str, stream=sys.stderr) -> None:
+def _say(message: str, stream=None) -> None:
+    """Print one line, once (on rank 0), to stderr unless a stream is given."""
     from mpi4py import MPI
 
     if MPI.COMM_WORLD.rank == 0:
-        print(message, file=stream, flush=True)
+        print(message, file=stream or sys.stderr, flush=True)
 
 
 def _picard_advice(scene, error) -> str:

@@ -1,0 +1,43 @@
+"""Shared fixtures. The suite runs serially and under ``mpirun -n 2 python -m mpi4py -m pytest``:
+fixtures that create files agree on one directory across ranks."""
+
+import shutil
+import tempfile
+from pathlib import Path
+
+import pytest
+from mpi4py import MPI
+
+import rodfem.scene
+
+COMM = MPI.COMM_WORLD
+serial_only = pytest.mark.skipif(COMM.size > 1, reason="starts its own processes; run serially")
+
+
+@pytest.fixture
+def shared_dir():
+    """A temporary directory that every rank sees (rank 0 makes it and removes it)."""
+    path = Path(tempfile.mkdtemp(prefix="rodfem-test-")) if COMM.rank == 0 else None
+    path = COMM.bcast(path, root=0)
+    yield path
+    COMM.barrier()
+    if COMM.rank == 0:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+@pytest.fixture
+def simulate(shared_dir):
+    """Run a scene in-process: ``simulate("paper1", "time.end=0.5", ...)`` → (RunResult, dir)."""
+    from rodfem.output import prepare_directory
+    from rodfem.run import simulate as run
+
+    count = [0]
+
+    def _simulate(scene: str, *overrides: str):
+        count[0] += 1
+        out = shared_dir / f"run{count[0]}"
+        prepared = rodfem.scene.load(scene, list(overrides))
+        prepare_directory(out, False, COMM)
+        return run(prepared, out, COMM, progress=False), out
+
+    return _simulate

@@ -1,0 +1,131 @@
+"""Every mistake in a scene gets exit code 2, one line naming the key and what is allowed, and no
+output directory; nothing runs before the whole scene is valid."""
+
+import pytest
+
+from conftest import COMM
+from rodfem.cli import main
+
+CASES = [
+    # (--set overrides, expected fragment of the message)
+    (["model.a=\"x\""], "model.a: must be a number"),
+    (["model.zeta=nan"], "model.zeta: must be finite"),
+    (["time.dt=inf"], "time.dt: must be finite"),
+    (["model.a=-0.1"], "model.a: must be >= 0"),
+    (["model.b=-1"], "model.b: must be >= 0"),
+    (["model.zeta=-0.2"], "model.zeta: must be >= 0"),
+    (["model.k=-1"], "model.k: must be >= 0"),
+    (["obstacle.epsilon=0"], "obstacle.epsilon: must be > 0"),
+    (["obstacle.epsilon=-0.01"], "obstacle.epsilon: must be > 0"),
+    (["mesh.cells=1"], "mesh.cells: must be >= 2"),
+    (["mesh.cells=2.5"], "mesh.cells: must be an integer"),
+    (["mesh.cells=true"], "mesh.cells: must be an integer"),
+    (["time.dt=0"], "time.dt: must be > 0"),
+    (["time.dt=-0.001"], "time.dt: must be > 0"),
+    (["time.dt=10"], "time.dt: must be <= time.end"),
+    (["time.end=1.0005"], "time.end: must be a whole number of steps"),
+    (["model.zetta=1"], "unknown key 'model.zetta': did you mean 'zeta'?"),
+    (["obstacle.gapp=1"], "did you mean 'gap'?"),
+    (["modle.zeta=1"], "unknown section 'modle': did you mean 'model'?"),
+    (["initial.u1=20*x*(x-1"], "initial.u1: \"20*x*(x-1\" is not a valid expression"),
+    (["initial.u1=y*x"], "initial.u1: \"y*x\" uses unknown name 'y'"),
+    (["initial.theta0=__import__('os').getcwd()"], "initial.theta0:"),
+    (["initial.u0=1 + x"], "initial.u0: must equal 0 at x = 0"),
+    (["initial.u1=log(x)"], "initial.u1: not finite at x = 0"),
+    (["discretisation.mass=lumpy"], "discretisation.mass: must be one of \"lumped\" | \"consistent\""),
+    (["solver.method=newton"], "solver.method: must be one of \"picard\""),
+    (["solver.tol=0"], "solver.tol: must be > 0"),
+    (["solver.max_iterations=0"], "solver.max_iterations: must be >= 1"),
+    (["output.every=0"], "output.every: must be >= 1"),
+    (["model.zeta"], "--set model.zeta: must be section.key=value"),
+]
+
+
+def _run(argv, capsys):
+    code = main(argv)
+    err = capsys.readouterr().err
+    return code, err
+
+
+@pytest.mark.parametrize("overrides, message", CASES, ids=[c[1][:40] for c in CASES])
+def test_bad_value(overrides, message, shared_dir, capsys):
+    out = shared_dir / "out"
+    argv = ["run", "paper1", "--out", str(out)]
+    for item in overrides:
+        argv += ["--set", item]
+    code, err = _run(argv, capsys)
+    assert code == 2
+    if COMM.rank == 0:
+        assert message in err
+        assert err.count("\n") == 1 and err.startswith("rodfem: error: ")
+        assert "Traceback" not in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("[model\na = 1", "invalid TOML"),
+        ("[model]\na = [1, 2]", "model.a: must be a number"),
+        ("model = 3", "model: must be a section"),
+        ("description = 3", "description: must be a string"),
+        ("[time]\ndt = 0.1\nend = 0.05", "time.dt: must be <= time.end"),
+    ],
+)
+def test_bad_file(text, message, shared_dir, capsys):
+    scene = shared_dir / "scene.toml"
+    if COMM.rank == 0:
+        scene.write_text(text)
+    COMM.barrier()
+    out = shared_dir / "out"
+    code, err = _run(["run", str(scene), "--out", str(out)], capsys)
+    assert code == 2
+    if COMM.rank == 0:
+        assert message in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_unknown_scene(shared_dir, capsys):
+    out = shared_dir / "out"
+    code, err = _run(["run", "paper9", "--out", str(out)], capsys)
+    assert code == 2
+    if COMM.rank == 0:
+        assert "not a built-in scene (paper1, paper2, paper3, paper4, paper5) nor a TOML file" in err
+    assert not out.exists()
+
+
+def test_existing_directory_is_kept(shared_dir, capsys):
+    out = shared_dir / "out"
+    if COMM.rank == 0:
+        out.mkdir()
+        (out / "history.csv").write_text("precious\n")
+    COMM.barrier()
+    code, err = _run(["run", "paper1", "--out", str(out), "--set", "time.end=0.01"], capsys)
+    assert code == 2
+    if COMM.rank == 0:
+        assert "exists; use --force" in err
+    assert (out / "history.csv").read_text() == "precious\n"
+
+
+def test_force_never_deletes_a_foreign_directory(shared_dir, capsys):
+    out = shared_dir / "mine"
+    if COMM.rank == 0:
+        out.mkdir()
+        (out / "thesis.tex").write_text("precious\n")
+    COMM.barrier()
+    code, err = _run(["run", "paper1", "--out", str(out), "--force", "--set", "time.end=0.01"],
+                     capsys)
+    assert code == 2
+    if COMM.rank == 0:
+        assert "not a rodfem run directory" in err
+    assert (out / "thesis.tex").read_text() == "precious\n"
+
+
+def test_force_replaces_a_run(shared_dir, capsys):
+    out = shared_dir / "out"
+    argv = ["run", "paper1", "--out", str(out), "--quiet", "--set", "time.end=0.01"]
+    assert main(argv) == 0
+    assert main(argv) == 2
+    assert main(argv + ["--force", "--set", "time.end=0.02"]) == 0
+    if COMM.rank == 0:
+        assert len((out / "history.csv").read_text().splitlines()) == 1 + 21

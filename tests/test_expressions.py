@@ -1,0 +1,60 @@
+"""The whitelisted expression parser: what it accepts, what it refuses, and that it never runs
+user text as Python."""
+
+import numpy as np
+import pytest
+
+from rodfem.expressions import Expression, ExpressionError
+
+NAMES = ("a", "b", "zeta", "k", "theta_A")
+PARAMS = {"a": 0.017, "b": 1.0, "zeta": 0.2, "k": 1.0, "theta_A": 10.0}
+
+
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("theta_A*(cos(2*pi*x) - sin(pi*x/2))", lambda x: 10 * (np.cos(2 * np.pi * x) - np.sin(np.pi * x / 2))),
+        ("20*x*(x - 1)**2", lambda x: 20 * x * (x - 1) ** 2),
+        ("0", lambda x: 0 * x),
+        ("-x + +1", lambda x: 1 - x),
+        ("exp(-x)*log(1 + x) + sqrt(x) - abs(x - 0.5) + tan(x/4)", lambda x: np.exp(-x) * np.log(1 + x) + np.sqrt(x) - np.abs(x - 0.5) + np.tan(x / 4)),
+        ("a*theta_A*(x - k/(k + 1)*x**2/2)", lambda x: 0.17 * (x - 0.25 * x**2)),
+    ],
+)
+def test_evaluates_like_numpy(text, expected):
+    x = np.linspace(0, 1, 11)
+    np.testing.assert_allclose(Expression(text, NAMES)(x, PARAMS), expected(x), rtol=1e-15, atol=1e-15)
+
+
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        ("__import__('os').system('true')", "calls"),
+        ("x.__class__", "contains"),
+        ("open('f')", "calls 'open'"),
+        ("y + 1", "unknown name 'y'"),
+        ("thetaA*x", "did you mean 'theta_A'"),
+        ("sinn(x)", "did you mean 'sin'"),
+        ("'a'", "only numbers"),
+        ("x if x else 1", "contains"),
+        ("[x]", "contains"),
+        ("lambda: 1", "contains"),
+        ("x +", "not a valid expression"),
+        ("x % 2", "operator"),
+        ("x // 2", "operator"),
+        ("sin(x, x)", "one argument"),
+        ("(" * 300 + "x" + ")" * 300, "not a valid expression"),
+        ("x" + " + x" * 400, "longer than 1000"),
+        ("True", "only numbers"),
+        ("1j", "only numbers"),
+    ],
+)
+def test_refuses(text, fragment):
+    with pytest.raises(ExpressionError, match=None) as info:
+        Expression(text, NAMES)
+    assert fragment in str(info.value)
+
+
+def test_huge_powers_stay_floats():
+    """10**10**10 would hang with Python integers; as floats it overflows to inf at once."""
+    assert np.isinf(Expression("10**10**10", NAMES)(np.zeros(2), PARAMS)).all()

@@ -1,0 +1,39 @@
+"""Where Picard's iteration fails: exit code 3, the paper's condition in the message, and the
+steps computed so far kept on disk."""
+
+import json
+
+import numpy as np
+
+from conftest import COMM
+from rodfem.cli import main
+
+
+def test_picard_failure_is_reported_and_results_kept(shared_dir, capsys):
+    out = shared_dir / "fail"
+    # Δt = 50 εζ: far outside the paper's sufficient condition Δt < εζ.
+    code = main(["run", "paper1", "--out", str(out), "--set", "time.dt=0.01",
+                 "--set", "obstacle.epsilon=0.001", "--set", "time.end=2"])
+    err = capsys.readouterr().err
+    assert code == 3
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed"
+    history = np.loadtxt(out / "history.csv", delimiter=",", skiprows=1, ndmin=2)
+    assert history.shape[0] == summary["steps"] + 1 >= 2
+    assert (out / "fields.xdmf").is_file() and (out / "scene.toml").is_file()
+    if COMM.rank == 0:
+        step = summary["steps"] + 1
+        assert f"did not converge at step {step} (t = {step * 0.01:g})" in err
+        assert "Δt < εζ and a < 1; here Δt/(εζ) = 50 (needs < 1)" in err
+        assert "after 100 iterations" in err and "increment" in err
+        assert err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_tight_iteration_budget_fails_inside_the_condition(shared_dir, capsys):
+    """Inside the condition Picard converges, but not in one iteration: max_iterations = 1 fails
+    at the first Picard step (n = 2), with steps 0 and 1 kept."""
+    out = shared_dir / "budget"
+    code = main(["run", "paper1", "--out", str(out), "--set", "solver.max_iterations=1"])
+    capsys.readouterr()
+    assert code == 3
+    assert json.loads((out / "summary.json").read_text())["steps"] == 1

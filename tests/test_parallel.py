@@ -1,0 +1,39 @@
+"""``mpirun -n 2 rodfem run`` writes the serial history (to 1e-12; in fact bit for bit, since the
+time loop does the same arithmetic on every rank whatever the partition)."""
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import serial_only
+
+RODFEM = Path(sys.executable).with_name("rodfem")
+MPI_ENV = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+
+
+def rodfem_run(tmp_path, ranks, *args):
+    out = tmp_path / f"n{ranks}"
+    command = [str(RODFEM), "run", *args, "--out", str(out), "--quiet"]
+    if ranks > 1:
+        command = ["mpirun", "-n", str(ranks), *command]
+    subprocess.run(command, check=True, env=MPI_ENV, capture_output=True, timeout=600)
+    return np.loadtxt(out / "history.csv", delimiter=",", skiprows=1)
+
+
+@serial_only
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+@pytest.mark.parametrize("mass", ["lumped", "consistent"])
+def test_two_ranks_write_the_serial_history(tmp_path, mass):
+    args = ["paper1", "--set", f"discretisation.mass={mass}", "--set", "output.every=1000"]
+    serial = rodfem_run(tmp_path, 1, *args)
+    parallel = rodfem_run(tmp_path, 2, *args)
+    assert serial.shape == parallel.shape == (8001, 7)
+    scale = np.abs(serial).max(axis=0)
+    assert (np.abs(parallel - serial) <= 1e-12 * scale).all()
+    np.testing.assert_array_equal(parallel[:, 6], serial[:, 6])  # Picard iterations
