@@ -37,3 +37,14 @@ def test_two_ranks_write_the_serial_history(tmp_path, mass):
     scale = np.abs(serial).max(axis=0)
     assert (np.abs(parallel - serial) <= 1e-12 * scale).all()
     np.testing.assert_array_equal(parallel[:, 6], serial[:, 6])  # Picard iterations
+
+
+@serial_only
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+def test_demo_runs_under_mpirun():
+    demo = Path(__file__).resolve().parents[1] / "demos" / "demo_paper1.py"
+    done = subprocess.run(["mpirun", "-n", "2", sys.executable, str(demo)],
+                          env={**MPI_ENV, "CI": "1"}, capture_output=True, text=True, timeout=600,
+                          check=True)
+    assert "intervals of contact; first at t = 0.186" in done.stdout
+    assert done.stdout.count("energy") == 1  # rank 0 reports, once

@@ -1,0 +1,295 @@
+"""Independent NumPy/SciPy reference implementation of the Copetti rod-contact scheme.
+
+This module is a test oracle. It implements, from the paper's algebra alone (Section 3 and
+Remark 4.4 of M.I.M. Copetti, *Numerical approximation of dynamic deformations of a
+thermoviscoelastic rod against an elastic obstacle*), the fully discrete scheme (3.1)-(3.2) solved
+by the Picard iteration (3.3)-(3.4) in matrix form. It deliberately uses no finite-element
+library and shares no code with the package under test: the P1 matrices on a uniform mesh are
+assembled by hand from closed-form tridiagonal formulas.
+
+Unknowns are the nodal values at x_1, ..., x_s (x_0 = 0 is clamped and excluded, i.e. the space
+S_E). With hat functions eta_i, h = 1/s and r(x) = c x - 1, c = k / (k + 1):
+
+* M_ij = (eta_i, eta_j): consistent (exact) or lumped (vertex quadrature, diagonal),
+* K_ij = (eta_i', eta_j'),  B_ij = eta_i(1) eta_j(1) = e e^T,
+* C_ij = (eta_i, eta_j') (exact, not symmetric),  z_i = (r, eta_i').
+
+The Picard step for n >= 2 reads
+
+    (M + dt K + dt k B) c^{n,l} = M c^{n-1} + a C (d^{n-1} - d^{n,l-1})
+    (b M + (dt^2 + dt zeta) K) d^{n,l} = (2 b M + dt zeta K) d^{n-1} - b M d^{n-2}
+        - dt^2 a theta_A z + dt^2 a C^T c^{n,l} - (dt^2 / eps) [d^{n,l-1}_s - g]_+ e
+
+with c^{n,0} = c^{n-1}, d^{n,0} = d^{n-1}. Both system matrices are symmetric positive definite
+and tridiagonal; each is Cholesky-factored once (banded storage) and reused.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+from scipy.linalg import cho_solve_banded, cholesky_banded
+
+Array = np.ndarray
+
+
+class Tridiagonal:
+    """A tridiagonal matrix stored by its three diagonals.
+
+    ``lower[i]`` is entry (i + 1, i), ``diag[i]`` is entry (i, i), ``upper[i]`` is entry (i, i + 1).
+    """
+
+    def __init__(self, lower: Array, diag: Array, upper: Array) -> None:
+        self.lower = np.asarray(lower, dtype=float)
+        self.diag = np.asarray(diag, dtype=float)
+        self.upper = np.asarray(upper, dtype=float)
+
+    def __matmul__(self, x: Array) -> Array:
+        y = self.diag * x
+        y[:-1] += self.upper * x[1:]
+        y[1:] += self.lower * x[:-1]
+        return y
+
+    def __add__(self, other: Tridiagonal) -> Tridiagonal:
+        return Tridiagonal(
+            self.lower + other.lower, self.diag + other.diag, self.upper + other.upper
+        )
+
+    def __rmul__(self, alpha: float) -> Tridiagonal:
+        return Tridiagonal(alpha * self.lower, alpha * self.diag, alpha * self.upper)
+
+    @property
+    def T(self) -> Tridiagonal:  # noqa: N802 - mirrors the numpy spelling
+        return Tridiagonal(self.upper, self.diag, self.lower)
+
+    def dense(self) -> Array:
+        """Return the matrix as a dense array (for inspection and tests)."""
+        return np.diag(self.diag) + np.diag(self.upper, 1) + np.diag(self.lower, -1)
+
+
+class SPDSolver:
+    """Banded Cholesky factorisation of a symmetric positive definite tridiagonal matrix."""
+
+    def __init__(self, matrix: Tridiagonal) -> None:
+        if not np.allclose(matrix.lower, matrix.upper, rtol=1e-14, atol=0.0):
+            raise ValueError("matrix is not symmetric")
+        n = matrix.diag.size
+        ab = np.zeros((2, n))
+        ab[0, 1:] = matrix.upper
+        ab[1, :] = matrix.diag
+        self._factor = (cholesky_banded(ab, lower=False), False)
+
+    def solve(self, rhs: Array) -> Array:
+        return cho_solve_banded(self._factor, rhs, check_finite=False)
+
+
+def assemble(cells: int, k: float, mass: str) -> dict[str, object]:
+    """Hand-assemble M, K, C, z and e for P1 on a uniform mesh of ``cells`` cells on [0, 1].
+
+    Unknowns are the nodes x_1..x_s. B = e e^T is not stored explicitly.
+    """
+    s = int(cells)
+    if s < 2:
+        raise ValueError("need at least two cells")
+    h = 1.0 / s
+    x = np.linspace(0.0, 1.0, s + 1)
+    ones = np.ones(s)
+    off = np.ones(s - 1)
+
+    # Mass matrix: node x_s = 1 belongs to one cell only.
+    if mass == "consistent":
+        diag = 2.0 * h / 3.0 * ones
+        diag[-1] = h / 3.0
+        mass_matrix = Tridiagonal(h / 6.0 * off, diag, h / 6.0 * off)
+    elif mass == "lumped":
+        diag = h * ones
+        diag[-1] = h / 2.0
+        mass_matrix = Tridiagonal(0.0 * off, diag, 0.0 * off)
+    else:
+        raise ValueError(f"mass must be 'consistent' or 'lumped', got {mass!r}")
+
+    # Stiffness matrix.
+    diag = 2.0 / h * ones
+    diag[-1] = 1.0 / h
+    stiffness = Tridiagonal(-off / h, diag, -off / h)
+
+    # C_ij = (eta_i, eta_j'): each cell contributes +-1/2 (integral of eta_i is h/2, slope +-1/h).
+    # (i, i) = 1/2 - 1/2 = 0 at interior nodes, 1/2 at x_s; (i, i+1) = 1/2; (i+1, i) = -1/2.
+    diag = np.zeros(s)
+    diag[-1] = 0.5
+    coupling = Tridiagonal(-0.5 * off, diag, 0.5 * off)
+
+    # z_i = (r, eta_i') = mean of r on the left cell minus mean of r on the right cell.
+    c = k / (k + 1.0)
+    cell_mean_r = c * 0.5 * (x[:-1] + x[1:]) - 1.0  # mean of r on cell j = [x_j, x_{j+1}]
+    z = cell_mean_r.copy()  # left-cell contribution for node i = 1..s is cell i - 1
+    z[:-1] -= cell_mean_r[1:]  # right-cell contribution for nodes 1..s-1
+
+    e = np.zeros(s)
+    e[-1] = 1.0
+    return {"x": x, "h": h, "M": mass_matrix, "K": stiffness, "C": coupling, "z": z, "e": e}
+
+
+def simulate(
+    *,
+    a: float,
+    b: float,
+    zeta: float,
+    k: float,
+    theta_A: float,  # noqa: N803 - paper notation
+    epsilon: float,
+    gap: float,
+    cells: int,
+    dt: float,
+    end: float,
+    mass: str,
+    tol: float,
+    max_iterations: int,
+    theta0: Callable[[Array], Array],
+    u0: Callable[[Array], Array],
+    u1: Callable[[Array], Array],
+) -> dict[str, Array]:
+    """Run the scheme (3.1)-(3.2) with the Picard iteration (3.3)-(3.4) up to t = end.
+
+    Returns a dict with ``history`` (shape (N + 1, 7), columns t, u(1), u(0.5), u_t(1),
+    sigma(1), energy, iterations), the final shifted temperature ``theta`` and displacement
+    ``u`` at all nodes x_0..x_s (first entry 0), and the node coordinates ``x``.
+    """
+    n_steps = int(round(end / dt))
+    ops = assemble(cells, k, mass)
+    x: Array = ops["x"]  # type: ignore[assignment]
+    mm: Tridiagonal = ops["M"]  # type: ignore[assignment]
+    kk: Tridiagonal = ops["K"]  # type: ignore[assignment]
+    cc: Tridiagonal = ops["C"]  # type: ignore[assignment]
+    z: Array = ops["z"]  # type: ignore[assignment]
+    ctr = cc.T
+    xi = x[1:]
+    c_robin = k / (k + 1.0)
+
+    # System matrices, factored once.
+    heat_matrix = mm + dt * kk
+    heat_matrix.diag[-1] += dt * k  # dt k B
+    heat = SPDSolver(heat_matrix)
+    momentum = SPDSolver(b * mm + (dt * dt + dt * zeta) * kk)
+    mom_prev = (2.0 * b) * mm + (dt * zeta) * kk
+    dt2 = dt * dt
+    load = dt2 * a * theta_A * z
+
+    def nodal(f: Callable[[Array], Array]) -> Array:
+        return np.broadcast_to(np.asarray(f(xi), dtype=float), xi.shape).astype(float)
+
+    def penalty(d: Array) -> float:
+        return max(d[-1] - gap, 0.0)
+
+    def energy(c: Array, d: Array, delta: Array) -> float:
+        pen = penalty(d)
+        return 0.5 * (
+            c @ (mm @ c) + b * (delta @ (mm @ delta)) + d @ (kk @ d) + pen * pen / epsilon
+        ) + a * theta_A * (z @ d)
+
+    full = np.zeros(x.size)
+
+    def u_half(d: Array) -> float:
+        full[1:] = d
+        return float(np.interp(0.5, x, full))
+
+    history = np.zeros((n_steps + 1, 7))
+
+    def record(n: int, c: Array, d: Array, d_prev: Array | None, its: int) -> None:
+        if d_prev is None:
+            delta = nodal(u1)
+            ut1 = float(np.asarray(u1(np.array([1.0])), dtype=float).ravel()[0])
+        else:
+            delta = (d - d_prev) / dt
+            ut1 = delta[-1]
+        history[n] = (
+            n * dt,
+            d[-1],
+            u_half(d),
+            ut1,
+            -penalty(d) / epsilon,
+            energy(c, d, delta),
+            its,
+        )
+
+    # n = 0: interpolated initial data (shifted temperature).
+    c_old = nodal(theta0) + theta_A * (c_robin * xi - 1.0)
+    d_old2 = nodal(u0)
+    record(0, c_old, d_old2, None, 0)
+    if n_steps == 0:
+        return _result(history, x, c_old, d_old2)
+
+    # n = 1: U^1 = U^0 + dt P u1, Theta^1 from (3.1) with n = 1 (no iteration).
+    d_old = d_old2 + dt * nodal(u1)
+    c_new = heat.solve(mm @ c_old + a * (cc @ (d_old2 - d_old)))
+    c_old = c_new
+    record(1, c_old, d_old, d_old2, 0)
+
+    # n = 2..N: Picard iteration.
+    for n in range(2, n_steps + 1):
+        heat_base = mm @ c_old + a * (cc @ d_old)
+        mom_base = mom_prev @ d_old - b * (mm @ d_old2) - load
+        c_it, d_it = c_old, d_old
+        for its in range(1, max_iterations + 1):
+            c_next = heat.solve(heat_base - a * (cc @ d_it))
+            rhs = mom_base + dt2 * a * (ctr @ c_next)
+            rhs[-1] -= dt2 / epsilon * penalty(d_it)
+            d_next = momentum.solve(rhs)
+            increment = max(np.max(np.abs(c_next - c_it)), np.max(np.abs(d_next - d_it)))
+            c_it, d_it = c_next, d_next
+            if increment < tol:
+                break
+        else:
+            raise RuntimeError(
+                f"Picard iteration did not converge at step n = {n} (t = {n * dt:g}) "
+                f"within {max_iterations} iterations (last increment {increment:.3e})"
+            )
+        d_old2, d_old, c_old = d_old, d_it, c_it
+        record(n, c_old, d_old, d_old2, its)
+
+    return _result(history, x, c_old, d_old)
+
+
+def _result(history: Array, x: Array, c: Array, d: Array) -> dict[str, Array]:
+    return {
+        "history": history,
+        "theta": np.concatenate(([0.0], c)),
+        "u": np.concatenate(([0.0], d)),
+        "x": x.copy(),
+    }
+
+
+if __name__ == "__main__":
+    theta_a = 10.0
+    start = time.perf_counter()
+    out = simulate(
+        a=0.017,
+        b=1.0,
+        zeta=0.2,
+        k=1.0,
+        theta_A=theta_a,
+        epsilon=0.01,
+        gap=0.1,
+        cells=250,
+        dt=0.001,
+        end=1.0,
+        mass="lumped",
+        tol=1e-10,
+        max_iterations=100,
+        theta0=lambda x: theta_a * (np.cos(2 * np.pi * x) - np.sin(np.pi * x / 2)),
+        u0=lambda x: np.zeros_like(x),
+        u1=lambda x: 20 * x * (x - 1) ** 2,
+    )
+    elapsed = time.perf_counter() - start
+    hist = out["history"]
+    np.set_printoptions(precision=6, suppress=True, linewidth=100)
+    print("columns: t, u(1), u(0.5), u_t(1), sigma(1), energy, iterations")
+    for row in (0, 1, 2, 10, 100, 250, 500, 1000):
+        if row < hist.shape[0]:
+            print(hist[row])
+    print(f"mean iterations (n >= 2): {hist[2:, 6].mean():.4f}")
+    print(f"max iterations (n >= 2): {int(hist[2:, 6].max())}")
+    print(f"max energy increase (n >= 2): {np.max(np.diff(hist[1:, 5])):.3e}")
+    print(f"runtime: {elapsed:.2f} s")
