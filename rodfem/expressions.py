@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import ast
 import difflib
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -120,7 +120,8 @@ class Expression:
         if isinstance(node, ast.Name):
             return values[node.id]
         if isinstance(node, ast.BinOp):
-            return _BINARY[type(node.op)](self._eval(node.left, values), self._eval(node.right, values))
+            left, right = self._eval(node.left, values), self._eval(node.right, values)
+            return _BINARY[type(node.op)](left, right)
         if isinstance(node, ast.UnaryOp):
             return _UNARY[type(node.op)](self._eval(node.operand, values))
         assert isinstance(node, ast.Call)

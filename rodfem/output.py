@@ -78,7 +78,8 @@ class FieldFile:
 
     def __init__(self, path: Path, disc: Discretisation):
         scene = disc.scene
-        self.Θ, self.U, self.U_prev = disc.function("Θ"), disc.function("U"), disc.function("U_prev")
+        self.Θ, self.U = disc.function("Θ"), disc.function("U")
+        self.U_prev = disc.function("U_prev")
         self.theta, self.u = disc.function("theta"), self.U
         self.u.name = "u"
         self.sigma = fem.Function(disc.W)

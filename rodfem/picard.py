@@ -156,7 +156,7 @@ class PicardScheme:
         self.theta.copy(theta_it)
         self.u.copy(u_it)
         increment = np.inf
-        for iteration in range(1, self.max_iterations + 1):
+        for iteration in range(1, self.max_iterations + 1):  # noqa: B007 (used after the loop)
             N_u.multAdd(u_it, h_step, rhs)
             solve_heat(rhs, theta_new)
             N_theta.multAdd(theta_new, m_step, rhs)

@@ -140,6 +140,8 @@ def _check_value(dotted: str, spec: Key, value: Any) -> Any:
             raise SceneError(f"{dotted}: must be one of {choices}, got {_toml_value(value)}")
         return value
     assert spec.kind == "expression"
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = repr(value)  # a constant is an expression too: u0 = 0
     try:
         Expression(value, MODEL_NAMES)
     except ExpressionError as err:
@@ -165,7 +167,8 @@ def validate(data: dict[str, Any], source: str = "") -> Scene:
     for section, keys in SCHEMA.items():
         given = data.get(section, {})
         if not isinstance(given, dict):
-            raise SceneError(f"{section}: must be a section [{section}] with keys {', '.join(keys)}")
+            names = ", ".join(keys)
+            raise SceneError(f"{section}: must be a section [{section}] with keys {names}")
         for key in given:
             if key not in keys:
                 raise SceneError(f"unknown key '{section}.{key}': {_suggest(key, keys)}")
@@ -246,7 +249,8 @@ def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
     for item in overrides:
         section, key, value = _parse_override(item)
         if section not in SCHEMA:
-            raise SceneError(f"--set {item}: unknown section '{section}': {_suggest(section, SCHEMA)}")
+            hint = _suggest(section, SCHEMA)
+            raise SceneError(f"--set {item}: unknown section '{section}': {hint}")
         data.setdefault(section, {})
         if not isinstance(data[section], dict):
             raise SceneError(f"{section}: must be a section [{section}]")

@@ -31,8 +31,10 @@ CASES = [
     (["initial.u1=y*x"], "initial.u1: \"y*x\" uses unknown name 'y'"),
     (["initial.theta0=__import__('os').getcwd()"], "initial.theta0:"),
     (["initial.u0=1 + x"], "initial.u0: must equal 0 at x = 0"),
+    (["initial.u1=1"], "initial.u1: must equal 0 at x = 0"),
+    (["initial.u0=true"], "initial.u0: True must be a string expression in x"),
     (["initial.u1=log(x)"], "initial.u1: not finite at x = 0"),
-    (["discretisation.mass=lumpy"], "discretisation.mass: must be one of \"lumped\" | \"consistent\""),
+    (["discretisation.mass=lumpy"], 'discretisation.mass: must be one of "lumped" | "consistent"'),
     (["solver.method=newton"], "solver.method: must be one of \"picard\""),
     (["solver.tol=0"], "solver.tol: must be > 0"),
     (["solver.max_iterations=0"], "solver.max_iterations: must be >= 1"),
@@ -90,7 +92,8 @@ def test_unknown_scene(shared_dir, capsys):
     code, err = _run(["run", "paper9", "--out", str(out)], capsys)
     assert code == 2
     if COMM.rank == 0:
-        assert "not a built-in scene (paper1, paper2, paper3, paper4, paper5) nor a TOML file" in err
+        builtin = "paper1, paper2, paper3, paper4, paper5"
+        assert f"not a built-in scene ({builtin}) nor a TOML file" in err
     assert not out.exists()
 
 

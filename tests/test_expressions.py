@@ -13,17 +13,24 @@ PARAMS = {"a": 0.017, "b": 1.0, "zeta": 0.2, "k": 1.0, "theta_A": 10.0}
 @pytest.mark.parametrize(
     "text, expected",
     [
-        ("theta_A*(cos(2*pi*x) - sin(pi*x/2))", lambda x: 10 * (np.cos(2 * np.pi * x) - np.sin(np.pi * x / 2))),
+        (
+            "theta_A*(cos(2*pi*x) - sin(pi*x/2))",
+            lambda x: 10 * (np.cos(2 * np.pi * x) - np.sin(np.pi * x / 2)),
+        ),
         ("20*x*(x - 1)**2", lambda x: 20 * x * (x - 1) ** 2),
         ("0", lambda x: 0 * x),
         ("-x + +1", lambda x: 1 - x),
-        ("exp(-x)*log(1 + x) + sqrt(x) - abs(x - 0.5) + tan(x/4)", lambda x: np.exp(-x) * np.log(1 + x) + np.sqrt(x) - np.abs(x - 0.5) + np.tan(x / 4)),
+        (
+            "exp(-x)*log(1 + x) + sqrt(x) - abs(x - 0.5) + tan(x/4)",
+            lambda x: np.exp(-x) * np.log(1 + x) + np.sqrt(x) - np.abs(x - 0.5) + np.tan(x / 4),
+        ),
         ("a*theta_A*(x - k/(k + 1)*x**2/2)", lambda x: 0.17 * (x - 0.25 * x**2)),
     ],
 )
 def test_evaluates_like_numpy(text, expected):
     x = np.linspace(0, 1, 11)
-    np.testing.assert_allclose(Expression(text, NAMES)(x, PARAMS), expected(x), rtol=1e-15, atol=1e-15)
+    values = Expression(text, NAMES)(x, PARAMS)
+    np.testing.assert_allclose(values, expected(x), rtol=1e-15, atol=1e-15)
 
 
 @pytest.mark.parametrize(

@@ -32,7 +32,7 @@ def test_fields_match_history_and_definitions(simulate):
     np.testing.assert_allclose(fields["u"][:, right], history[saved, 1], rtol=0, atol=1e-12)
     assert (history[saved, 4] < 0).any(), "the run should reach the obstacle"
 
-    theta_A, a, zeta, dt, k = 10.0, 0.017, 0.2, 0.001, 1.0
+    theta_A, a, zeta, k = 10.0, 0.017, 0.2, 1.0
     theta0 = theta_A * (np.cos(2 * np.pi * x) - np.sin(np.pi * x / 2))
     np.testing.assert_allclose(fields["theta"][0], theta0, rtol=0, atol=1e-12)
     np.testing.assert_allclose(fields["theta"][:, x == 0.0], theta_A, rtol=0, atol=1e-12)
