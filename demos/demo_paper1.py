@@ -79,10 +79,10 @@ def run(end: float = 8.0, zeta: float = 0.2) -> np.ndarray:
     # $\Theta^0$, $U^0$, $U^1$ are the nodal interpolants of the initial data; $\Theta^1$ comes
     # from (3.1) with $U^1$ known. Every step is recorded: point values at $x = 1$ and $x = 0.5$
     # and the energy $\hat E^n$ of Remark 4.4.
-    history.record(scheme.n, scheme.iterations, scheme.theta, scheme.u, scheme.u_prev)
+    history.record(scheme)
     for _ in range(scene.steps):
         scheme.advance()
-        history.record(scheme.n, scheme.iterations, scheme.theta, scheme.u, scheme.u_prev)
+        history.record(scheme)
     return history.take()
 
 

@@ -57,6 +57,37 @@ def momentum(U, U_prev, U_prev2, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx):
     )
 
 
+# The same two equations written for the increments ΔΘⁿ = Θⁿ − Θⁿ⁻¹ and ΔUⁿ = Uⁿ − Uⁿ⁻¹, as the
+# paper does with δⁿ − δⁿ⁻¹ in the proof of Theorem 4.3. They are (3.1) and (3.2) term by term, but
+# no term is a difference of two functions of size |Θ| or |U|: solving for the increment computes
+# it to its own accuracy, where solving (3.2) for Uⁿ loses |U| ε_mach/Δt² of the acceleration.
+
+
+def heat_increment(ΔΘ, Θ_prev, ΔU, w, dt, a, k, dx_m, dx, ds_1):
+    """(3.1) with Θⁿ = Θⁿ⁻¹ + ΔΘⁿ and Uⁿ − Uⁿ⁻¹ = ΔUⁿ:
+
+        (ΔΘⁿ, w)/Δt + (Θⁿ_x, w_x) + a (ΔUⁿ_x, w)/Δt + k Θⁿ(1) w(1)."""
+    Θ = Θ_prev + ΔΘ
+    return (
+        ΔΘ / dt * w * dx_m
+        + Θ.dx(0) * w.dx(0) * dx
+        + a / dt * ΔU.dx(0) * w * dx
+        + k * Θ * w * ds_1
+    )
+
+
+def momentum_increment(ΔU, ΔU_prev, U_prev, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx):
+    """(3.2) without its contact term, with Uⁿ = Uⁿ⁻¹ + ΔUⁿ and Uⁿ⁻¹ − Uⁿ⁻² = ΔUⁿ⁻¹:
+
+        b (ΔUⁿ − ΔUⁿ⁻¹, v)/Δt² + (Uⁿ_x − aΘⁿ + aθ_A r, v_x) + ζ (ΔUⁿ_x, v_x)/Δt."""
+    U = U_prev + ΔU
+    return (
+        b * (ΔU - ΔU_prev) / dt**2 * v * dx_m
+        + (U.dx(0) - a * Θ + a * theta_A * r) * v.dx(0) * dx
+        + zeta / dt * ΔU.dx(0) * v.dx(0) * dx
+    )
+
+
 def contact_pressure(U, epsilon, gap):
     """(1/ε) [U(1) − g]_+ = −σ(1): the elastic obstacle's reaction (1.5)."""
     return positive_part(U - gap) / epsilon

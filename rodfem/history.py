@@ -18,7 +18,7 @@ COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
 
 class Energy:
     """Êⁿ of Remark 4.4 without its contact term, in the norms of the scheme's inner product:
-    ½ (cᵀMc + b δᵀMδ + dᵀKd) + a θ_A zᵀd, with δ = (d − d_prev)/Δt. The contact term needs only
+    ½ (cᵀMc + b δᵀMδ + dᵀKd) + a θ_A zᵀd, with δ = Δd/Δt. The contact term needs only
     Uⁿ(1) and is added with the other point values in :meth:`History.take`."""
 
     def __init__(self, disc: Discretisation):
@@ -29,15 +29,15 @@ class Energy:
         self.z = disc.vector(copetti.thermal_load(disc.r, v, disc.dx))
         self.dt, self.b = scene["time.dt"], scene["model.b"]
         self.a_theta_A = scene["model.a"] * scene["model.theta_A"]
-        self._x, self._y = self.M.createVecs()
+        self._y = self.M.createVecLeft()
 
-    def bulk(self, theta: PETSc.Vec, u: PETSc.Vec, u_prev: PETSc.Vec) -> float:
-        x, y = self._x, self._y
+    def bulk(self, theta: PETSc.Vec, u: PETSc.Vec, du: PETSc.Vec) -> float:
+        """The energy of Θⁿ = theta, Uⁿ = u with Uⁿ − Uⁿ⁻¹ = du, less its contact term."""
+        y = self._y
         self.M.mult(theta, y)
         thermal = y.dot(theta)
-        x.waxpy(-1.0, u_prev, u)
-        self.M.mult(x, y)
-        kinetic = self.b * y.dot(x) / self.dt**2
+        self.M.mult(du, y)
+        kinetic = self.b * y.dot(du) / self.dt**2
         self.K.mult(u, y)
         elastic = y.dot(u)
         return 0.5 * (thermal + kinetic + elastic) + self.a_theta_A * self.z.dot(u)
@@ -53,7 +53,7 @@ class History:
         self.energy = Energy(disc)
         self.last = disc.nodes.size - 1  # x = 1
         self.half = disc.nodes.interpolation(0.5)
-        # Per step: n, iterations, Uⁿ(1), Uⁿ⁻¹(1), Uⁿ(0.5), and the energy but its contact term.
+        # Per step: n, iterations, Uⁿ(1), ΔUⁿ(1), Uⁿ(0.5), and the energy but its contact term.
         self._rows = np.zeros((block, 6))
         self._count = 0
 
@@ -61,21 +61,24 @@ class History:
     def full(self) -> bool:
         return self._count == len(self._rows)
 
-    def record(self, n: int, iterations: int, theta, u, u_prev) -> None:
+    def record(self, state) -> None:
+        """Record the step ``state.n`` of a scheme with vectors ``theta``, ``u`` and ``du``
+        (Θⁿ, Uⁿ, Uⁿ − Uⁿ⁻¹) and its count of ``iterations``."""
+        theta, u, du = state.theta, state.u, state.du
         nodes, weights = self.half
         u_half = float(np.dot(weights, u.getValues(nodes)))
-        u_1, u_1_prev = u.getValue(self.last), u_prev.getValue(self.last)
-        self._rows[self._count] = (n, iterations, u_1, u_1_prev, u_half,
-                                   self.energy.bulk(theta, u, u_prev))
+        self._rows[self._count] = (state.n, state.iterations, u.getValue(self.last),
+                                   du.getValue(self.last), u_half,
+                                   self.energy.bulk(theta, u, du))
         self._count += 1
 
     def take(self) -> np.ndarray:
         """The rows recorded since the last call, with the columns ``COLUMNS``."""
         rows = self._rows[: self._count].copy()
         self._count = 0
-        n, iterations, u_1, u_1_prev, u_half, bulk = rows.T
+        n, iterations, u_1, du_1, u_half, bulk = rows.T
         penetration = np.maximum(u_1 - self.gap, 0.0)
         energy = bulk + 0.5 * penetration**2 / self.epsilon
         sigma_1 = -penetration / self.epsilon + 0.0  # no -0 in the file
-        ut_1 = (u_1 - u_1_prev) / self.dt
+        ut_1 = du_1 / self.dt
         return np.column_stack([n * self.dt, u_1, u_half, ut_1, sigma_1, energy, iterations])

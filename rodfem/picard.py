@@ -4,6 +4,12 @@ Both equations are linear once the other unknown and the contact pressure are fr
 a constant operator: it is assembled and LU-factored once per run, and every step and iteration
 only multiplies and back-substitutes. Θ and U live in sequential PETSc vectors in node order
 (:mod:`rodfem.nodes`), rotated rather than copied; x = 1 is the last node.
+
+Both unknowns are advanced through their increments over a step, ΔΘⁿ = Θⁿ − Θⁿ⁻¹ and
+ΔUⁿ = Uⁿ − Uⁿ⁻¹, with (3.1)–(3.2) written for them (``forms.copetti.heat_increment`` and
+``momentum_increment``): the same equations and Picard iterates, computed to the accuracy of the
+increments. Solved for Uⁿ itself, (3.2) loses |U| ε_mach/Δt² of the acceleration every step
+(2e-10 at Δt = 1e-3), and (3.1) loses cond·|Θ| ε_mach of Θ.
 """
 
 from __future__ import annotations
@@ -55,8 +61,8 @@ def lu_factor(A: PETSc.Mat, prefix: str) -> tuple[PETSc.KSP, PETSc.Mat]:
 class PicardScheme:
     """Θⁿ, Uⁿ of (3.1)–(3.2), from n = 0 on, one step per call of :meth:`advance`.
 
-    After each call, ``theta`` holds Θⁿ, ``u`` holds Uⁿ and ``u_prev`` holds Uⁿ⁻¹ (for n = 0, the
-    virtual U⁻¹ = U⁰ − Δt P u₁, so that δ⁰ = P u₁).
+    After each call, ``theta`` holds Θⁿ, ``u`` holds Uⁿ, ``du`` the increment Uⁿ − Uⁿ⁻¹ and
+    ``u_prev`` holds Uⁿ⁻¹ (for n = 0, ``du`` = Δt P u₁, so that δ⁰ = P u₁).
     """
 
     def __init__(self, disc: Discretisation):
@@ -67,21 +73,23 @@ class PicardScheme:
         self.tol, self.max_iterations = scene["solver.tol"], scene["solver.max_iterations"]
         a, b, zeta, k, theta_A = (scene[f"model.{p}"] for p in ("a", "b", "zeta", "k", "theta_A"))
         f = disc.function
-        Θ, Θ_prev, Θ_iterate = f("Θ"), f("Θ_prev"), f("Θ_iterate")
-        U, U_prev, U_prev2, U_iterate = f("U"), f("U_prev"), f("U_prev2"), f("U_iterate")
+        ΔΘ, Θ_prev, Θ_iterate = f("ΔΘ"), f("Θ_prev"), f("Θ_iterate")
+        ΔU, ΔU_prev, U_prev, ΔU_iterate = f("ΔU"), f("ΔU_prev"), f("U_prev"), f("ΔU_iterate")
         w = ufl.TestFunction(disc.V)
         dt, dx_m, dx, ds_1 = self.dt, disc.dx_m, disc.dx, disc.ds_1
 
-        # (3.3): the heat equation with the displacement at the previous iterate.
-        F_heat = copetti.heat(Θ, Θ_prev, U_iterate, U_prev, w, dt, a, k, dx_m, dx, ds_1)
+        # (3.3): the heat equation for ΔΘ^{n,l} = Θ^{n,l} − Θⁿ⁻¹, with the displacement at the
+        # previous iterate, U^{n,l−1} − Uⁿ⁻¹ = ΔU^{n,l−1}.
+        F_heat = copetti.heat_increment(ΔΘ, Θ_prev, ΔU_iterate, w, dt, a, k, dx_m, dx, ds_1)
         self.heat = disc.affine_operator(
-            F_heat, Θ, {"theta_prev": Θ_prev, "u_iterate": U_iterate, "u_prev": U_prev}
+            F_heat, ΔΘ, {"theta_prev": Θ_prev, "du_iterate": ΔU_iterate}
         )
-        # (3.4): the momentum equation with the new temperature; contact is a load, below.
-        F_momentum = copetti.momentum(U, U_prev, U_prev2, Θ_iterate, w, dt, b, zeta, a, theta_A,
-                                      disc.r, dx_m, dx)
+        # (3.4) for ΔU^{n,l} = U^{n,l} − Uⁿ⁻¹, with the new temperature Θ^{n,l}; the contact term
+        # is a load, below.
+        F_momentum = copetti.momentum_increment(ΔU, ΔU_prev, U_prev, Θ_iterate, w, dt, b, zeta,
+                                                a, theta_A, disc.r, dx_m, dx)
         self.momentum = disc.affine_operator(
-            F_momentum, U, {"u_prev": U_prev, "u_prev2": U_prev2, "theta_iterate": Θ_iterate}
+            F_momentum, ΔU, {"du_prev": ΔU_prev, "u_prev": U_prev, "theta_iterate": Θ_iterate}
         )
         # The contact term p v(1) for p = 1: the load of a unit pressure at x = 1.
         self.contact_load = disc.vector(copetti.contact(1.0, w, ds_1))
@@ -92,7 +100,7 @@ class PicardScheme:
         self.solve_heat, self.solve_momentum = heat_factor.solve, momentum_factor.solve
 
         new = self.heat.A.createVecRight
-        self.theta, self.u, self.u_prev = new(), new(), new()
+        self.theta, self.u, self.u_prev, self.du = new(), new(), new(), new()
         self._work = [new() for _ in range(4)]
         self._rhs, self._heat_step, self._momentum_step = new(), new(), new()
         self.n = 0
@@ -112,9 +120,8 @@ class PicardScheme:
             values[clamped] = 0.0
         self.theta.array[:] = theta0
         self.u.array[:] = u0
-        self.velocity0 = self.u.duplicate()
-        self.velocity0.array[:] = u1
-        self.u_prev.waxpy(-self.dt, self.velocity0, self.u)
+        self.du.array[:] = self.dt * u1
+        self.u_prev.waxpy(-1.0, self.du, self.u)
 
     def advance(self) -> int:
         """Go from step n to n + 1; return the number of Picard iterations it took."""
@@ -127,55 +134,58 @@ class PicardScheme:
 
     def _first_step(self) -> None:
         """U¹ = U⁰ + Δt P u₁, and Θ¹ from (3.1) with U¹ and U⁰ known: no iteration."""
-        N = self.heat.N
+        N, rhs, dtheta = self.heat.N, self._rhs, self._work[0]
         self.u_prev, self.u = self.u, self.u_prev
-        self.u.waxpy(self.dt, self.velocity0, self.u_prev)
-        rhs = self._rhs
+        self.u.waxpy(1.0, self.du, self.u_prev)  # ΔU¹ = Δt P u₁, as at n = 0
         N["theta_prev"].multAdd(self.theta, self.heat.b, rhs)
-        N["u_prev"].multAdd(self.u_prev, rhs, rhs)
-        N["u_iterate"].multAdd(self.u, rhs, rhs)
-        self.solve_heat(rhs, self.theta)
+        N["du_iterate"].multAdd(self.du, rhs, rhs)
+        self.solve_heat(rhs, dtheta)
+        self.theta.axpy(1.0, dtheta)
         self.iterations = 0
 
     def _picard_step(self) -> None:
-        """(3.3)–(3.4) from Θ^{n,0} = Θⁿ⁻¹, U^{n,0} = Uⁿ⁻¹ until the max-norm of the increment of
-        (Θ, U) is below tol."""
+        """(3.3)–(3.4) from Θ^{n,0} = Θⁿ⁻¹, U^{n,0} = Uⁿ⁻¹ until the max-norm of the change of
+        (Θ, U) between two iterations is below tol."""
         Nh, Nm = self.heat.N, self.momentum.N
         h_step, m_step, rhs = self._heat_step, self._momentum_step, self._rhs
-        # The parts of both right-hand sides that stay fixed during the step.
+        N_du, N_theta = Nh["du_iterate"], Nm["theta_iterate"]
+        # The parts of both right-hand sides that stay fixed during the step (Θⁿ⁻¹ = theta,
+        # Uⁿ⁻¹ = u, ΔUⁿ⁻¹ = du); Θ^{n,l} = Θⁿ⁻¹ + ΔΘ^{n,l} in the momentum equation.
         Nh["theta_prev"].multAdd(self.theta, self.heat.b, h_step)
-        Nh["u_prev"].multAdd(self.u, h_step, h_step)
         Nm["u_prev"].multAdd(self.u, self.momentum.b, m_step)
-        Nm["u_prev2"].multAdd(self.u_prev, m_step, m_step)
-        N_u, N_theta = Nh["u_iterate"], Nm["theta_iterate"]
+        Nm["du_prev"].multAdd(self.du, m_step, m_step)
+        N_theta.multAdd(self.theta, m_step, m_step)
         solve_heat, solve_momentum = self.solve_heat, self.solve_momentum
         load, last = self.contact_load, self.last
         gap, epsilon, tol = self.gap, self.epsilon, self.tol
+        u_last = self.u.getValue(last)
 
-        theta_it, theta_new, u_it, u_new = self._work
-        self.theta.copy(theta_it)
-        self.u.copy(u_it)
+        dtheta_it, dtheta_new, du_it, du_new = self._work
+        dtheta_it.zeroEntries()  # Θ^{n,0} = Θⁿ⁻¹
+        du_it.zeroEntries()  # U^{n,0} = Uⁿ⁻¹
         increment = np.inf
         for iteration in range(1, self.max_iterations + 1):  # noqa: B007 (used after the loop)
-            N_u.multAdd(u_it, h_step, rhs)
-            solve_heat(rhs, theta_new)
-            N_theta.multAdd(theta_new, m_step, rhs)
-            pressure = max(u_it.getValue(last) - gap, 0.0) / epsilon
+            N_du.multAdd(du_it, h_step, rhs)
+            solve_heat(rhs, dtheta_new)
+            N_theta.multAdd(dtheta_new, m_step, rhs)
+            pressure = max(u_last + du_it.getValue(last) - gap, 0.0) / epsilon
             if pressure:
                 rhs.axpy(-pressure, load)
-            solve_momentum(rhs, u_new)
-            theta_it.aypx(-1.0, theta_new)  # the increments, in the vectors of the old iterates
-            u_it.aypx(-1.0, u_new)
-            increment = max(theta_it.norm(INF), u_it.norm(INF))
-            theta_it, theta_new = theta_new, theta_it
-            u_it, u_new = u_new, u_it
+            solve_momentum(rhs, du_new)
+            dtheta_it.aypx(-1.0, dtheta_new)  # the changes, in the vectors of the old iterates
+            du_it.aypx(-1.0, du_new)
+            increment = max(dtheta_it.norm(INF), du_it.norm(INF))
+            dtheta_it, dtheta_new = dtheta_new, dtheta_it
+            du_it, du_new = du_new, du_it
             if increment < tol:
                 break
         else:
-            self._work = [theta_it, theta_new, u_it, u_new]
+            self._work = [dtheta_it, dtheta_new, du_it, du_new]
             raise PicardNotConverged(self.n + 1, (self.n + 1) * self.dt, increment, iteration)
-        # (Θⁿ, Uⁿ, Uⁿ⁻¹) take the places of (Θⁿ⁻¹, Uⁿ⁻¹, Uⁿ⁻²); the rest go back to the pool.
-        spare_theta, spare_u = self.theta, self.u_prev
-        self.theta, self.u_prev, self.u = theta_it, self.u, u_it
-        self._work = [spare_theta, theta_new, spare_u, u_new]
+        # Θⁿ = Θⁿ⁻¹ + ΔΘⁿ; (ΔUⁿ, Uⁿ, Uⁿ⁻¹) take the places of (ΔUⁿ⁻¹, Uⁿ⁻¹, Uⁿ⁻²).
+        self.theta.axpy(1.0, dtheta_it)
+        spare_du, spare_u = self.du, self.u_prev
+        self.u_prev, self.u, self.du = self.u, spare_u, du_it
+        self.u.waxpy(1.0, du_it, self.u_prev)
+        self._work = [dtheta_it, dtheta_new, spare_du, du_new]
         self.iterations = iteration

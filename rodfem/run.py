@@ -78,7 +78,7 @@ def simulate(scene: Scene, out: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress:
         iterations.extend(rows[:, 6].astype(int).tolist())
 
     def observe() -> None:
-        history.record(scheme.n, scheme.iterations, scheme.theta, scheme.u, scheme.u_prev)
+        history.record(scheme)
         if history.full:
             flush()
         if scheme.n % every == 0 or scheme.n == steps:

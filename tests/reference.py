@@ -22,6 +22,16 @@ The Picard step for n >= 2 reads
 
 with c^{n,0} = c^{n-1}, d^{n,0} = d^{n-1}. Both system matrices are symmetric positive definite
 and tridiagonal; each is Cholesky-factored once (banded storage) and reused.
+
+With ``increment=True`` the momentum system is solved for the increment Δ^{n,l} = d^{n,l} − d^{n−1}
+instead, the same system with its right-hand side rearranged (subtract the matrix times d^{n−1}):
+
+    (b M + (dt^2 + dt zeta) K) Δ^{n,l} = b M Δ^{n-1} − dt^2 K d^{n-1}
+        - dt^2 a theta_A z + dt^2 a C^T c^{n,l} - (dt^2 / eps) [d^{n-1}_s + Δ^{n,l-1}_s - g]_+ e
+
+and d^n = d^{n−1} + Δ^n. The iterates are the same in exact arithmetic; in floating point the
+literal form loses |d| ε_mach / dt^2 (relative to the acceleration) to cancellation every step,
+about 2e-10 at dt = 1e-3, which the increment form avoids.
 """
 
 from __future__ import annotations
@@ -30,7 +40,7 @@ import time
 from collections.abc import Callable
 
 import numpy as np
-from scipy.linalg import cho_solve_banded, cholesky_banded
+from scipy.linalg import cholesky_banded, get_lapack_funcs
 
 Array = np.ndarray
 
@@ -79,10 +89,14 @@ class SPDSolver:
         ab = np.zeros((2, n))
         ab[0, 1:] = matrix.upper
         ab[1, :] = matrix.diag
-        self._factor = (cholesky_banded(ab, lower=False), False)
+        self._factor = cholesky_banded(ab, lower=False)
+        (self._pbtrs,) = get_lapack_funcs(("pbtrs",), (self._factor,))
 
     def solve(self, rhs: Array) -> Array:
-        return cho_solve_banded(self._factor, rhs, check_finite=False)
+        x, info = self._pbtrs(self._factor, rhs, lower=0)
+        if info != 0:
+            raise RuntimeError(f"LAPACK pbtrs failed with info = {info}")
+        return x
 
 
 def assemble(cells: int, k: float, mass: str) -> dict[str, object]:
@@ -150,6 +164,7 @@ def simulate(
     theta0: Callable[[Array], Array],
     u0: Callable[[Array], Array],
     u1: Callable[[Array], Array],
+    increment: bool = False,
 ) -> dict[str, Array]:
     """Run the scheme (3.1)-(3.2) with the Picard iteration (3.3)-(3.4) up to t = end.
 
@@ -227,28 +242,65 @@ def simulate(
     c_old = c_new
     record(1, c_old, d_old, d_old2, 0)
 
+    if increment:
+        return _picard_increments(
+            history, record, x, n_steps, c_old, d_old, d_old - d_old2, heat, momentum, mm, kk, cc,
+            ctr, load, a, b, dt, epsilon, gap, tol, max_iterations,
+        )
+
     # n = 2..N: Picard iteration.
     for n in range(2, n_steps + 1):
         heat_base = mm @ c_old + a * (cc @ d_old)
         mom_base = mom_prev @ d_old - b * (mm @ d_old2) - load
         c_it, d_it = c_old, d_old
-        for its in range(1, max_iterations + 1):
+        iterations = 0
+        increment = np.inf
+        while increment >= tol:
+            if iterations == max_iterations:
+                raise RuntimeError(
+                    f"Picard iteration did not converge at step n = {n} (t = {n * dt:g}) "
+                    f"within {max_iterations} iterations (last increment {increment:.3e})"
+                )
+            iterations += 1
             c_next = heat.solve(heat_base - a * (cc @ d_it))
             rhs = mom_base + dt2 * a * (ctr @ c_next)
             rhs[-1] -= dt2 / epsilon * penalty(d_it)
             d_next = momentum.solve(rhs)
-            increment = max(np.max(np.abs(c_next - c_it)), np.max(np.abs(d_next - d_it)))
+            increment = max(np.abs(c_next - c_it).max(), np.abs(d_next - d_it).max())
             c_it, d_it = c_next, d_next
-            if increment < tol:
-                break
-        else:
-            raise RuntimeError(
-                f"Picard iteration did not converge at step n = {n} (t = {n * dt:g}) "
-                f"within {max_iterations} iterations (last increment {increment:.3e})"
-            )
         d_old2, d_old, c_old = d_old, d_it, c_it
-        record(n, c_old, d_old, d_old2, its)
+        record(n, c_old, d_old, d_old2, iterations)
 
+    return _result(history, x, c_old, d_old)
+
+
+def _picard_increments(history, record, x, n_steps, c_old, d_old, delta_old, heat, momentum, mm,
+                       kk, cc, ctr, load, a, b, dt, epsilon, gap, tol, max_iterations):
+    """Steps n = 2..N of the Picard iteration with the momentum system solved for Δ."""
+    dt2 = dt * dt
+    for n in range(2, n_steps + 1):
+        heat_base = mm @ c_old
+        mom_base = b * (mm @ delta_old) - dt2 * (kk @ d_old) - load
+        c_it, delta_it = c_old, np.zeros_like(d_old)
+        iterations = 0
+        increment = np.inf
+        while increment >= tol:
+            if iterations == max_iterations:
+                raise RuntimeError(
+                    f"Picard iteration did not converge at step n = {n} (t = {n * dt:g}) "
+                    f"within {max_iterations} iterations (last increment {increment:.3e})"
+                )
+            iterations += 1
+            c_next = heat.solve(heat_base - a * (cc @ delta_it))
+            rhs = mom_base + dt2 * a * (ctr @ c_next)
+            rhs[-1] -= dt2 / epsilon * max(d_old[-1] + delta_it[-1] - gap, 0.0)
+            delta_next = momentum.solve(rhs)
+            increment = max(np.abs(c_next - c_it).max(), np.abs(delta_next - delta_it).max())
+            c_it, delta_it = c_next, delta_next
+        d_new = d_old + delta_it
+        c_old, delta_old = c_it, delta_it
+        record(n, c_old, d_new, d_old, iterations)
+        d_old = d_new
     return _result(history, x, c_old, d_old)
 
 

@@ -43,7 +43,7 @@ def test_history_energy_is_the_remark_4_4_form(mass):
     history = History(disc)
     for _ in range(scene.steps):
         scheme.advance()
-    history.record(scheme.n, scheme.iterations, scheme.theta, scheme.u, scheme.u_prev)
+    history.record(scheme)
     row = history.take()[-1]
     assert row[4] < 0, "the check wants the contact term active"
 
