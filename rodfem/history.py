@@ -1,7 +1,9 @@
 """What a run records at every step: the rows of ``history.csv``.
 
-The state is held whole, in node order, on every rank (:mod:`rodfem.nodes`), so point values and
-the energy are read locally and every rank computes the same rows; rank 0 writes them.
+The state is held whole, in node order, on every rank (:mod:`rodfem.nodes`), so every rank computes
+the same rows; rank 0 writes them. Each step copies Θⁿ, ΔUⁿ = Uⁿ − Uⁿ⁻¹ and Uⁿ into one stacked
+vector s, whose energy is a single product with a block-diagonal matrix, and whose point values
+are read off its array.
 """
 
 from __future__ import annotations
@@ -16,31 +18,59 @@ from rodfem.discretisation import Discretisation
 COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
 
 
+def block_diagonal(blocks: list[PETSc.Mat]) -> PETSc.Mat:
+    """diag(B_1, …, B_m) of sequential AIJ matrices."""
+    indptr, indices, values, offset = [np.zeros(1, dtype=PETSc.IntType)], [], [], 0
+    for B in blocks:
+        p, j, v = B.getValuesCSR()
+        indptr.append(p[1:] + indptr[-1][-1])
+        indices.append(j + offset)
+        values.append(v)
+        offset += B.getSize()[0]
+    E = PETSc.Mat().createAIJ(
+        size=(offset, offset),
+        csr=(np.concatenate(indptr), np.concatenate(indices).astype(PETSc.IntType),
+             np.concatenate(values)),
+        comm=PETSc.COMM_SELF,
+    )
+    E.assemble()
+    return E
+
+
 class Energy:
-    """Êⁿ of Remark 4.4 without its contact term, in the norms of the scheme's inner product:
-    ½ (cᵀMc + b δᵀMδ + dᵀKd) + a θ_A zᵀd, with δ = Δd/Δt. The contact term needs only
-    Uⁿ(1) and is added with the other point values in :meth:`History.take`."""
+    """Êⁿ of Remark 4.4 in the norms of the scheme's inner product, without its contact term:
+
+        ½ (ΘᵀMΘ + b ΔUᵀMΔU/Δt² + UᵀKU) + a θ_A zᵀU = ½ sᵀ diag(M, bM/Δt², K) s + a θ_A zᵀU
+
+    for s = [Θ; ΔU; U], with M, K, z from ``forms.copetti.mass``, ``stiffness``, ``thermal_load``.
+    The contact term needs only U(1) and is added per block in :meth:`History.take`."""
 
     def __init__(self, disc: Discretisation):
         scene = disc.scene
         u, v = ufl.TrialFunction(disc.V), ufl.TestFunction(disc.V)
-        self.M = disc.matrix(copetti.mass(u, v, disc.dx_m))
-        self.K = disc.matrix(copetti.stiffness(u, v, disc.dx))
+        M = disc.matrix(copetti.mass(u, v, disc.dx_m))
+        K = disc.matrix(copetti.stiffness(u, v, disc.dx))
+        kinetic = M.copy()
+        kinetic.scale(scene["model.b"] / scene["time.dt"] ** 2)
+        self.E = block_diagonal([M, kinetic, K])
         self.z = disc.vector(copetti.thermal_load(disc.r, v, disc.dx))
-        self.dt, self.b = scene["time.dt"], scene["model.b"]
         self.a_theta_A = scene["model.a"] * scene["model.theta_A"]
-        self._y = self.M.createVecLeft()
+        n = disc.nodes.size
+        self.stack = np.zeros(3 * n)  # [Θ; ΔU; U]
+        self.s = PETSc.Vec().createWithArray(self.stack, comm=PETSc.COMM_SELF)
+        self.parts = [PETSc.Vec().createWithArray(self.stack[i * n:(i + 1) * n],
+                                                  comm=PETSc.COMM_SELF) for i in range(3)]
+        self.du, self.u = self.stack[n:2 * n], self.stack[2 * n:]
+        self._y = self.s.duplicate()
 
-    def bulk(self, theta: PETSc.Vec, u: PETSc.Vec, du: PETSc.Vec) -> float:
-        """The energy of Θⁿ = theta, Uⁿ = u with Uⁿ − Uⁿ⁻¹ = du, less its contact term."""
-        y = self._y
-        self.M.mult(theta, y)
-        thermal = y.dot(theta)
-        self.M.mult(du, y)
-        kinetic = self.b * y.dot(du) / self.dt**2
-        self.K.mult(u, y)
-        elastic = y.dot(u)
-        return 0.5 * (thermal + kinetic + elastic) + self.a_theta_A * self.z.dot(u)
+    def __call__(self, theta: PETSc.Vec, u: PETSc.Vec, du: PETSc.Vec) -> float:
+        """Stack Θ, ΔU, U (readable afterwards as ``self.u``, ``self.du``) and return the bulk
+        energy."""
+        theta.copy(self.parts[0])
+        du.copy(self.parts[1])
+        u.copy(self.parts[2])
+        self.E.mult(self.s, self._y)
+        return 0.5 * self._y.dot(self.s) + self.a_theta_A * self.z.dot(self.parts[2])
 
 
 class History:
@@ -51,8 +81,8 @@ class History:
         self.dt = scene["time.dt"]
         self.epsilon, self.gap = scene["obstacle.epsilon"], scene["obstacle.gap"]
         self.energy = Energy(disc)
-        self.last = disc.nodes.size - 1  # x = 1
-        self.half = disc.nodes.interpolation(0.5)
+        (i, *rest), (w, *rest_w) = disc.nodes.interpolation(0.5)
+        self.half = (int(i), float(w), int(rest[0]) if rest else int(i), rest_w[0] if rest else 0.0)
         # Per step: n, iterations, Uⁿ(1), ΔUⁿ(1), Uⁿ(0.5), and the energy but its contact term.
         self._rows = np.zeros((block, 6))
         self._count = 0
@@ -64,12 +94,11 @@ class History:
     def record(self, state) -> None:
         """Record the step ``state.n`` of a scheme with vectors ``theta``, ``u`` and ``du``
         (Θⁿ, Uⁿ, Uⁿ − Uⁿ⁻¹) and its count of ``iterations``."""
-        theta, u, du = state.theta, state.u, state.du
-        nodes, weights = self.half
-        u_half = float(np.dot(weights, u.getValues(nodes)))
-        self._rows[self._count] = (state.n, state.iterations, u.getValue(self.last),
-                                   du.getValue(self.last), u_half,
-                                   self.energy.bulk(theta, u, du))
+        bulk = self.energy(state.theta, state.u, state.du)
+        u, du = self.energy.u, self.energy.du
+        i, w, j, v = self.half
+        self._rows[self._count] = (state.n, state.iterations, u[-1], du[-1], w * u[i] + v * u[j],
+                                   bulk)
         self._count += 1
 
     def take(self) -> np.ndarray:
@@ -80,5 +109,5 @@ class History:
         penetration = np.maximum(u_1 - self.gap, 0.0)
         energy = bulk + 0.5 * penetration**2 / self.epsilon
         sigma_1 = -penetration / self.epsilon + 0.0  # no -0 in the file
-        ut_1 = du_1 / self.dt
-        return np.column_stack([n * self.dt, u_1, u_half, ut_1, sigma_1, energy, iterations])
+        return np.column_stack([n * self.dt, u_1, u_half, du_1 / self.dt, sigma_1, energy,
+                                iterations])

@@ -14,9 +14,9 @@ the final fields, max over the nodes against max |reference field|.
 
 import numpy as np
 import pytest
+from reference import simulate as reference
 
 import rodfem.scene
-from reference import simulate as reference
 
 TOL = 1e-10
 COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
