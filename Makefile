@@ -2,7 +2,7 @@
 PY := .venv/bin/python
 MPIRUN := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 mpirun
 
-.PHONY: setup demo test test-serial test-mpi clean
+.PHONY: setup demo test test-serial test-mpi bench clean
 
 setup:
 	@scripts/setup.sh
@@ -20,3 +20,6 @@ test-mpi:
 
 clean:
 	rm -rf results .pytest_cache
+
+bench: setup
+	$(PY) benchmarks/bench_picard.py

@@ -73,8 +73,8 @@ def test_increment_forms_are_the_paper_forms():
                                     disc.ds_1)),
             (copetti.momentum(U, f["U_prev"], U2, f["Θ"], w, 0.001, 1.3, 0.2, 0.017, 10.0, disc.r,
                               disc.dx_m, disc.dx),
-             copetti.momentum_increment(f["ΔU"], f["ΔU_prev"], f["U_prev"], f["Θ"], w, 0.001, 1.3, 0.2,
-                                        0.017, 10.0, disc.r, disc.dx_m, disc.dx)),
+             copetti.momentum_increment(f["ΔU"], f["ΔU_prev"], f["U_prev"], f["Θ"], w, 0.001,
+                                        1.3, 0.2, 0.017, 10.0, disc.r, disc.dx_m, disc.dx)),
         ]
         for paper, increment in pairs:
             a = compat.assemble_vector(fem.form(paper)).array
