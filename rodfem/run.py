@@ -126,5 +126,6 @@ def simulate(scene: Scene, out: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress:
     if error is not None:
         summary["error"] = str(error)
     write_json(out / "summary.json", summary, comm)
+    comm.barrier()  # every rank returns once rank 0 has written the run's files
     return RunResult(status, summary, error, disc.nodes.x.copy(), scheme.theta.array_r.copy(),
                      scheme.u.array_r.copy())
