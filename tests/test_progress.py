@@ -1,0 +1,55 @@
+"""The progress bar: drawn on a terminal once a run has lasted its delay, silent otherwise; and an
+interrupted run (Ctrl-C) keeps its results and says so."""
+
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from conftest import serial_only
+from rodfem.progress import Progress
+
+
+def test_progress_draws_after_its_delay():
+    stream = io.StringIO()
+    bar = Progress(100, enabled=True, delay=0.0, stream=stream)
+    bar.update(50)
+    bar.close()
+    text = stream.getvalue()
+    assert "50.0%" in text and "step 50/100" in text and text.endswith("\n")
+
+
+def test_progress_is_quiet_for_short_runs_and_off_terminals():
+    for enabled, delay in ((True, 3600.0), (False, 0.0)):
+        stream = io.StringIO()
+        bar = Progress(100, enabled=enabled, delay=delay, stream=stream)
+        bar.update(50)
+        bar.close()
+        assert stream.getvalue() == ""
+
+
+@serial_only
+def test_interrupt_keeps_results(tmp_path):
+    out = tmp_path / "run"
+    rodfem = Path(sys.executable).with_name("rodfem")
+    process = subprocess.Popen(
+        [str(rodfem), "run", "paper1", "--out", str(out), "--set", "time.end=400"],
+        stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    deadline = time.monotonic() + 120
+    while not (out / "history.csv").exists() or (out / "history.csv").stat().st_size < 10**5:
+        assert time.monotonic() < deadline and process.poll() is None
+        time.sleep(0.1)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted"
+    assert 0 < summary["steps"] < 400_000
+    rows = (out / "history.csv").read_text().splitlines()
+    assert len(rows) == summary["steps"] + 2  # header and steps 0..N
+    assert f"interrupted; steps 0..{summary['steps']} are in" in err
