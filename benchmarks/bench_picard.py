@@ -105,9 +105,10 @@ def main() -> None:
     print(f"{'paper1':10s} {'rodfem µs/step':>15s} {'C loop µs/step':>15s} {'ratio':>7s} "
           f"{'vs 22 µs':>9s} {'iterations':>10s}")
     for mass, res in report["results"].items():
-        print(f"{mass:10s} {res['rodfem']['us_per_step']:15.1f} {res['c_loop']['us_per_step']:15.2f}"
+        r, c = res["rodfem"], res["c_loop"]
+        print(f"{mass:10s} {r['us_per_step']:15.1f} {c['us_per_step']:15.2f}"
               f" {res['ratio_to_c_loop']:7.2f} {res['ratio_to_issue_c_loop']:9.2f}"
-              f" {res['rodfem']['iterations_mean']:10.3f}")
+              f" {r['iterations_mean']:10.3f}")
     print(f"-> {path}")
 
 

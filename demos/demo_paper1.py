@@ -47,38 +47,43 @@ from rodfem.picard import PicardScheme
 # Anything can be overridden the way `rodfem run --set` does it.
 
 
+# ## The scheme (3.1)–(3.2) and its Picard iteration (3.3)–(3.4)
+#
+# P1 elements on a uniform mesh; $S_E$ holds the P1 functions vanishing at $x = 0$. For
+# $n \ge 2$, with $\Theta^{n,0} = \Theta^{n-1}$ and $U^{n,0} = U^{n-1}$, each Picard iteration
+# solves the heat equation with the last displacement iterate, then the momentum equation with
+# the new temperature and the contact pressure of the last iterate:
+#
+# $$\tfrac{1}{\Delta t}(\Theta^{n,l} - \Theta^{n-1}, w) + (\Theta^{n,l}_x, w_x)
+#   + \tfrac{a}{\Delta t}(U^{n,l-1}_x - U^{n-1}_x, w) + k\Theta^{n,l}(1)w(1) = 0,$$
+#
+# $$\tfrac{b}{\Delta t^2}(U^{n,l} - 2U^{n-1} + U^{n-2}, v)
+#   + (U^{n,l}_x - a\Theta^{n,l} + a\theta_A r, v_x)
+#   + \tfrac{\zeta}{\Delta t}(U^{n,l}_x - U^{n-1}_x, v_x)
+#   + \tfrac1\varepsilon[U^{n,l-1}(1) - g]_+ v(1) = 0 .$$
+#
+# These are `forms.copetti.heat` and `forms.copetti.momentum` (+ `contact`). `PicardScheme` solves
+# the same equations for the increments $\Delta\Theta^n = \Theta^n - \Theta^{n-1}$ and
+# $\Delta U^n = U^n - U^{n-1}$ (`heat_increment`, `momentum_increment`): written for $U^n$, the
+# second difference $U^n - 2U^{n-1} + U^{n-2}$ subtracts numbers of size $|U|/\Delta t^2$ and
+# loses $10^{-10}$ of the acceleration to round-off every step. Both equations are linear in
+# their unknown, so their matrices are read off the forms, assembled and LU-factored once; each
+# iteration is two mat-vecs and two triangular solves.
+#
+# ## The time loop
+#
+# $\Theta^0$, $U^0$, $U^1$ are the nodal interpolants of the initial data; $\Theta^1$ comes from
+# (3.1) with $U^1$ known. Every step is recorded: point values at $x = 1$ and $x = 0.5$ and the
+# energy $\hat E^n$ of Remark 4.4.
+
+
 def run(end: float = 8.0, zeta: float = 0.2) -> np.ndarray:
     """Simulate experiment 1 up to ``end``; return the history rows (t, u_1, u_half, ut_1,
     sigma_1, energy, iterations)."""
     scene = rodfem.scene.load("paper1", [f"time.end={end}", f"model.zeta={zeta}"])
-
-    # ## The scheme (3.1)–(3.2) and its Picard iteration (3.3)–(3.4)
-    #
-    # P1 elements on a uniform mesh; $S_E$ holds the P1 functions vanishing at $x = 0$. For
-    # $n \ge 2$, with $\Theta^{n,0} = \Theta^{n-1}$ and $U^{n,0} = U^{n-1}$, each Picard iteration
-    # solves the heat equation with the last displacement iterate, then the momentum equation
-    # with the new temperature and the contact pressure of the last iterate:
-    #
-    # $$\tfrac{1}{\Delta t}(\Theta^{n,l} - \Theta^{n-1}, w) + (\Theta^{n,l}_x, w_x)
-    #   + \tfrac{a}{\Delta t}(U^{n,l-1}_x - U^{n-1}_x, w) + k\Theta^{n,l}(1)w(1) = 0,$$
-    #
-    # $$\tfrac{b}{\Delta t^2}(U^{n,l} - 2U^{n-1} + U^{n-2}, v)
-    #   + (U^{n,l}_x - a\Theta^{n,l} + a\theta_A r, v_x)
-    #   + \tfrac{\zeta}{\Delta t}(U^{n,l}_x - U^{n-1}_x, v_x)
-    #   + \tfrac1\varepsilon[U^{n,l-1}(1) - g]_+ v(1) = 0 .$$
-    #
-    # These are `forms.copetti.heat` and `forms.copetti.momentum` (+ `contact`). Both are linear
-    # in the unknown, so `PicardScheme` reads their matrices off the forms, assembles and
-    # LU-factors them once, and each iteration is two mat-vecs and two triangular solves.
     disc = Discretisation(scene, MPI.COMM_WORLD)
     scheme = PicardScheme(disc)
     history = History(disc, block=scene.steps + 1)
-
-    # ## The time loop
-    #
-    # $\Theta^0$, $U^0$, $U^1$ are the nodal interpolants of the initial data; $\Theta^1$ comes
-    # from (3.1) with $U^1$ known. Every step is recorded: point values at $x = 1$ and $x = 0.5$
-    # and the energy $\hat E^n$ of Remark 4.4.
     history.record(scheme)
     for _ in range(scene.steps):
         scheme.advance()

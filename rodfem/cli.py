@@ -42,6 +42,8 @@ def _parser() -> argparse.ArgumentParser:
     )
     run.add_argument("--force", action="store_true", help="replace an existing run directory")
     run.add_argument("--quiet", action="store_true", help="no progress bar and no final line")
+    run.add_argument("--progress", action="store_true",
+                     help="draw the progress bar even when output is not a terminal (mpirun)")
     return parser
 
 
@@ -72,11 +74,13 @@ def run(args: argparse.Namespace) -> int:
     from rodfem.run import simulate
 
     try:
-        prepare_directory(out, args.force, MPI.COMM_WORLD)
+        scene_file = Path(args.scene) if args.scene not in BUILTIN else None
+        prepare_directory(out, args.force, MPI.COMM_WORLD, keep=scene_file)
     except OutputError as err:
         _say(f"rodfem: error: {err}")
         return EXIT_INPUT
-    result = simulate(scene, out, MPI.COMM_WORLD, progress=not args.quiet)
+    result = simulate(scene, out, MPI.COMM_WORLD, progress=not args.quiet,
+                      force_progress=args.progress)
     s = result.summary
     if result.status == "failed":
         _say(f"rodfem: {_picard_advice(scene, result.error)} "

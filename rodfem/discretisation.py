@@ -17,6 +17,7 @@ Assembly is distributed; the operators handed to the time loop are sequential co
 from __future__ import annotations
 
 import dataclasses
+import types
 
 import numpy as np
 import ufl
@@ -67,7 +68,14 @@ class Discretisation:
             self.dx_m = ufl.dx(domain=self.mesh, scheme="GLL", degree=1)
         else:
             self.dx_m = self.dx
-        self.r = copetti.robin_shift(ufl.SpatialCoordinate(self.mesh), scene["model.k"])
+        # The parameters are constants of the forms, not literals in them: one compiled form
+        # serves every value, and no value of a scene is ever written into C code.
+        values = {"dt": scene["time.dt"], **{p: scene[f"model.{p}"] for p in
+                                             ("a", "b", "zeta", "k", "theta_A")}}
+        self.const = types.SimpleNamespace(**{
+            name: fem.Constant(self.mesh, PETSc.ScalarType(value)) for name, value in values.items()
+        })
+        self.r = copetti.robin_shift(ufl.SpatialCoordinate(self.mesh), self.const.k)
         self.nodes = NodeOrder(self.V)
 
     def function(self, name: str) -> fem.Function:

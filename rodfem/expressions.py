@@ -25,6 +25,7 @@ FUNCTIONS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
 }
 CONSTANTS = {"pi": np.pi}
 MAX_LENGTH = 1000
+MAX_DEPTH = 64  # nesting of operations; deeper trees are refused, not recursed into
 
 _BINARY = {
     ast.Add: np.add,
@@ -38,6 +39,11 @@ _UNARY = {ast.USub: np.negative, ast.UAdd: np.positive}
 
 class ExpressionError(ValueError):
     """An expression that is not in the whitelisted grammar."""
+
+
+def shorten(text: str, width: int = 60) -> str:
+    """Text as it is quoted in a one-line error message."""
+    return text if len(text) <= width else text[: width - 1] + "…"
 
 
 def _nearest(name: str, allowed) -> str:
@@ -58,6 +64,8 @@ class Expression:
             raise ExpressionError("must be a string expression in x")
         if len(text) > MAX_LENGTH:
             raise ExpressionError(f"is longer than {MAX_LENGTH} characters")
+        if "#" in text:
+            raise ExpressionError("contains '#'; expressions have no comments")
         self.text = text
         self.names = frozenset(names)
         try:
@@ -66,14 +74,22 @@ class Expression:
             raise ExpressionError(f"is not a valid expression ({err.msg})") from None
         except (RecursionError, MemoryError, ValueError):
             raise ExpressionError("is not a valid expression (nested too deeply)") from None
-        self._check(tree.body)
+        self._check(tree.body, 0)
         self._tree = tree.body
 
-    def _check(self, node: ast.AST) -> None:
+    def _check(self, node: ast.AST, depth: int) -> None:
         allowed = sorted({"x", *CONSTANTS, *self.names})
+        if depth > MAX_DEPTH:
+            raise ExpressionError(f"is nested more than {MAX_DEPTH} deep")
+        depth += 1
         if isinstance(node, ast.Constant):
             if type(node.value) not in (int, float):
                 raise ExpressionError(f"has a literal {node.value!r}; only numbers are allowed")
+            try:
+                float(node.value)
+            except OverflowError:
+                number = shorten(str(node.value), 20)
+                raise ExpressionError(f"has a number too large for a float ({number})") from None
         elif isinstance(node, ast.Name):
             if node.id not in allowed:
                 raise ExpressionError(
@@ -83,12 +99,12 @@ class Expression:
         elif isinstance(node, ast.BinOp):
             if type(node.op) not in _BINARY:
                 raise ExpressionError("uses an operator other than + - * / **")
-            self._check(node.left)
-            self._check(node.right)
+            self._check(node.left, depth)
+            self._check(node.right, depth)
         elif isinstance(node, ast.UnaryOp):
             if type(node.op) not in _UNARY:
                 raise ExpressionError("uses a unary operator other than + and -")
-            self._check(node.operand)
+            self._check(node.operand, depth)
         elif isinstance(node, ast.Call):
             name = node.func.id if isinstance(node.func, ast.Name) else None
             if name not in FUNCTIONS:
@@ -99,11 +115,11 @@ class Expression:
                 )
             if len(node.args) != 1 or node.keywords:
                 raise ExpressionError(f"calls {name} with other than one argument")
-            self._check(node.args[0])
+            self._check(node.args[0], depth)
         else:
             raise ExpressionError(
-                f"contains '{ast.unparse(node)}'; allowed: numbers, x, parameter names, "
-                "+ - * / **, parentheses, sin cos tan exp log sqrt abs, pi"
+                f"contains '{shorten(ast.unparse(node), 30)}'; allowed: numbers, x, parameter "
+                "names, + - * / **, parentheses, sin cos tan exp log sqrt abs, pi"
             )
 
     def __call__(self, x: np.ndarray, parameters: Mapping[str, float]) -> np.ndarray:
@@ -116,7 +132,7 @@ class Expression:
 
     def _eval(self, node: ast.AST, values):
         if isinstance(node, ast.Constant):
-            return np.float64(node.value)
+            return np.float64(float(node.value))
         if isinstance(node, ast.Name):
             return values[node.id]
         if isinstance(node, ast.BinOp):

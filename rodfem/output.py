@@ -7,7 +7,6 @@ goes, so a run that fails or is interrupted keeps everything it computed.
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -27,9 +26,10 @@ class OutputError(ValueError):
     """The output directory cannot be used (exit code 2)."""
 
 
-def prepare_directory(path: Path, force: bool, comm: MPI.Comm) -> None:
+def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None = None) -> None:
     """Create ``path`` for a new run. An existing one is replaced only with ``force``, and only if
-    it is empty or a previous run's directory (never an arbitrary folder)."""
+    it holds nothing but a previous run's files, which are the only ones removed; never if it
+    holds ``keep`` (the scene being run)."""
     error = None
     if comm.rank == 0:
         try:
@@ -38,12 +38,18 @@ def prepare_directory(path: Path, force: bool, comm: MPI.Comm) -> None:
                     raise OutputError(f"output directory {path} exists; use --force to replace it")
                 if not path.is_dir() or path.is_symlink():
                     raise OutputError(f"output path {path} exists and is not a directory")
-                contents = {p.name for p in path.iterdir()}
-                if contents and "summary.json" not in contents and "scene.toml" not in contents:
+                contents = list(path.iterdir())
+                foreign = [p.name for p in contents if p.name not in RUN_FILES or not p.is_file()]
+                if foreign:
                     raise OutputError(
-                        f"{path} is not a rodfem run directory; not replacing it, even with --force"
+                        f"{path} is not a rodfem run directory (it holds {foreign[0]}); "
+                        "not replacing it, even with --force"
                     )
-                shutil.rmtree(path)
+                if keep is not None and keep.resolve().parent == path.resolve():
+                    raise OutputError(f"the scene {keep} is inside the output directory {path}")
+                for p in contents:
+                    p.unlink()
+                path.rmdir()
             path.mkdir(parents=True)
         except OSError as err:
             error = f"cannot create output directory {path}: {err.strerror}"
@@ -77,16 +83,15 @@ class FieldFile:
     """fields.xdmf: θ (P1), u (P1) and σ (DG0, constant per cell) at saved steps."""
 
     def __init__(self, path: Path, disc: Discretisation):
-        scene = disc.scene
         self.Θ, self.U = disc.function("Θ"), disc.function("U")
         self.U_prev = disc.function("U_prev")
         self.theta, self.u = disc.function("theta"), self.U
         self.u.name = "u"
         self.sigma = fem.Function(disc.W)
         self.sigma.name = "sigma"
-        θ = copetti.temperature(self.Θ, scene["model.theta_A"], disc.r)
-        σ = copetti.stress(self.U, self.U_prev, θ, scene["time.dt"], scene["model.zeta"],
-                           scene["model.a"])
+        c = disc.const
+        θ = copetti.temperature(self.Θ, c.theta_A, disc.r)
+        σ = copetti.stress(self.U, self.U_prev, θ, c.dt, c.zeta, c.a)
         self.theta_expr = fem.Expression(θ, compat.interpolation_points(disc.V))
         self.sigma_expr = fem.Expression(σ, compat.interpolation_points(disc.W))
         self.nodes = disc.nodes
@@ -113,4 +118,13 @@ def write_text(path: Path, text: str, comm: MPI.Comm) -> None:
 
 
 def write_json(path: Path, data: dict, comm: MPI.Comm) -> None:
-    write_text(path, json.dumps(data, indent=2) + "\n", comm)
+    """Strict JSON: a non-finite number is written as null."""
+
+    def finite(value):
+        if isinstance(value, float) and not np.isfinite(value):
+            return None
+        if isinstance(value, dict):
+            return {k: finite(v) for k, v in value.items()}
+        return value
+
+    write_text(path, json.dumps(finite(data), indent=2, allow_nan=False) + "\n", comm)

@@ -33,14 +33,16 @@ INF = PETSc.NormType.INFINITY
 
 
 class PicardNotConverged(RuntimeError):
-    """The iteration (3.3)–(3.4) did not reach the tolerance within max_iterations."""
+    """The iteration (3.3)–(3.4) did not reach the tolerance within max_iterations, or produced
+    values that are not finite."""
 
     def __init__(self, step: int, time: float, increment: float, iterations: int):
         self.step, self.time, self.increment, self.iterations = step, time, increment, iterations
-        super().__init__(
-            f"Picard iteration did not converge at step {step} (t = {time:g}): "
-            f"increment {increment:.3e} after {iterations} iterations"
-        )
+        if np.isfinite(increment):
+            what = f"increment {increment:.3e} after {iterations} iterations"
+        else:
+            what = f"it diverged to non-finite values at iteration {iterations}"
+        super().__init__(f"Picard iteration did not converge at step {step} (t = {time:g}): {what}")
 
 
 def lu_factor(A: PETSc.Mat, prefix: str) -> tuple[PETSc.KSP, PETSc.Mat]:
@@ -71,12 +73,13 @@ class PicardScheme:
         self.dt = scene["time.dt"]
         self.epsilon, self.gap = scene["obstacle.epsilon"], scene["obstacle.gap"]
         self.tol, self.max_iterations = scene["solver.tol"], scene["solver.max_iterations"]
-        a, b, zeta, k, theta_A = (scene[f"model.{p}"] for p in ("a", "b", "zeta", "k", "theta_A"))
+        c = disc.const
+        dt, a, b, zeta, k, theta_A = c.dt, c.a, c.b, c.zeta, c.k, c.theta_A
         f = disc.function
         ΔΘ, Θ_prev, Θ_iterate = f("ΔΘ"), f("Θ_prev"), f("Θ_iterate")
         ΔU, ΔU_prev, U_prev, ΔU_iterate = f("ΔU"), f("ΔU_prev"), f("U_prev"), f("ΔU_iterate")
         w = ufl.TestFunction(disc.V)
-        dt, dx_m, dx, ds_1 = self.dt, disc.dx_m, disc.dx, disc.ds_1
+        dx_m, dx, ds_1 = disc.dx_m, disc.dx, disc.ds_1
 
         # (3.3): the heat equation for ΔΘ^{n,l} = Θ^{n,l} − Θⁿ⁻¹, with the displacement at the
         # previous iterate, U^{n,l−1} − Uⁿ⁻¹ = ΔU^{n,l−1}.
@@ -105,7 +108,7 @@ class PicardScheme:
         self._rhs, self._heat_step, self._momentum_step = new(), new(), new()
         self.n = 0
         self.iterations = 0
-        self._set_initial_state(scene, theta_A, k)
+        self._set_initial_state(scene, scene["model.theta_A"], scene["model.k"])
 
     def _set_initial_state(self, scene, theta_A: float, k: float) -> None:
         """Θ⁰ = P(θ₀ + θ_A r), U⁰ = P u₀ and P u₁, P the H¹_E projection: in 1D with P1, nodal
@@ -174,12 +177,16 @@ class PicardScheme:
             solve_momentum(rhs, du_new)
             dtheta_it.aypx(-1.0, dtheta_new)  # the changes, in the vectors of the old iterates
             du_it.aypx(-1.0, du_new)
-            increment = max(dtheta_it.norm(INF), du_it.norm(INF))
+            change_theta, change_u = dtheta_it.norm(INF), du_it.norm(INF)
+            increment = max(change_theta, change_u)
             dtheta_it, dtheta_new = dtheta_new, dtheta_it
             du_it, du_new = du_new, du_it
+            if not (change_theta < np.inf and change_u < np.inf):  # inf or nan: stop at once
+                increment = np.nan
+                break
             if increment < tol:
                 break
-        else:
+        if not increment < tol:
             self._work = [dtheta_it, dtheta_new, du_it, du_new]
             raise PicardNotConverged(self.n + 1, (self.n + 1) * self.dt, increment, iteration)
         # Θⁿ = Θⁿ⁻¹ + ΔΘⁿ; (ΔUⁿ, Uⁿ, Uⁿ⁻¹) take the places of (ΔUⁿ⁻¹, Uⁿ⁻¹, Uⁿ⁻²).

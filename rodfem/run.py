@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -32,9 +35,13 @@ class EnergyMonitor:
     last: float = np.nan
     max_increase: float = -np.inf
     scale: float = 0.0
+    finite: bool = True
 
     def update(self, steps: np.ndarray, energy: np.ndarray) -> None:
         if steps.size == 0:
+            return
+        if not np.isfinite(energy).all():
+            self.finite = False
             return
         previous = np.concatenate([[self.last], energy[:-1]])
         judged = steps >= 2
@@ -44,7 +51,34 @@ class EnergyMonitor:
         self.last = float(energy[-1])
 
     def non_increasing(self) -> bool:
-        return self.max_increase <= ENERGY_ROUNDOFF * self.scale
+        return self.finite and self.max_increase <= ENERGY_ROUNDOFF * self.scale
+
+
+@contextlib.contextmanager
+def stop_requests(comm: MPI.Comm, every: int = 256):
+    """Turn Ctrl-C (SIGINT) or SIGUSR1 into a request to stop at the end of a step, so that
+    nothing is written half.
+
+    Yields a function ``requested(n)``; under MPI the ranks agree on it every ``every`` steps, so
+    they stop at the same step. (Open MPI's mpirun kills the ranks on Ctrl-C but forwards SIGUSR1:
+    ``kill -USR1 <pid of mpirun>`` stops a parallel run cleanly.)"""
+    flag = [False]
+    installed = threading.current_thread() is threading.main_thread()
+    signals = (signal.SIGINT, signal.SIGUSR1)
+    if installed:
+        previous = [signal.signal(s, lambda *_: flag.__setitem__(0, True)) for s in signals]
+
+    def requested(n: int) -> bool:
+        if comm.size == 1:
+            return flag[0]
+        return n % every == 0 and comm.allreduce(flag[0], op=MPI.LOR)
+
+    try:
+        yield requested
+    finally:
+        if installed:
+            for s, handler in zip(signals, previous):
+                signal.signal(s, handler)
 
 
 @dataclasses.dataclass
@@ -57,8 +91,12 @@ class RunResult:
     u: np.ndarray | None = None  # the last step's U at the nodes
 
 
-def simulate(scene: Scene, out: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = True):
-    """Run ``scene`` into the (already created) directory ``out``; return a :class:`RunResult`."""
+def simulate(scene: Scene, out: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = True,
+             force_progress: bool = False):
+    """Run ``scene`` into the (already created) directory ``out``; return a :class:`RunResult`.
+
+    The progress bar is drawn on a terminal (``progress``), or always with ``force_progress``:
+    under mpirun, output is not a terminal."""
     started = time.perf_counter()
     write_text(out / "scene.toml", scene.to_toml(), comm)
     disc = Discretisation(scene, comm)
@@ -68,7 +106,8 @@ def simulate(scene: Scene, out: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress:
     field_file = FieldFile(out / "fields.xdmf", disc)
     energy = EnergyMonitor()
     steps, every, dt = scene.steps, scene["output.every"], scene["time.dt"]
-    bar = Progress(steps, enabled=progress and comm.rank == 0 and sys.stderr.isatty())
+    on_terminal = sys.stderr.isatty() or force_progress
+    bar = Progress(steps, enabled=progress and comm.rank == 0 and on_terminal)
     iterations = []
 
     def flush() -> None:
@@ -77,28 +116,38 @@ def simulate(scene: Scene, out: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress:
         energy.update(np.rint(rows[:, 0] / dt).astype(int), rows[:, 5])
         iterations.extend(rows[:, 6].astype(int).tolist())
 
+    saved = [-1]
+
+    def save_fields() -> None:
+        field_file.write(scheme.n * dt, scheme.theta, scheme.u, scheme.u_prev)
+        saved[0] = scheme.n
+
     def observe() -> None:
         history.record(scheme)
         if history.full:
             flush()
         if scheme.n % every == 0 or scheme.n == steps:
-            field_file.write(scheme.n * dt, scheme.theta, scheme.u, scheme.u_prev)
+            save_fields()
 
     setup_seconds = time.perf_counter() - started
     status, error = "complete", None
     loop_started = time.perf_counter()
-    try:
-        observe()
-        for n in range(1, steps + 1):
-            scheme.advance()
+    with stop_requests(comm) as stop_requested:
+        try:
             observe()
-            bar.update(n)
-    except PicardNotConverged as err:
-        status, error = "failed", err
-    except KeyboardInterrupt:
-        status = "interrupted"
+            for n in range(1, steps + 1):
+                scheme.advance()
+                observe()
+                bar.update(n)
+                if stop_requested(n):
+                    status = "interrupted"
+                    break
+        except PicardNotConverged as err:
+            status, error = "failed", err
     loop_seconds = time.perf_counter() - loop_started
     bar.close()
+    if saved[0] != scheme.n:  # a failed or interrupted run keeps its last step's fields too
+        save_fields()
     flush()
     history_file.close()
     field_file.close()
@@ -108,8 +157,9 @@ def simulate(scene: Scene, out: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress:
         "scene": scene.source,
         "steps": done,
         "steps_planned": steps,
-        "iterations_total": int(sum(iterations)),
-        "iterations_max": int(max(iterations)),
+        # A failed step's iterations count too (it is not in the history).
+        "iterations_total": int(sum(iterations)) + (error.iterations if error else 0),
+        "iterations_max": int(max(iterations + ([error.iterations] if error else []))),
         "iterations_mean": float(sum(iterations[2:]) / max(1, done - 1)),
         "setup_seconds": setup_seconds,
         "loop_seconds": loop_seconds,

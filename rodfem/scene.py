@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from rodfem.expressions import Expression, ExpressionError
+from rodfem.expressions import Expression, ExpressionError, shorten
 
 
 class SceneError(ValueError):
@@ -34,36 +34,50 @@ class Key:
     default: Any
     minimum: float | None = None  # inclusive
     above: float | None = None  # exclusive lower bound
+    maximum: float | None = None  # inclusive
     choices: tuple[str, ...] = ()
     help: str = ""
 
 
+# Bounds that keep every derived quantity (1/ε, Δt², b/Δt², the energy) far from overflow and
+# the run within memory; far beyond anything physical in the model's units.
+BIG, SMALL = 1e12, 1e-12
+MAX_CELLS, MAX_STEPS = 10_000_000, 100_000_000
+
+
 SCHEMA: dict[str, dict[str, Key]] = {
     "model": {
-        "a": Key("real", 0.017, minimum=0.0, help="thermal coupling"),
-        "b": Key("real", 1.0, minimum=0.0, help="inertia"),
-        "zeta": Key("real", 0.2, minimum=0.0, help="Kelvin-Voigt viscosity"),
-        "k": Key("real", 1.0, minimum=0.0, help="heat exchange at x = 1"),
-        "theta_A": Key("real", 10.0, help="temperature at x = 0"),
+        "a": Key("real", 0.017, minimum=0.0, maximum=BIG, help="thermal coupling"),
+        "b": Key("real", 1.0, minimum=0.0, maximum=BIG, help="inertia"),
+        "zeta": Key("real", 0.2, minimum=0.0, maximum=BIG, help="Kelvin-Voigt viscosity"),
+        "k": Key("real", 1.0, minimum=0.0, maximum=BIG, help="heat exchange at x = 1"),
+        "theta_A": Key("real", 10.0, minimum=-BIG, maximum=BIG, help="temperature at x = 0"),
     },
     "obstacle": {
-        "epsilon": Key("real", 0.01, above=0.0, help="compliance: stiffness is 1/epsilon"),
-        "gap": Key("real", 0.1, help="distance g of the obstacle from x = 1"),
+        "epsilon": Key("real", 0.01, minimum=SMALL, maximum=BIG,
+                       help="compliance: stiffness is 1/epsilon"),
+        "gap": Key("real", 0.1, minimum=-BIG, maximum=BIG,
+                   help="distance g of the obstacle from x = 1"),
     },
     "initial": {
         "theta0": Key("expression", "theta_A*(cos(2*pi*x) - sin(pi*x/2))"),
         "u0": Key("expression", "0"),
         "u1": Key("expression", "20*x*(x - 1)**2"),
     },
-    "mesh": {"cells": Key("integer", 250, minimum=2)},
-    "time": {"dt": Key("real", 0.001, above=0.0), "end": Key("real", 8.0, above=0.0)},
+    "mesh": {"cells": Key("integer", 250, minimum=2, maximum=MAX_CELLS)},
+    "time": {
+        "dt": Key("real", 0.001, minimum=SMALL, maximum=BIG),
+        "end": Key("real", 8.0, minimum=SMALL, maximum=BIG),
+    },
     "discretisation": {"mass": Key("choice", "lumped", choices=("lumped", "consistent"))},
     "solver": {
         "method": Key("choice", "picard", choices=("picard",)),
-        "tol": Key("real", 1e-10, above=0.0, help="max-norm of a Picard increment"),
-        "max_iterations": Key("integer", 100, minimum=1),
+        "tol": Key("real", 1e-10, minimum=1e-300, maximum=BIG,
+                   help="max-norm of a Picard increment"),
+        "max_iterations": Key("integer", 100, minimum=1, maximum=1_000_000),
     },
-    "output": {"every": Key("integer", 50, minimum=1, help="save fields every n steps")},
+    "output": {"every": Key("integer", 50, minimum=1, maximum=MAX_STEPS,
+                            help="save fields every n steps")},
 }
 TOP_LEVEL = {"description": ""}
 MODEL_NAMES = tuple(SCHEMA["model"])
@@ -99,7 +113,7 @@ class Scene:
         """The resolved scene as TOML: loading it gives the same scene."""
         lines = []
         if self.description:
-            lines += [f"description = {json.dumps(self.description)}", ""]
+            lines += [f"description = {_toml_value(self.description)}", ""]
         for section, keys in SCHEMA.items():
             lines.append(f"[{section}]")
             for key in keys:
@@ -110,7 +124,7 @@ class Scene:
 
 def _toml_value(value: Any) -> str:
     if isinstance(value, str):
-        return json.dumps(value)
+        return json.dumps(value, ensure_ascii=False)  # a TOML basic string, any character
     return repr(value)
 
 
@@ -127,12 +141,15 @@ def _check_value(dotted: str, spec: Key, value: Any) -> Any:
             raise SceneError(f"{dotted}: must be {noun}, got {_toml_value(value)}")
         if spec.kind == "integer" and not isinstance(value, int):
             raise SceneError(f"{dotted}: must be an integer, got {value!r}")
-        if not math.isfinite(value):
-            raise SceneError(f"{dotted}: must be finite, got {value!r}")
+        shown = shorten(repr(value), 30)
+        if isinstance(value, float) and not math.isfinite(value):
+            raise SceneError(f"{dotted}: must be finite, got {shown}")
         if spec.minimum is not None and value < spec.minimum:
-            raise SceneError(f"{dotted}: must be >= {spec.minimum:g}, got {value!r}")
+            raise SceneError(f"{dotted}: must be >= {spec.minimum:g}, got {shown}")
         if spec.above is not None and value <= spec.above:
-            raise SceneError(f"{dotted}: must be > {spec.above:g}, got {value!r}")
+            raise SceneError(f"{dotted}: must be > {spec.above:g}, got {shown}")
+        if spec.maximum is not None and value > spec.maximum:
+            raise SceneError(f"{dotted}: must be <= {spec.maximum:g}, got {shown}")
         return float(value) if spec.kind == "real" else int(value)
     if spec.kind == "choice":
         if value not in spec.choices:
@@ -145,7 +162,8 @@ def _check_value(dotted: str, spec: Key, value: Any) -> Any:
     try:
         Expression(value, MODEL_NAMES)
     except ExpressionError as err:
-        raise SceneError(f"{dotted}: {_toml_value(value)} {err}") from None
+        shown = _toml_value(shorten(value)) if isinstance(value, str) else _toml_value(value)
+        raise SceneError(f"{dotted}: {shown} {err}") from None
     return value
 
 
@@ -186,6 +204,8 @@ def _check_consistency(scene: Scene) -> None:
     if dt > end:
         raise SceneError(f"time.dt: must be <= time.end = {end!r}, got {dt!r}")
     ratio = end / dt
+    if ratio > MAX_STEPS:
+        raise SceneError(f"time.dt: at most {MAX_STEPS:g} steps, got {ratio:.3g} (end/dt)")
     if abs(ratio - round(ratio)) > 1e-9 * ratio:
         raise SceneError(
             f"time.end: must be a whole number of steps time.dt = {dt!r}, got {end!r} "

@@ -23,6 +23,8 @@ def test_energy_non_increasing_on_paper_scenes(simulate, scene):
     increase = np.diff(energy)[1:]  # Êⁿ − Êⁿ⁻¹ for n ≥ 2
     assert increase.max() <= 64 * EPS * np.abs(energy).max()
     assert result.summary["energy_non_increasing"]
+    # On these scenes the dissipation of every step exceeds round-off: strictly decreasing.
+    assert increase.max() < 0
     assert history.shape[0] == 8001
 
 
@@ -55,5 +57,6 @@ def test_history_energy_is_the_remark_4_4_form(mass):
                        scene["model.theta_A"], disc.r, scene["obstacle.epsilon"],
                        scene["obstacle.gap"], disc.dx_m, disc.dx, disc.ds_1)
     value = disc.comm.allreduce(fem.assemble_scalar(fem.form(E)))
-    # Same terms, summed in another order: a few ulps of the largest term (the kinetic energy).
+    # The same cell contributions (250 cells, a few terms each) summed in another order: round-off
+    # of at most about (number of terms) ulps of the energy.
     assert abs(row[5] - value) <= 1e3 * EPS * abs(value)

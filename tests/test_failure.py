@@ -37,3 +37,21 @@ def test_tight_iteration_budget_fails_inside_the_condition(shared_dir, capsys):
     capsys.readouterr()
     assert code == 3
     assert json.loads((out / "summary.json").read_text())["steps"] == 1
+
+
+def test_scene_toml_repeats_the_run(simulate, shared_dir):
+    """scene.toml holds the resolved scene: running it again gives the same history, bit for bit,
+    whatever characters its description holds."""
+    from conftest import COMM
+    from rodfem.scene import load
+
+    scene_file = shared_dir / "mine.toml"
+    if COMM.rank == 0:
+        scene_file.write_text('description = "ζ = 1, ε → 0 😀 \\"quoted\\""\n[model]\nzeta = 1.0\n'
+                              '[time]\nend = 0.3\n', encoding="utf-8")
+    COMM.barrier()
+    _, first = simulate(str(scene_file))
+    again = load(str(first / "scene.toml"))
+    assert again.description == 'ζ = 1, ε → 0 😀 "quoted"'
+    _, second = simulate(str(first / "scene.toml"))
+    assert (first / "history.csv").read_bytes() == (second / "history.csv").read_bytes()

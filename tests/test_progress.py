@@ -10,6 +10,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from conftest import serial_only
 from rodfem.progress import Progress
 
@@ -33,18 +35,23 @@ def test_progress_is_quiet_for_short_runs_and_off_terminals():
 
 
 @serial_only
-def test_interrupt_keeps_results(tmp_path):
+@pytest.mark.parametrize("ranks, sent", [(1, signal.SIGINT), (2, signal.SIGUSR1)],
+                         ids=["Ctrl-C", "mpirun -n 2, SIGUSR1"])
+def test_interrupt_keeps_results(tmp_path, ranks, sent):
+    """The run stops at the end of a step: every file whole, history and summary agreeing."""
     out = tmp_path / "run"
     rodfem = Path(sys.executable).with_name("rodfem")
-    process = subprocess.Popen(
-        [str(rodfem), "run", "paper1", "--out", str(out), "--set", "time.end=400"],
-        stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
-    )
+    command = [str(rodfem), "run", "paper1", "--out", str(out), "--set", "time.end=400"]
+    if ranks > 1:
+        command = ["mpirun", "-n", str(ranks), *command]
+    env = {**os.environ, "PYTHONUNBUFFERED": "1", "OMPI_ALLOW_RUN_AS_ROOT": "1",
+           "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, env=env)
     deadline = time.monotonic() + 120
     while not (out / "history.csv").exists() or (out / "history.csv").stat().st_size < 10**5:
         assert time.monotonic() < deadline and process.poll() is None
         time.sleep(0.1)
-    process.send_signal(signal.SIGINT)
+    process.send_signal(sent)
     _, err = process.communicate(timeout=120)
     assert process.returncode == 130
     summary = json.loads((out / "summary.json").read_text())
