@@ -7,6 +7,7 @@ goes, so a run that fails or is interrupted keeps everything it computed.
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -20,16 +21,37 @@ from rodfem.discretisation import Discretisation
 from rodfem.history import COLUMNS
 
 RUN_FILES = ("history.csv", "fields.xdmf", "fields.h5", "scene.toml", "summary.json")
+FIGURE_DIRS = ("figures", "figure5")
+FIGURE_SUFFIXES = (".png", ".gif", ".mp4")
+PAPER_ENTRIES = ("index.md", *(f"paper{i}" for i in range(1, 6)))
 
 
 class OutputError(ValueError):
     """The output directory cannot be used (exit code 2)."""
 
 
+def _foreign(path: Path) -> str | None:
+    """The first entry below ``path`` that rodfem did not write (a run's files, its figures, the
+    paper's runs and index), or None: only then may ``--force`` remove the directory."""
+    for p in sorted(path.iterdir()):
+        if p.is_symlink():
+            return p.name
+        if p.is_file() and (p.name in RUN_FILES or p.name == "index.md"):
+            continue
+        if p.is_dir() and p.name in FIGURE_DIRS:
+            if all(f.is_file() and not f.is_symlink() and f.suffix in FIGURE_SUFFIXES
+                   for f in p.iterdir()):
+                continue
+        elif p.is_dir() and p.name in PAPER_ENTRIES and _foreign(p) is None:
+            continue
+        return p.name
+    return None
+
+
 def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None = None) -> None:
     """Create ``path`` for a new run. An existing one is replaced only with ``force``, and only if
-    it holds nothing but a previous run's files, which are the only ones removed; never if it
-    holds ``keep`` (the scene being run)."""
+    it holds nothing but what rodfem writes (runs, figures, the paper's index); never if it holds
+    ``keep`` (the scene being run)."""
     error = None
     if comm.rank == 0:
         try:
@@ -38,18 +60,15 @@ def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None
                     raise OutputError(f"output directory {path} exists; use --force to replace it")
                 if not path.is_dir() or path.is_symlink():
                     raise OutputError(f"output path {path} exists and is not a directory")
-                contents = list(path.iterdir())
-                foreign = [p.name for p in contents if p.name not in RUN_FILES or not p.is_file()]
-                if foreign:
+                foreign = _foreign(path)
+                if foreign is not None:
                     raise OutputError(
-                        f"{path} is not a rodfem run directory (it holds {foreign[0]}); "
+                        f"{path} is not a rodfem output directory (it holds {foreign}); "
                         "not replacing it, even with --force"
                     )
-                if keep is not None and keep.resolve().parent == path.resolve():
+                if keep is not None and path.resolve() in keep.resolve().parents:
                     raise OutputError(f"the scene {keep} is inside the output directory {path}")
-                for p in contents:
-                    p.unlink()
-                path.rmdir()
+                shutil.rmtree(path)  # only what rodfem wrote, checked above
             path.mkdir(parents=True)
         except OSError as err:
             error = f"cannot create output directory {path}: {err.strerror}"

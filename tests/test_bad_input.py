@@ -129,7 +129,7 @@ def test_force_never_deletes_a_foreign_directory(shared_dir, capsys):
                      capsys)
     assert code == 2
     if COMM.rank == 0:
-        assert "not a rodfem run directory" in err
+        assert "not a rodfem output directory (it holds thesis.tex)" in err
     assert (out / "thesis.tex").read_text() == "precious\n"
 
 
