@@ -77,7 +77,7 @@ def stop_requests(comm: MPI.Comm, every: int = 256):
         yield requested
     finally:
         if installed:
-            for s, handler in zip(signals, previous):
+            for s, handler in zip(signals, previous, strict=True):
                 signal.signal(s, handler)
 
 
