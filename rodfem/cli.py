@@ -1,6 +1,7 @@
 """The ``rodfem`` command.
 
     rodfem run SCENE [--out DIR] [--set section.key=value ...] [--force]
+    rodfem plot DIR [DIR ...] [--out FIGDIR]
 
 Exit codes: 0 complete, 2 bad input (nothing written), 3 the Picard iteration did not converge
 (results so far kept), 130 interrupted.
@@ -44,6 +45,30 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--quiet", action="store_true", help="no progress bar and no final line")
     run.add_argument("--progress", action="store_true",
                      help="draw the progress bar even when output is not a terminal (mpirun)")
+    plot = sub.add_parser(
+        "plot",
+        help="draw the figures of runs",
+        description="Draw contact.png, energy.png, spacetime_{u,theta,sigma}.png and rod.gif of "
+        "a run directory into DIR/figures. With several directories, contact.png and energy.png "
+        "overlay the runs and the per-run figures are named after each run's directory, "
+        "e.g. rod_paper2.gif, all in the first directory's figures/ (or FIGDIR).",
+    )
+    plot.add_argument("dirs", nargs="+", type=Path, metavar="DIR",
+                      help="a run directory written by 'rodfem run'")
+    plot.add_argument("--out", type=Path, metavar="FIGDIR",
+                      help="figure directory (default: the first DIR's figures/)")
+    paper = sub.add_parser(
+        "paper",
+        help="reproduce the paper's Section 6",
+        description="Run the paper's five experiments, draw their figures and Figure 5, and write "
+        "index.md, which sets each figure beside what the paper says about it.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    paper.add_argument("--out", type=Path, default=Path("results/paper"), help="output directory")
+    paper.add_argument("--force", action="store_true", help="replace an earlier reproduction")
+    paper.add_argument("--set", dest="overrides", action="append", default=[],
+                       metavar="SECTION.KEY=VALUE",
+                       help="override a value in every experiment, e.g. --set time.end=2")
     return parser
 
 
@@ -99,9 +124,56 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def plot(args: argparse.Namespace) -> int:
+    """Draw the figures on rank 0 (the others wait), then list the files written."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    written, error = [], None
+    if comm.rank == 0:
+        from rodfem.post import PlotError
+        from rodfem.post import plot as draw
+
+        try:
+            written = draw(args.dirs, args.out)
+        except PlotError as err:
+            error = " ".join(str(err).split())  # one line
+    written, error = comm.bcast((written, error), root=0)
+    if error is not None:
+        _say(f"rodfem: error: {error}")
+        return EXIT_INPUT
+    for path in written:
+        _say(str(path), sys.stdout)
+    return 0
+
+
+def paper(args: argparse.Namespace) -> int:
+    """Reproduce Section 6 into args.out; print where its index is."""
+    from mpi4py import MPI
+
+    from rodfem.output import OutputError
+    from rodfem.paper import reproduce
+    from rodfem.scene import load
+
+    for name in BUILTIN:  # every override is checked before anything runs
+        load(name, args.overrides)
+    try:
+        index = reproduce(args.out, args.force, MPI.COMM_WORLD, overrides=args.overrides,
+                          report=_say)
+    except OutputError as err:
+        _say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    _say(str(index), sys.stdout)
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
+        if args.command == "plot":
+            return plot(args)
+        if args.command == "paper":
+            return paper(args)
         return run(args)
     except SceneError as err:
         _say(f"rodfem: error: {err}")

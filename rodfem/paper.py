@@ -71,21 +71,40 @@ def measured(scene: rodfem.scene.Scene, run: Path, result) -> str:
     )
 
 
-def reproduce(out: Path, force: bool = False, comm: MPI.Comm = MPI.COMM_WORLD,
-              progress: bool = True) -> Path:
-    """Run the five experiments into ``out``/paperN, plot them, write ``out``/index.md."""
+def run_experiment(name: str, out: Path, overrides=(), force: bool = False,
+                   comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = True):
+    """Run a built-in scene into ``out`` and draw its figures into ``out``/figures.
+
+    Returns the scene and, on rank 0, what the run shows (:func:`measured`)."""
     from rodfem.post import plot  # pyvista only where figures are made
+
+    scene = rodfem.scene.load(name, list(overrides))
+    prepare_directory(out, force, comm)
+    result = simulate(scene, out, comm, progress=progress)
+    facts = ""
+    if comm.rank == 0:
+        facts = measured(scene, out, result)
+        plot([out], None)
+    comm.barrier()
+    return scene, facts
+
+
+def reproduce(out: Path, force: bool = False, comm: MPI.Comm = MPI.COMM_WORLD,
+              progress: bool = True, overrides=(), report=lambda line: None) -> Path:
+    """Run the five experiments into ``out``/paperN, plot them, write ``out``/index.md.
+
+    ``overrides`` (``section.key=value``) apply to every experiment, e.g. a shorter end time;
+    ``report`` receives a line as each experiment is done."""
+    from rodfem.post import plot
 
     prepare_directory(out, force, comm)
     sections = []
     for experiment in EXPERIMENTS:
-        scene = rodfem.scene.load(experiment.scene)
         run = out / experiment.scene
-        prepare_directory(run, False, comm)
-        result = simulate(scene, run, comm, progress=progress)
-        sections.append((experiment, scene, measured(scene, run, result) if comm.rank == 0 else ""))
-        if comm.rank == 0:
-            plot([run], None)
+        scene, facts = run_experiment(experiment.scene, run, overrides, comm=comm,
+                                      progress=progress)
+        sections.append((experiment, scene, facts))
+        report(f"{experiment.scene}: {facts}")
     if comm.rank == 0:
         plot([out / "paper1", out / "paper2"], out / "figure5")
         write_index(out, sections)
@@ -100,7 +119,8 @@ def write_index(out: Path, sections) -> None:
         f"Made by `rodfem paper` on {time.strftime('%Y-%m-%d')} with rodfem {rodfem.__version__}"
         f" and dolfinx {dolfinx.__version__}. Common data, as in the paper: a = 0.017, g = 0.1, "
         "θ_A = 10, h = 1/250, Δt = 0.001, T = 8, θ₀ = θ_A (cos 2πx − sin(πx/2)), u₀ = 0, "
-        "u₁ = 20x(x − 1)², lumped mass. Each run's files are in its folder.",
+        "u₁ = 20x(x − 1)², lumped mass. Each run's files, and its resolved `scene.toml`, are in "
+        "its folder.",
         "",
     ]
     for experiment, scene, facts in sections:

@@ -2,13 +2,19 @@
 # Bring a Debian root machine to a working rodfem: Debian's FEniCSx packages, a virtual environment
 # .venv made from /usr/bin/python3 with --system-site-packages, and rodfem installed into it
 # (editable). Idempotent: a second run checks and changes nothing. The container runs this too.
+# Debian 12 (dolfinx 0.5.2, Python 3.11, NumPy 1) and Debian 13 (dolfinx 0.9.0, Python 3.13,
+# NumPy 2) alike: `make container-test` runs it in a Debian 13 chroot.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# Every name must exist in both releases (libgl1, say, not bookworm's libgl1-mesa-glx).
 APT_PACKAGES=(
   python3-dolfinx python3-petsc4py python3-mpi4py python3-ufl python3-basix python3-ffcx
   python3-meshio python3-h5py python3-scipy python3-numpy python3-venv python3-pip
   openmpi-bin libopenmpi-dev build-essential
+  # rodfem plot: pyvista's matplotlib built for Debian's NumPy; VTK's wheel dlopen()s libEGL.so.1
+  # at run time (ldd shows no GL library) and Mesa renders off-screen with libgl1-mesa-dri.
+  python3-matplotlib libegl1 libgl1-mesa-dri
 )
 
 missing=()
@@ -32,7 +38,8 @@ if [ ! -x .venv/bin/python ]; then
 fi
 
 # Debian's petsc4py and dolfinx are built against the system NumPy: keep pip from replacing it
-# (on Debian 12 that means numpy<2; NumPy 2 breaks their import).
+# (on Debian 12 that means numpy<2, as NumPy 2 breaks their import; on Debian 13 exactly its 2.x,
+# which the venv sees through --system-site-packages, so pip installs no NumPy at all).
 numpy_pin=$(/usr/bin/python3 -c 'import numpy; v = numpy.__version__
 print("numpy<2" if int(v.split(".")[0]) < 2 else "numpy==" + v)')
 stamp=.venv/.rodfem-installed

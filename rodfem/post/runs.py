@@ -1,0 +1,174 @@
+"""A run directory as the figures see it: ``history.csv``, ``scene.toml`` and ``fields.xdmf``.
+
+Everything a figure needs is read and checked here, before any figure is drawn, so that a bad
+directory stops ``rodfem plot`` with one line and no half-written figures.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rodfem.post.fields import Fields, FieldsError, read_fields
+
+# The columns of history.csv, as rodfem.history writes them (not imported from there: it needs
+# dolfinx, and reading a run's files should not).
+HISTORY_COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
+
+# Scene values that tell runs apart in a legend, with their symbols in the paper: in mathtext
+# (typeset by matplotlib, for the charts) and in Unicode (for text drawn many times, as in the
+# animation, where typesetting would cost seconds).
+PARAMETERS = {
+    "model.zeta": (r"\zeta", "ζ"),
+    "obstacle.epsilon": (r"\varepsilon", "ε"),
+    "model.k": ("k", "k"),
+    "model.a": ("a", "a"),
+    "model.b": ("b", "b"),
+    "model.theta_A": (r"\theta_A", "θ_A"),
+    "obstacle.gap": ("g", "g"),
+    "time.dt": (r"\Delta t", "Δt"),
+    "mesh.cells": ("s", "s"),
+    "discretisation.mass": (r"\mathrm{mass}", "mass"),
+}
+PAPER_PARAMETERS = ("model.zeta", "obstacle.epsilon", "model.k")
+
+
+class PlotError(ValueError):
+    """``rodfem plot`` cannot draw its figures (exit code 2)."""
+
+
+class RunDirectoryError(PlotError):
+    """A path given to ``rodfem plot`` is not a complete rodfem run directory."""
+
+
+@dataclass(frozen=True)
+class History:
+    """The columns of ``history.csv``, one entry per step n = 0..N."""
+
+    t: np.ndarray
+    u_1: np.ndarray
+    u_half: np.ndarray
+    ut_1: np.ndarray
+    sigma_1: np.ndarray
+    energy: np.ndarray
+    iterations: np.ndarray
+
+
+@dataclass(frozen=True)
+class Run:
+    """One run directory, read whole.
+
+    Attributes:
+        path: the directory.
+        name: its name, used in legends and in per-run file names.
+        history: ``history.csv``.
+        scene: ``scene.toml``, flattened to ``section.key`` → value.
+        fields: ``fields.xdmf``.
+    """
+
+    path: Path
+    name: str
+    history: History
+    scene: dict[str, Any]
+    fields: Fields
+
+    @property
+    def gap(self) -> float:
+        """The obstacle's gap g: the rod is in contact where u(1, t) > g."""
+        return float(self.scene["obstacle.gap"])
+
+    def parameter(self, key: str, math: bool = True) -> str:
+        """``symbol = value``, e.g. ``$\\zeta = 0.2$`` in mathtext or ``ζ = 0.2`` in Unicode."""
+        math_symbol, symbol = PARAMETERS[key]
+        value = self.scene[key]
+        value = value if isinstance(value, str) else f"{value:g}"
+        return f"${math_symbol} = {value}$" if math else f"{symbol} = {value}"
+
+
+def read_history(path: Path) -> History:
+    """Read ``history.csv``; raise :class:`RunDirectoryError` unless it is rodfem's."""
+    try:
+        with open(path, encoding="utf-8") as file:
+            header = tuple(file.readline().strip().split(","))
+            if header != HISTORY_COLUMNS:
+                columns = ",".join(HISTORY_COLUMNS)
+                raise RunDirectoryError(f"{path} is not a rodfem history (header is not {columns})")
+            lines = file.read().split()
+        if not lines:
+            raise RunDirectoryError(f"{path} holds no steps")
+        rows = np.loadtxt(lines, delimiter=",", ndmin=2)
+    except RunDirectoryError:
+        raise
+    except (OSError, ValueError, UnicodeDecodeError) as err:
+        reason = str(err).split(";")[0]  # without NumPy's advice on loadtxt's arguments
+        raise RunDirectoryError(f"cannot read {path}: {reason}") from None
+    if rows.shape[1] != len(HISTORY_COLUMNS):
+        raise RunDirectoryError(
+            f"{path} has rows of {rows.shape[1]} values, not {len(HISTORY_COLUMNS)}"
+        )
+    return History(*rows.T)
+
+
+def _flatten(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    flat = {}
+    for key, value in table.items():
+        if isinstance(value, dict):
+            flat.update(_flatten(value, f"{prefix}{key}."))
+        else:
+            flat[prefix + key] = value
+    return flat
+
+
+def load_run(path: Path) -> Run:
+    """Read a run directory written by ``rodfem run``.
+
+    Args:
+        path: the directory holding ``history.csv``, ``scene.toml`` and ``fields.xdmf`` (+ .h5).
+
+    Raises:
+        RunDirectoryError: ``path`` is not a directory, or a file is missing or unreadable.
+    """
+    path = Path(path)
+    if not path.is_dir():
+        raise RunDirectoryError(f"{path} is not a directory")
+    for name in ("history.csv", "scene.toml", "fields.xdmf", "fields.h5"):
+        if not (path / name).is_file():
+            raise RunDirectoryError(f"{path} is not a rodfem run directory (it has no {name})")
+    history = read_history(path / "history.csv")
+    try:
+        scene = _flatten(tomllib.loads((path / "scene.toml").read_text(encoding="utf-8")))
+        float(scene["obstacle.gap"])
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, KeyError, TypeError) as err:
+        raise RunDirectoryError(f"cannot read {path / 'scene.toml'}: {err}") from None
+    try:
+        fields = read_fields(path / "fields.xdmf")
+    except FieldsError as err:
+        raise RunDirectoryError(str(err)) from None
+    return Run(path, path.resolve().name, history, scene, fields)
+
+
+def legend_labels(runs: list[Run], math: bool = True) -> list[str]:
+    """One label per run: its name and the scene values that set it apart from the others (the
+    paper's ζ, ε, k for a single run, or when nothing differs); in mathtext or in Unicode."""
+    differing = [key for key in PARAMETERS
+                 if all(key in run.scene for run in runs)
+                 and len({run.scene[key] for run in runs}) > 1]
+    keys = differing or [key for key in PAPER_PARAMETERS if all(key in r.scene for r in runs)]
+    # A "$" in a directory name would start mathtext: escape it.
+    names = [run.name.replace("$", r"\$") if math else run.name for run in runs]
+    return [f"{name}: " + ", ".join(run.parameter(key, math) for key in keys)
+            for name, run in zip(names, runs, strict=True)]
+
+
+def file_suffixes(runs: list[Run]) -> list[str]:
+    """Suffixes for per-run figure names: none for one run, ``_<name>`` for several (made unique
+    with the run's position when two directories share a name)."""
+    if len(runs) == 1:
+        return [""]
+    names = [run.name for run in runs]
+    return [f"_{name}" if names.count(name) == 1 else f"_{name}-{i + 1}"
+            for i, name in enumerate(names)]
