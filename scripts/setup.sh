@@ -37,11 +37,11 @@ if [ ! -x .venv/bin/python ]; then
   /usr/bin/python3 -m venv --system-site-packages .venv
 fi
 
-# Debian's petsc4py and dolfinx are built against the system NumPy: keep pip from replacing it
-# (on Debian 12 that means numpy<2, as NumPy 2 breaks their import; on Debian 13 exactly its 2.x,
-# which the venv sees through --system-site-packages, so pip installs no NumPy at all).
-numpy_pin=$(/usr/bin/python3 -c 'import numpy; v = numpy.__version__
-print("numpy<2" if int(v.split(".")[0]) < 2 else "numpy==" + v)')
+# Debian's petsc4py and dolfinx are built against the system NumPy: pin pip to exactly that one,
+# which the venv sees through --system-site-packages, so pip installs no NumPy at all (on Debian 12
+# numpy==1.24.2, so numpy<2: NumPy 2 breaks their import; and not 1.26 either, which pip's own
+# matplotlib would pull in: that is why matplotlib comes from Debian too).
+numpy_pin=$(/usr/bin/python3 -c 'import numpy; print("numpy==" + numpy.__version__)')
 stamp=.venv/.rodfem-installed
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ "$0" -nt "$stamp" ]; then
   echo "setup: pip install -e .[test] ($numpy_pin)"
