@@ -14,7 +14,9 @@ from conftest import serial_only
 
 RODFEM = Path(sys.executable).with_name("rodfem")
 MPI_ENV = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
-           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+           # oversubscription, as Open MPI 4 (Debian 12) and 5 (Debian 13) spell it
+           "OMPI_MCA_rmaps_base_oversubscribe": "1",
+           "PRTE_MCA_rmaps_default_mapping_policy": ":oversubscribe"}
 
 
 def rodfem_run(tmp_path, ranks, *args):
