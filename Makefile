@@ -11,6 +11,7 @@ setup:
 
 demo: setup
 	.venv/bin/rodfem run paper1 --out results/paper1 --force
+	.venv/bin/rodfem plot results/paper1
 
 test: setup test-serial test-mpi
 
