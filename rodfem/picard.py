@@ -108,11 +108,13 @@ class PicardScheme:
         self._rhs, self._heat_step, self._momentum_step = new(), new(), new()
         self.n = 0
         self.iterations = 0
-        self._set_initial_state(scene, scene["model.theta_A"], scene["model.k"])
+        self._set_initial_state()
 
-    def _set_initial_state(self, scene, theta_A: float, k: float) -> None:
+    def _set_initial_state(self) -> None:
         """Θ⁰ = P(θ₀ + θ_A r), U⁰ = P u₀ and P u₁, P the H¹_E projection: in 1D with P1, nodal
         interpolation. The node x = 0 is set to exactly 0 (the scene checked compatibility)."""
+        scene = self.disc.scene
+        theta_A, k = scene["model.theta_A"], scene["model.k"]
         x = self.disc.nodes.x
         clamped = x == 0.0
         params = scene.parameters

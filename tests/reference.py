@@ -252,26 +252,39 @@ def simulate(
     for n in range(2, n_steps + 1):
         heat_base = mm @ c_old + a * (cc @ d_old)
         mom_base = mom_prev @ d_old - b * (mm @ d_old2) - load
-        c_it, d_it = c_old, d_old
-        iterations = 0
-        increment = np.inf
-        while increment >= tol:
-            if iterations == max_iterations:
-                raise RuntimeError(
-                    f"Picard iteration did not converge at step n = {n} (t = {n * dt:g}) "
-                    f"within {max_iterations} iterations (last increment {increment:.3e})"
-                )
-            iterations += 1
-            c_next = heat.solve(heat_base - a * (cc @ d_it))
+        def heat_rhs(d_it, heat_base=heat_base):
+            return heat_base - a * (cc @ d_it)
+
+        def momentum_rhs(c_next, d_it, mom_base=mom_base):
             rhs = mom_base + dt2 * a * (ctr @ c_next)
             rhs[-1] -= dt2 / epsilon * penalty(d_it)
-            d_next = momentum.solve(rhs)
-            increment = max(np.abs(c_next - c_it).max(), np.abs(d_next - d_it).max())
-            c_it, d_it = c_next, d_next
+            return rhs
+
+        c_it, d_it, iterations = _picard(n, dt, c_old, d_old, heat, momentum, heat_rhs,
+                                         momentum_rhs, tol, max_iterations)
         d_old2, d_old, c_old = d_old, d_it, c_it
         record(n, c_old, d_old, d_old2, iterations)
 
     return _result(history, x, c_old, d_old)
+
+
+def _picard(n, dt, c_it, y_it, heat, momentum, heat_rhs, momentum_rhs, tol, max_iterations):
+    """The iteration (3.3)–(3.4) of step n from (c_it, y_it), y being d or Δ: returns the first
+    iterate whose max-norm change of (c, y) is below tol, and the number of iterations."""
+    iterations = 0
+    increment = np.inf
+    while increment >= tol:
+        if iterations == max_iterations:
+            raise RuntimeError(
+                f"Picard iteration did not converge at step n = {n} (t = {n * dt:g}) "
+                f"within {max_iterations} iterations (last increment {increment:.3e})"
+            )
+        iterations += 1
+        c_next = heat.solve(heat_rhs(y_it))
+        y_next = momentum.solve(momentum_rhs(c_next, y_it))
+        increment = max(np.abs(c_next - c_it).max(), np.abs(y_next - y_it).max())
+        c_it, y_it = c_next, y_next
+    return c_it, y_it, iterations
 
 
 def _picard_increments(history, record, x, n_steps, c_old, d_old, delta_old, heat, momentum, mm,
@@ -281,22 +294,16 @@ def _picard_increments(history, record, x, n_steps, c_old, d_old, delta_old, hea
     for n in range(2, n_steps + 1):
         heat_base = mm @ c_old
         mom_base = b * (mm @ delta_old) - dt2 * (kk @ d_old) - load
-        c_it, delta_it = c_old, np.zeros_like(d_old)
-        iterations = 0
-        increment = np.inf
-        while increment >= tol:
-            if iterations == max_iterations:
-                raise RuntimeError(
-                    f"Picard iteration did not converge at step n = {n} (t = {n * dt:g}) "
-                    f"within {max_iterations} iterations (last increment {increment:.3e})"
-                )
-            iterations += 1
-            c_next = heat.solve(heat_base - a * (cc @ delta_it))
+        def heat_rhs(delta_it, heat_base=heat_base):
+            return heat_base - a * (cc @ delta_it)
+
+        def momentum_rhs(c_next, delta_it, mom_base=mom_base, d_old=d_old):
             rhs = mom_base + dt2 * a * (ctr @ c_next)
             rhs[-1] -= dt2 / epsilon * max(d_old[-1] + delta_it[-1] - gap, 0.0)
-            delta_next = momentum.solve(rhs)
-            increment = max(np.abs(c_next - c_it).max(), np.abs(delta_next - delta_it).max())
-            c_it, delta_it = c_next, delta_next
+            return rhs
+
+        c_it, delta_it, iterations = _picard(n, dt, c_old, np.zeros_like(d_old), heat, momentum,
+                                             heat_rhs, momentum_rhs, tol, max_iterations)
         d_new = d_old + delta_it
         c_old, delta_old = c_it, delta_it
         record(n, c_old, d_new, d_old, iterations)
