@@ -3,7 +3,7 @@
     rodfem run SCENE [--out DIR] [--set section.key=value ...] [--force]
     rodfem plot DIR [DIR ...] [--out FIGDIR]
 
-Exit codes: 0 complete, 2 bad input (nothing written), 3 the Picard iteration did not converge
+Exit codes: 0 complete, 2 bad input (nothing written), 3 the method did not converge at a step
 (results so far kept), 130 interrupted.
 """
 
@@ -80,13 +80,21 @@ def _say(message: str, stream=None) -> None:
         print(message, file=stream or sys.stderr, flush=True)
 
 
-def _picard_advice(scene, error) -> str:
+def _advice(scene, error) -> str:
+    """The error, and for Picard the paper's condition and the methods that need none."""
+    if error.method != "picard":
+        return f"{error}."
     dt, eps, zeta, a = (scene[k] for k in ("time.dt", "obstacle.epsilon", "model.zeta", "model.a"))
     ratio = f"{dt / (eps * zeta):.3g}" if eps * zeta > 0 else "inf (ζ = 0)"
     return (
         f"{error} (tol {scene['solver.tol']:g}). The paper's sufficient condition for "
-        f"convergence is Δt < εζ and a < 1; here Δt/(εζ) = {ratio} (needs < 1) and a = {a:g}."
+        f"convergence is Δt < εζ and a < 1; here Δt/(εζ) = {ratio} (needs < 1) and a = {a:g}. "
+        f'solver.method = "direct" solves every step exactly.'
     )
+
+
+PER_STEP = {"picard": "Picard iterations/step", "newton": "Newton iterations/step",
+            "direct": "solves/step"}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -108,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
                       force_progress=args.progress)
     s = result.summary
     if result.status == "failed":
-        _say(f"rodfem: {_picard_advice(scene, result.error)} "
+        _say(f"rodfem: {_advice(scene, result.error)} "
              f"Steps 0..{s['steps']} are in {out} (status: failed).")
         return EXIT_DIVERGED
     if result.status == "interrupted":
@@ -117,7 +125,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         _say(
             f"{scene.source}: {s['steps']} steps in {s['loop_seconds']:.2f} s "
-            f"({s['us_per_step']:.1f} µs/step, {s['iterations_mean']:.2f} Picard iterations/step)"
+            f"({s['us_per_step']:.1f} µs/step, {s['method']}: {s['iterations_mean']:.2f} "
+            f"{PER_STEP[s['method']]})"
             f" -> {out}",
             sys.stdout,
         )

@@ -14,27 +14,15 @@ from petsc4py import PETSc
 
 import forms.copetti as copetti
 from rodfem.discretisation import Discretisation
+from rodfem.nodes import block_matrix
 
 COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
 
 
 def block_diagonal(blocks: list[PETSc.Mat]) -> PETSc.Mat:
     """diag(B_1, …, B_m) of sequential AIJ matrices."""
-    indptr, indices, values, offset = [np.zeros(1, dtype=PETSc.IntType)], [], [], 0
-    for B in blocks:
-        p, j, v = B.getValuesCSR()
-        indptr.append(p[1:] + indptr[-1][-1])
-        indices.append(j + offset)
-        values.append(v)
-        offset += B.getSize()[0]
-    E = PETSc.Mat().createAIJ(
-        size=(offset, offset),
-        csr=(np.concatenate(indptr), np.concatenate(indices).astype(PETSc.IntType),
-             np.concatenate(values)),
-        comm=PETSc.COMM_SELF,
-    )
-    E.assemble()
-    return E
+    return block_matrix([[B if i == j else None for j, B in enumerate(blocks)]
+                         for i in range(len(blocks))])
 
 
 class Energy:
@@ -80,11 +68,13 @@ class History:
         scene = disc.scene
         self.dt = scene["time.dt"]
         self.epsilon, self.gap = scene["obstacle.epsilon"], scene["obstacle.gap"]
+        self.rigid = scene["obstacle.kind"] == "rigid"
         self.energy = Energy(disc)
         (i, *rest), (w, *rest_w) = disc.nodes.interpolation(0.5)
         self.half = (int(i), float(w), int(rest[0]) if rest else int(i), rest_w[0] if rest else 0.0)
-        # Per step: n, iterations, Uⁿ(1), ΔUⁿ(1), Uⁿ(0.5), and the energy but its contact term.
-        self._rows = np.zeros((block, 6))
+        # Per step: n, iterations, Uⁿ(1), ΔUⁿ(1), Uⁿ(0.5), the energy but its contact term, and
+        # the contact force p.
+        self._rows = np.zeros((block, 7))
         self._count = 0
 
     @property
@@ -93,21 +83,24 @@ class History:
 
     def record(self, state) -> None:
         """Record the step ``state.n`` of a scheme with vectors ``theta``, ``u`` and ``du``
-        (Θⁿ, Uⁿ, Uⁿ − Uⁿ⁻¹) and its count of ``iterations``."""
+        (Θⁿ, Uⁿ, Uⁿ − Uⁿ⁻¹), its count of ``iterations`` and its contact force ``pressure``."""
         bulk = self.energy(state.theta, state.u, state.du)
         u, du = self.energy.u, self.energy.du
         i, w, j, v = self.half
         self._rows[self._count] = (state.n, state.iterations, u[-1], du[-1], w * u[i] + v * u[j],
-                                   bulk)
+                                   bulk, state.pressure)
         self._count += 1
 
     def take(self) -> np.ndarray:
         """The rows recorded since the last call, with the columns ``COLUMNS``."""
         rows = self._rows[: self._count].copy()
         self._count = 0
-        n, iterations, u_1, du_1, u_half, bulk = rows.T
-        penetration = np.maximum(u_1 - self.gap, 0.0)
-        energy = bulk + 0.5 * penetration**2 / self.epsilon
-        sigma_1 = -penetration / self.epsilon + 0.0  # no -0 in the file
+        n, iterations, u_1, du_1, u_half, bulk, pressure = rows.T
+        if self.rigid:  # σ(1) is the multiplier; no penalty energy
+            energy, sigma_1 = bulk, -pressure + 0.0  # no -0 in the file
+        else:
+            penetration = np.maximum(u_1 - self.gap, 0.0)
+            energy = bulk + 0.5 * penetration**2 / self.epsilon
+            sigma_1 = -penetration / self.epsilon + 0.0
         return np.column_stack([n * self.dt, u_1, u_half, du_1 / self.dt, sigma_1, energy,
                                 iterations])

@@ -82,3 +82,29 @@ class NodeOrder:
         if t == 0.0 or t == 1.0:
             return np.array([j + int(t)], dtype=PETSc.IntType), np.array([1.0])
         return np.array([j, j + 1], dtype=PETSc.IntType), np.array([1.0 - t, t])
+
+
+def block_matrix(blocks: list[list[PETSc.Mat | None]]) -> PETSc.Mat:
+    """The sequential AIJ matrix [[B_00, B_01, …], …] of sequential AIJ blocks (None: zero).
+    Every block row has one block of each row count; every block column, of each column count."""
+    heights = [next(B for B in row if B is not None).getSize()[0] for row in blocks]
+    widths = [next(row[j] for row in blocks if row[j] is not None).getSize()[1]
+              for j in range(len(blocks[0]))]
+    row_offsets, col_offsets = np.cumsum([0, *heights]), np.cumsum([0, *widths])
+    rows, cols, values = [], [], []
+    for i, row in enumerate(blocks):
+        for j, B in enumerate(row):
+            if B is None:
+                continue
+            indptr, indices, v = B.getValuesCSR()
+            rows.append(np.repeat(np.arange(heights[i]), np.diff(indptr)) + row_offsets[i])
+            cols.append(indices + col_offsets[j])
+            values.append(v)
+    r, c, v = np.concatenate(rows), np.concatenate(cols), np.concatenate(values)
+    order = np.lexsort((c, r))
+    r, c, v = r[order], c[order], v[order]
+    indptr = np.searchsorted(r, np.arange(row_offsets[-1] + 1)).astype(PETSc.IntType)
+    A = PETSc.Mat().createAIJ(size=(row_offsets[-1], col_offsets[-1]),
+                              csr=(indptr, c.astype(PETSc.IntType), v), comm=PETSc.COMM_SELF)
+    A.assemble()
+    return A

@@ -19,9 +19,9 @@ import rodfem
 from rodfem.discretisation import Discretisation
 from rodfem.history import History
 from rodfem.output import FieldFile, HistoryFile, write_json, write_text
-from rodfem.picard import PicardNotConverged, PicardScheme
 from rodfem.progress import Progress
 from rodfem.scene import Scene
+from rodfem.scheme import NotConverged, make_scheme
 
 # Êⁿ is non-increasing in exact arithmetic (Remark 4.4). An increase counts only if it exceeds the
 # round-off of Ê, a sum of a few O(max |Ê|) terms each good to a few ulps.
@@ -85,25 +85,41 @@ def stop_requests(comm: MPI.Comm, every: int = 256):
 class RunResult:
     status: str  # complete | failed | interrupted
     summary: dict
-    error: PicardNotConverged | None = None
+    error: NotConverged | None = None
     x: np.ndarray | None = None  # the nodes, in order
     theta: np.ndarray | None = None  # the last step's Θ (shifted temperature) at the nodes
     u: np.ndarray | None = None  # the last step's U at the nodes
+    history: np.ndarray | None = None  # the rows of history.csv, for a run without files
 
 
-def simulate(scene: Scene, out: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = True,
-             force_progress: bool = False):
+class InMemory:
+    """Collects the history's rows instead of writing them."""
+
+    def __init__(self):
+        self._blocks = []
+
+    def append(self, rows: np.ndarray) -> None:
+        self._blocks.append(rows)
+
+    def close(self) -> None:
+        self.rows = np.concatenate(self._blocks)
+
+
+def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
+             progress: bool = True, force_progress: bool = False):
     """Run ``scene`` into the (already created) directory ``out``; return a :class:`RunResult`.
 
+    With ``out=None`` nothing is written: the history is returned (``RunResult.history``).
     The progress bar is drawn on a terminal (``progress``), or always with ``force_progress``:
     under mpirun, output is not a terminal."""
     started = time.perf_counter()
-    write_text(out / "scene.toml", scene.to_toml(), comm)
+    if out is not None:
+        write_text(out / "scene.toml", scene.to_toml(), comm)
     disc = Discretisation(scene, comm)
-    scheme = PicardScheme(disc)
+    scheme = make_scheme(disc)
     history = History(disc)
-    history_file = HistoryFile(out / "history.csv", comm)
-    field_file = FieldFile(out / "fields.xdmf", disc)
+    history_file = HistoryFile(out / "history.csv", comm) if out is not None else InMemory()
+    field_file = FieldFile(out / "fields.xdmf", disc) if out is not None else None
     energy = EnergyMonitor()
     steps, every, dt = scene.steps, scene["output.every"], scene["time.dt"]
     on_terminal = sys.stderr.isatty() or force_progress
@@ -119,7 +135,8 @@ def simulate(scene: Scene, out: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress:
     saved = [-1]
 
     def save_fields() -> None:
-        field_file.write(scheme.n * dt, scheme.theta, scheme.u, scheme.u_prev)
+        if field_file is not None:
+            field_file.write(scheme.n * dt, scheme.theta, scheme.u, scheme.u_prev)
         saved[0] = scheme.n
 
     def observe() -> None:
@@ -142,7 +159,7 @@ def simulate(scene: Scene, out: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress:
                 if stop_requested(n):
                     status = "interrupted"
                     break
-        except PicardNotConverged as err:
+        except NotConverged as err:
             status, error = "failed", err
     loop_seconds = time.perf_counter() - loop_started
     bar.close()
@@ -150,11 +167,14 @@ def simulate(scene: Scene, out: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress:
         save_fields()
     flush()
     history_file.close()
-    field_file.close()
+    if field_file is not None:
+        field_file.close()
     done = len(iterations) - 1
     summary = {
         "status": status,
         "scene": scene.source,
+        "method": scene["solver.method"],
+        "obstacle": scene["obstacle.kind"],
         "steps": done,
         "steps_planned": steps,
         # A failed step's iterations count too (it is not in the history).
@@ -175,7 +195,8 @@ def simulate(scene: Scene, out: Path, comm: MPI.Comm = MPI.COMM_WORLD, progress:
     }
     if error is not None:
         summary["error"] = str(error)
-    write_json(out / "summary.json", summary, comm)
-    comm.barrier()  # every rank returns once rank 0 has written the run's files
+    if out is not None:
+        write_json(out / "summary.json", summary, comm)
+        comm.barrier()  # every rank returns once rank 0 has written the run's files
     return RunResult(status, summary, error, disc.nodes.x.copy(), scheme.theta.array_r.copy(),
-                     scheme.u.array_r.copy())
+                     scheme.u.array_r.copy(), getattr(history_file, "rows", None))

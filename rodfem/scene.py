@@ -43,6 +43,8 @@ class Key:
 # the run within memory; far beyond anything physical in the model's units.
 BIG, SMALL = 1e12, 1e-12
 MAX_CELLS, MAX_STEPS = 10_000_000, 100_000_000
+# The methods that solve each step of (3.1)–(3.2): the fastest exact one is the default.
+METHODS = ("direct", "newton", "picard")
 
 
 SCHEMA: dict[str, dict[str, Key]] = {
@@ -58,11 +60,15 @@ SCHEMA: dict[str, dict[str, Key]] = {
                        help="compliance: stiffness is 1/epsilon"),
         "gap": Key("real", 0.1, minimum=-BIG, maximum=BIG,
                    help="distance g of the obstacle from x = 1"),
+        "kind": Key("choice", "elastic", choices=("elastic", "rigid"),
+                    help="elastic: penalty (1/epsilon)[u(1) - g]_+; rigid: Signorini, "
+                    "u(1) <= g (epsilon unused)"),
     },
     "initial": {
         "theta0": Key("expression", "theta_A*(cos(2*pi*x) - sin(pi*x/2))"),
         "u0": Key("expression", "0"),
-        "u1": Key("expression", "20*x*(x - 1)**2"),
+        "u1": Key("expression", "20*x*(x - 1)**2",
+                  help="initial velocity; not used when b = 0 (quasi-static)"),
     },
     "mesh": {"cells": Key("integer", 250, minimum=2, maximum=MAX_CELLS)},
     "time": {
@@ -71,9 +77,11 @@ SCHEMA: dict[str, dict[str, Key]] = {
     },
     "discretisation": {"mass": Key("choice", "lumped", choices=("lumped", "consistent"))},
     "solver": {
-        "method": Key("choice", "picard", choices=("picard",)),
+        "method": Key("choice", "direct", choices=METHODS,
+                      help="direct: one solve per step, exact; newton: SNES semismooth Newton; "
+                      "picard: the paper's iteration (3.3)-(3.4)"),
         "tol": Key("real", 1e-10, minimum=1e-300, maximum=BIG,
-                   help="max-norm of a Picard increment"),
+                   help="picard: max-norm of the change between two iterations"),
         "max_iterations": Key("integer", 100, minimum=1, maximum=1_000_000),
     },
     "output": {"every": Key("integer", 50, minimum=1, maximum=MAX_STEPS,
@@ -200,6 +208,11 @@ def validate(data: dict[str, Any], source: str = "") -> Scene:
 
 
 def _check_consistency(scene: Scene) -> None:
+    if scene["solver.method"] == "picard" and scene["obstacle.kind"] == "rigid":
+        raise SceneError(
+            'solver.method: "picard" cannot solve obstacle.kind = "rigid" (its iteration is the '
+            'penalty\'s, which needs 1/epsilon); use "direct" or "newton"'
+        )
     dt, end = scene["time.dt"], scene["time.end"]
     if dt > end:
         raise SceneError(f"time.dt: must be <= time.end = {end!r}, got {dt!r}")

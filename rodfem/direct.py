@@ -1,0 +1,85 @@
+"""The exact method: each step of (3.1)–(3.2) in one solve and a scalar equation.
+
+Without its contact term the step is linear, with a constant operator: the coupled operator
+C = [[A_h, −N_U], [−N_Θ, A_m]] acting on [ΔΘⁿ; ΔUⁿ] (:meth:`Scheme.coupled_operator`), factored
+once per run. Its response to a unit force at x = 1, q = C⁻¹[0; −e], is computed once too, and
+w = −q_U(1) > 0 is the rod's compliance at x = 1 over one step. A step then solves
+
+    C z = [h; m]                     (the step without contact; U(1) would be s = Uⁿ⁻¹(1) + z_U(1))
+    [ΔΘⁿ; ΔUⁿ] = z + p q,            Uⁿ(1) = s − p w,
+
+where the contact force p is the one scalar unknown left:
+
+* elastic obstacle, p = (1/ε)[s − p w − g]_+: p = 0 if s ≤ g, else p = (s − g)/(ε + w);
+* rigid obstacle (Signorini: Uⁿ(1) ≤ g, p ≥ 0, p (Uⁿ(1) − g) = 0): p = 0 if s ≤ g, else
+  p = (s − g)/w, so that Uⁿ(1) = g.
+
+Both are the unique solution, since s ↦ s + (w/ε)[s − g]_+ is strictly increasing: this is the
+exact solution of (3.1)–(3.2), with no iteration and no tolerance. Steps without contact (s ≤ g)
+cost one comparison. With a = 0, C is block diagonal and the heat and momentum operators are
+factored and solved apart.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from rodfem.discretisation import Discretisation
+from rodfem.scheme import Scheme, lu_factor
+
+
+class DirectScheme(Scheme):
+    method = "direct"
+
+    def __init__(self, disc: Discretisation):
+        super().__init__(disc)
+        n = disc.nodes.size
+        self._index = n + self.last  # of ΔU(1) in [ΔΘ; ΔU]
+        self.x, self.x_heat, self.x_momentum = self._stacked()
+        self.rhs, self.rhs_heat, self.rhs_momentum = self._stacked()
+        if self.coupled:
+            self.ksp, factor = lu_factor(self.coupled_operator(), "rodfem_direct_", "rcm")
+            self._solve = factor.solve
+        else:
+            self.momentum_ksp, momentum_factor = lu_factor(self.momentum.A, "rodfem_momentum_")
+            solve_heat, solve_momentum = self.solve_heat, momentum_factor.solve
+
+            def solve(rhs, x):
+                solve_heat(self.rhs_heat, self.x_heat)
+                solve_momentum(self.rhs_momentum, self.x_momentum)
+
+            self._solve = solve
+        # The response to a unit contact force: q = C⁻¹[0; −e], and the compliance w = −q_U(1).
+        self.rhs.zeroEntries()
+        self.contact_load.copy(self.rhs_momentum)
+        self.rhs_momentum.scale(-1.0)
+        self.response = self.x.duplicate()
+        self._solve(self.rhs, self.x)
+        self.x.copy(self.response)
+        self.compliance = -self.response.getValue(self._index)
+        if not self.compliance > 0.0:
+            raise RuntimeError(f"the compliance at x = 1 is {self.compliance:g}, not positive")
+        self.x.zeroEntries()
+
+    def _stacked(self) -> tuple[PETSc.Vec, PETSc.Vec, PETSc.Vec]:
+        """A vector [ΔΘ; ΔU] and its two halves, which share its memory."""
+        n = self.disc.nodes.size
+        array = np.zeros(2 * n)
+        wrap = lambda a: PETSc.Vec().createWithArray(a, comm=PETSc.COMM_SELF)  # noqa: E731
+        return wrap(array), wrap(array[:n]), wrap(array[n:])
+
+    def _step(self) -> None:
+        self._fixed_parts(self.rhs_heat, self.rhs_momentum)
+        self._solve(self.rhs, self.x)
+        s = self.u.getValue(self.last) + self.x.getValue(self._index)
+        pressure = 0.0
+        if s > self.gap:
+            w = self.compliance
+            pressure = (s - self.gap) / (w if self.rigid else self.epsilon + w)
+            self.x.axpy(pressure, self.response)
+        self.pressure = pressure
+        # ΔUⁿ stays in x's second half: it becomes ``du``, and x is only overwritten by the next
+        # step's solve, after that step has read ΔUⁿ⁻¹.
+        self._accept(self.x_heat, self.x_momentum)
+        self.iterations = 1

@@ -1,0 +1,121 @@
+"""Newton's method: each step of (3.1)–(3.2) solved monolithically by PETSc SNES.
+
+The unknown is [ΔΘⁿ; ΔUⁿ] and the residual is the coupled scheme with its contact term,
+
+    F(x) = C x − [h; m] + p(x) [0; e],   p(x) = (1/ε)[Uⁿ⁻¹(1) + x_U(1) − g]_+,
+
+with C the coupled operator (:meth:`Scheme.coupled_operator`). The Jacobian is C plus the
+generalized derivative of [·]_+ (1 where the rod penetrates, 0 elsewhere) in the one diagonal
+entry of x = 1: a semismooth Newton method, which ends in finitely many iterations with the exact
+solution of the step. The rigid obstacle is a variational inequality, solved by PETSc's
+reduced-space active-set method ``vinewtonrsls`` with the bound ΔUⁿ(1) ≤ g − Uⁿ⁻¹(1); the
+contact force is the multiplier −F_U(1).
+
+A step has converged when ‖F‖ reaches the round-off of its own evaluation,
+64 ε_mach (‖C‖_F ‖x‖ + ‖[h; m]‖); the converged reason is checked after every step, and any other
+outcome stops the run (exit code 3). The first guess is the last step's increment.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from rodfem.discretisation import Discretisation
+from rodfem.scheme import LU_OPTIONS, NotConverged, Scheme, set_default_options
+
+REASONS = {getattr(PETSc.SNES.ConvergedReason, name): name
+           for name in dir(PETSc.SNES.ConvergedReason) if name.isupper()}
+ROUNDOFF = 64 * np.finfo(float).eps
+PREFIX = "rodfem_newton_"
+
+
+class NewtonScheme(Scheme):
+    method = "newton"
+
+    def __init__(self, disc: Discretisation):
+        super().__init__(disc)
+        n = disc.nodes.size
+        self._index = n + self.last  # of ΔU(1) in [ΔΘ; ΔU]
+        self.C = self.coupled_operator()
+        self.C_last = self.C.getValue(self._index, self._index)
+        self.J = self.C.duplicate(copy=True)
+        self.C_norm = self.C.norm(PETSc.NormType.FROBENIUS)
+        array = np.zeros(2 * n)
+        wrap = lambda a: PETSc.Vec().createWithArray(a, comm=PETSc.COMM_SELF)  # noqa: E731
+        self.x, self.x_heat, self.x_momentum = wrap(array), wrap(array[:n]), wrap(array[n:])
+        rhs = np.zeros(2 * n)
+        self.rhs, self.rhs_heat, self.rhs_momentum = wrap(rhs), wrap(rhs[:n]), wrap(rhs[n:])
+
+        # Defaults that hold for every scene go to the options database (where PETSC_OPTIONS can
+        # override them); the scene's own choices are set on the object, before the options.
+        set_default_options(PREFIX, {"snes_linesearch_type": "basic", **LU_OPTIONS,
+                                     "pc_factor_mat_ordering_type": "rcm"})
+        snes = PETSc.SNES().create(PETSc.COMM_SELF)
+        snes.setOptionsPrefix(PREFIX)
+        snes.setType("vinewtonrsls" if self.rigid else "newtonls")
+        snes.setTolerances(max_it=self.max_iterations)
+        self.F = self.x.duplicate()
+        snes.setFunction(self._residual, self.F)
+        snes.setJacobian(self._jacobian, self.J)
+        snes.setConvergenceTest(self._converged)
+        if self.rigid:
+            self.lower, self.upper = self.x.duplicate(), self.x.duplicate()
+            self.lower.set(PETSc.NINFINITY)
+            self.upper.set(PETSc.INFINITY)
+            snes.setVariableBounds(self.lower, self.upper)
+        snes.setFromOptions()
+        self.snes = snes
+        self._floor = 0.0
+
+    def _penetration(self, x: PETSc.Vec) -> float:
+        return self.u.getValue(self.last) + x.getValue(self._index) - self.gap
+
+    def _residual(self, snes, x: PETSc.Vec, F: PETSc.Vec) -> None:
+        self.C.mult(x, F)
+        F.axpy(-1.0, self.rhs)
+        if not self.rigid:
+            pressure = max(self._penetration(x), 0.0) / self.epsilon
+            if pressure:
+                F.setValue(self._index, F.getValue(self._index) + pressure)
+                F.assemble()
+
+    def _jacobian(self, snes, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
+        active = not self.rigid and self._penetration(x) > 0.0
+        J.setValue(self._index, self._index,
+                   self.C_last + (1.0 / self.epsilon if active else 0.0))
+        J.assemble()
+
+    def _converged(self, snes, its: int, norms) -> int:
+        _, _, fnorm = norms
+        reason = PETSc.SNES.ConvergedReason
+        if not np.isfinite(fnorm):
+            return reason.DIVERGED_FNORM_NAN
+        floor = ROUNDOFF * (self.C_norm * snes.getSolution().norm() + self._rhs_norm)
+        if fnorm <= floor:
+            return reason.CONVERGED_FNORM_ABS
+        if its >= snes.getTolerances()[3]:
+            return reason.DIVERGED_MAX_IT
+        return reason.ITERATING
+
+    def _step(self) -> None:
+        self._fixed_parts(self.rhs_heat, self.rhs_momentum)
+        self._rhs_norm = self.rhs.norm()
+        if self.rigid:
+            self.upper.setValue(self._index, self.gap - self.u.getValue(self.last))
+            self.upper.assemble()
+        # The first guess: the last increment, which x still holds (ΔUⁿ⁻¹ is ``du``, a view).
+        self.snes.solve(None, self.x)
+        reason = self.snes.getConvergedReason()
+        iterations = self.snes.getIterationNumber()
+        if reason <= 0:
+            raise NotConverged("newton", self.n + 1, (self.n + 1) * self.dt,
+                               f"{REASONS.get(reason, reason)} after {iterations} iterations",
+                               iterations)
+        if self.rigid:
+            self._residual(self.snes, self.x, self.F)
+            self.pressure = max(-self.F.getValue(self._index), 0.0)
+        else:
+            self.pressure = max(self._penetration(self.x), 0.0) / self.epsilon
+        self._accept(self.x_heat, self.x_momentum)
+        self.iterations = iterations

@@ -1,0 +1,210 @@
+"""What every method shares: the scheme (3.1)–(3.2), its state, and its first step.
+
+A method (``solver.method``) is a way of solving one step of the scheme: :mod:`rodfem.picard` (the
+paper's iteration), :mod:`rodfem.direct` (exact, one solve) and :mod:`rodfem.newton` (PETSc SNES).
+All of them advance the same state, through the increments over a step, ΔΘⁿ = Θⁿ − Θⁿ⁻¹ and
+ΔUⁿ = Uⁿ − Uⁿ⁻¹, with (3.1)–(3.2) written for them (``forms.copetti.heat_increment`` and
+``momentum_increment``): solved for Uⁿ itself, (3.2) loses |U| ε_mach/Δt² of the acceleration
+every step (2e-10 at Δt = 1e-3).
+
+Each equation is affine in its unknown once the other unknown and the contact force are known, so
+its operators are read off its form once per run (:meth:`Discretisation.affine_operator`):
+
+    heat      A_h ΔΘ − N_U ΔU = h,      h = N_Θ' Θⁿ⁻¹ + b_h
+    momentum  A_m ΔU − N_Θ ΔΘ = m − p e, m = N_U' Uⁿ⁻¹ + N_ΔU' ΔUⁿ⁻¹ + N_Θ Θⁿ⁻¹ + b_m
+
+with e the load of a unit force at x = 1 and p the contact force there: p = (1/ε)[Uⁿ(1) − g]_+
+for the elastic obstacle, the multiplier of Signorini's condition Uⁿ(1) ≤ g for the rigid one.
+σ(1) = −p. Vectors are sequential, in node order (:mod:`rodfem.nodes`); x = 1 is the last node.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from petsc4py import PETSc
+
+import forms.copetti as copetti
+from rodfem.discretisation import Discretisation
+from rodfem.nodes import block_matrix
+
+# Default options of every LU factorisation, merged under the user's (PETSC_OPTIONS can override).
+# In node order the operators are tridiagonal, so LU in the natural ordering has no fill; the
+# coupled operator [[A_h, −N_U], [−N_Θ, A_m]] is banded after reverse Cuthill–McKee.
+LU_OPTIONS = {
+    "ksp_type": "preonly",
+    "pc_type": "lu",
+    "pc_factor_mat_solver_type": "petsc",
+    "pc_factor_mat_ordering_type": "natural",
+}
+
+
+def set_default_options(prefix: str, defaults: dict[str, str]) -> None:
+    """Set PETSc options under ``prefix`` unless the user has set them."""
+    options = PETSc.Options()
+    for key, value in defaults.items():
+        if not options.hasName(prefix + key):
+            options[prefix + key] = value
+
+
+def lu_factor(A: PETSc.Mat, prefix: str, ordering: str = "natural"):
+    """Factor A once (KSP preonly + LU, options under ``prefix``). Returns the KSP, which owns the
+    factorisation, and the factor, whose ``solve`` is a plain forward/back substitution."""
+    set_default_options(prefix, {**LU_OPTIONS, "pc_factor_mat_ordering_type": ordering})
+    ksp = PETSc.KSP().create(A.getComm())
+    ksp.setOptionsPrefix(prefix)
+    ksp.setOperators(A)
+    ksp.setFromOptions()
+    ksp.setUp()
+    return ksp, ksp.getPC().getFactorMatrix()
+
+
+class NotConverged(RuntimeError):
+    """A step that a method could not solve; the state stays at the last step solved."""
+
+    def __init__(self, method: str, step: int, time: float, detail: str, iterations: int):
+        self.method, self.step, self.time = method, step, time
+        self.detail, self.iterations = detail, iterations
+        super().__init__(f"{self.title} did not converge at step {step} (t = {time:g}): {detail}")
+
+    @property
+    def title(self) -> str:
+        return {"picard": "Picard iteration", "newton": "Newton's method (SNES)"}.get(
+            self.method, self.method)
+
+
+class Scheme:
+    """Θⁿ, Uⁿ of (3.1)–(3.2), from n = 0 on, one step per call of :meth:`advance`.
+
+    After each call, ``theta`` holds Θⁿ, ``u`` holds Uⁿ, ``du`` the increment Uⁿ − Uⁿ⁻¹,
+    ``u_prev`` holds Uⁿ⁻¹ and ``pressure`` the contact force p at x = 1 (σ(1) = −p). For n = 0,
+    ``du`` = Δt P u₁, so that δ⁰ = P u₁ (0 when b = 0: no inertia, no initial velocity).
+
+    Subclasses solve a step in :meth:`_step`.
+    """
+
+    method = ""
+
+    def __init__(self, disc: Discretisation):
+        scene = disc.scene
+        self.disc = disc
+        self.dt = scene["time.dt"]
+        self.epsilon, self.gap = scene["obstacle.epsilon"], scene["obstacle.gap"]
+        self.rigid = scene["obstacle.kind"] == "rigid"
+        self.coupled = scene["model.a"] != 0.0  # a = 0: heat does not see motion, nor motion heat
+        self.inertia = scene["model.b"] != 0.0
+        self.tol, self.max_iterations = scene["solver.tol"], scene["solver.max_iterations"]
+        c = disc.const
+        dt, a, b, zeta, k, theta_A = c.dt, c.a, c.b, c.zeta, c.k, c.theta_A
+        f = disc.function
+        ΔΘ, Θ_prev, Θ = f("ΔΘ"), f("Θ_prev"), f("Θ")
+        ΔU, ΔU_prev, U_prev, ΔU_other = f("ΔU"), f("ΔU_prev"), f("U_prev"), f("ΔU_other")
+        w = ufl.TestFunction(disc.V)
+        dx_m, dx, ds_1 = disc.dx_m, disc.dx, disc.ds_1
+
+        # (3.1) for ΔΘⁿ, given the displacement increment (ΔU_other: ΔUⁿ, or in Picard's (3.3)
+        # the previous iterate's).
+        F_heat = copetti.heat_increment(ΔΘ, Θ_prev, ΔU_other, w, dt, a, k, dx_m, dx, ds_1)
+        self.heat = disc.affine_operator(F_heat, ΔΘ, {"theta_prev": Θ_prev, "du": ΔU_other})
+        # (3.2) for ΔUⁿ, given the temperature Θⁿ, less its contact term (a load, below).
+        F_momentum = copetti.momentum_increment(ΔU, ΔU_prev, U_prev, Θ, w, dt, b, zeta, a,
+                                                theta_A, disc.r, dx_m, dx)
+        self.momentum = disc.affine_operator(
+            F_momentum, ΔU, {"du_prev": ΔU_prev, "u_prev": U_prev, "theta": Θ}
+        )
+        # The contact term p v(1) for p = 1: the load e of a unit force at x = 1.
+        self.contact_load = disc.vector(copetti.contact(1.0, w, ds_1))
+        self.last = disc.nodes.size - 1  # the node x = 1
+
+        self.heat_ksp, heat_factor = lu_factor(self.heat.A, "rodfem_heat_")
+        self.solve_heat = heat_factor.solve
+
+        new = self.heat.A.createVecRight
+        self.theta, self.u, self.u_prev, self.du = new(), new(), new(), new()
+        self._rhs = new()
+        self.n = 0
+        self.iterations = 0
+        self.pressure = 0.0
+        self._set_initial_state()
+
+    def coupled_operator(self) -> PETSc.Mat:
+        """[[A_h, −N_U], [−N_Θ, A_m]]: (3.1)–(3.2) for [ΔΘⁿ; ΔUⁿ] without the contact term."""
+        N_u, N_theta = self.heat.N["du"].copy(), self.momentum.N["theta"].copy()
+        N_u.scale(-1.0)
+        N_theta.scale(-1.0)
+        return block_matrix([[self.heat.A, N_u], [N_theta, self.momentum.A]])
+
+    def _set_initial_state(self) -> None:
+        """Θ⁰ = P(θ₀ + θ_A r), U⁰ = P u₀ and P u₁, P the H¹_E projection: in 1D with P1, nodal
+        interpolation. The node x = 0 is set to exactly 0 (the scene checked compatibility)."""
+        scene = self.disc.scene
+        theta_A, k = scene["model.theta_A"], scene["model.k"]
+        x = self.disc.nodes.x
+        clamped = x == 0.0
+        params = scene.parameters
+        r = k / (k + 1.0) * x - 1.0
+        theta0 = scene.initial("theta0")(x, params) + theta_A * r
+        u0 = scene.initial("u0")(x, params)
+        u1 = scene.initial("u1")(x, params) if self.inertia else np.zeros_like(x)
+        for values in (theta0, u0, u1):
+            values[clamped] = 0.0
+        self.theta.array[:] = theta0
+        self.u.array[:] = u0
+        self.du.array[:] = self.dt * u1
+        self.u_prev.waxpy(-1.0, self.du, self.u)
+
+    def advance(self) -> int:
+        """Go from step n to n + 1; return the iterations it took (the method's count)."""
+        if self.n == 0 and self.inertia:
+            self._first_step()
+        else:
+            self._step()
+        self.n += 1
+        return self.iterations
+
+    def _first_step(self) -> None:
+        """U¹ = U⁰ + Δt P u₁, and Θ¹ from (3.1) with U¹ and U⁰ known: no iteration. (Without
+        inertia, b = 0, there is no initial velocity: step 1 is a step like any other.)"""
+        N, rhs, dtheta = self.heat.N, self._rhs, self._rhs.duplicate()
+        N["theta_prev"].multAdd(self.theta, self.heat.b, rhs)
+        N["du"].multAdd(self.du, rhs, rhs)  # ΔU¹ = Δt P u₁, as at n = 0
+        self.solve_heat(rhs, dtheta)
+        self._accept(dtheta, self.du.copy())
+        self.iterations = 0
+        self.pressure = 0.0
+
+    def _step(self) -> None:
+        raise NotImplementedError
+
+    def _fixed_parts(self, h: PETSc.Vec, m: PETSc.Vec) -> None:
+        """The right-hand sides h and m of a step: what Θⁿ⁻¹, Uⁿ⁻¹ and ΔUⁿ⁻¹ contribute."""
+        Nh, Nm = self.heat.N, self.momentum.N
+        Nh["theta_prev"].multAdd(self.theta, self.heat.b, h)
+        Nm["u_prev"].multAdd(self.u, self.momentum.b, m)
+        Nm["du_prev"].multAdd(self.du, m, m)
+        Nm["theta"].multAdd(self.theta, m, m)
+
+    def _accept(self, dtheta: PETSc.Vec, du: PETSc.Vec) -> PETSc.Vec:
+        """Θⁿ = Θⁿ⁻¹ + ΔΘⁿ; (ΔUⁿ, Uⁿ, Uⁿ⁻¹) take the places of (ΔUⁿ⁻¹, Uⁿ⁻¹, Uⁿ⁻²). ``du``
+        becomes ``self.du``; the vector it replaces is returned, free for reuse."""
+        self.theta.axpy(1.0, dtheta)
+        spare_du, spare_u = self.du, self.u_prev
+        self.u_prev, self.u, self.du = self.u, spare_u, du
+        self.u.waxpy(1.0, du, self.u_prev)
+        return spare_du
+
+    def contact_force(self, u_last: float) -> float:
+        """p = (1/ε)[U(1) − g]_+ of the elastic obstacle."""
+        return max(u_last - self.gap, 0.0) / self.epsilon
+
+
+def make_scheme(disc: Discretisation) -> Scheme:
+    """The scheme of the scene's ``solver.method``."""
+    method = disc.scene["solver.method"]
+    if method == "picard":
+        from rodfem.picard import PicardScheme as cls
+    elif method == "newton":
+        from rodfem.newton import NewtonScheme as cls
+    else:
+        from rodfem.direct import DirectScheme as cls
+    return cls(disc)
