@@ -1,4 +1,5 @@
-"""Benchmark: rodfem's Picard time loop against a compiled C loop of the same scheme.
+"""Benchmark: rodfem's Picard time loop against a compiled C loop of the same scheme, and
+rodfem's exact methods (direct, newton) against its Picard loop.
 
 Runs paper1 (250 cells, Δt = 1e-3, T = 8) with consistent and with lumped mass, in rodfem (in
 process, no field output) and in ``benchmarks/picard_loop.c`` (compiled here with ``cc -O2``), each
@@ -57,8 +58,9 @@ def c_loop(binary: Path, mass: str, repeats: int) -> dict:
     return {**best, "us_per_step_runs": [r["us_per_step"] for r in runs]}
 
 
-def rodfem_loop(mass: str, repeats: int) -> dict:
-    scene = rodfem.scene.load("paper1", [f"discretisation.mass={mass}", "output.every=100000"])
+def rodfem_loop(mass: str, repeats: int, method: str = "picard") -> dict:
+    scene = rodfem.scene.load("paper1", [f"discretisation.mass={mass}", "output.every=100000",
+                                         f"solver.method={method}"])
     runs = []
     with tempfile.TemporaryDirectory() as tmp:
         for i in range(repeats):
@@ -93,22 +95,32 @@ def main() -> None:
             if abs(c["iterations_mean"] - r["iterations_mean"]) > 1e-9 or not np.isclose(
                     c["u_1_final"], r["u_1_final"], rtol=1e-9, atol=0):
                 raise SystemExit(f"bench_picard: C loop and rodfem disagree ({mass}): {c} {r}")
+            # The exact methods solve the same scheme: their u(1, T) is Picard's to its tolerance.
+            others = {m: rodfem_loop(mass, args.repeats, m) for m in ("direct", "newton")}
+            for m, o in others.items():
+                if not np.isclose(o["u_1_final"], r["u_1_final"], rtol=1e-9, atol=0):
+                    raise SystemExit(f"bench_picard: {m} and picard disagree ({mass}): {o} {r}")
             report["results"][mass] = {
                 "rodfem": r, "c_loop": c,
                 "ratio_to_c_loop": r["us_per_step"] / c["us_per_step"],
                 "ratio_to_issue_c_loop": r["us_per_step"] / ISSUE_C_LOOP_US,
+                **{f"rodfem_{m}": o for m, o in others.items()},
+                **{f"picard_over_{m}": r["us_per_step"] / o["us_per_step"]
+                   for m, o in others.items()},
             }
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "picard_paper1.json"
     path.write_text(json.dumps(report, indent=2) + "\n")
     print(f"{report['machine']['cpu']}, {report['machine']['cores']} cores")
-    print(f"{'paper1':10s} {'rodfem µs/step':>15s} {'C loop µs/step':>15s} {'ratio':>7s} "
-          f"{'vs 22 µs':>9s} {'iterations':>10s}")
+    print(f"{'paper1':10s} {'picard µs/step':>15s} {'C loop µs/step':>15s} {'ratio':>7s} "
+          f"{'vs 22 µs':>9s} {'iterations':>10s} {'direct µs':>10s} {'picard/direct':>14s} "
+          f"{'newton µs':>10s}")
     for mass, res in report["results"].items():
         r, c = res["rodfem"], res["c_loop"]
         print(f"{mass:10s} {r['us_per_step']:15.1f} {c['us_per_step']:15.2f}"
               f" {res['ratio_to_c_loop']:7.2f} {res['ratio_to_issue_c_loop']:9.2f}"
-              f" {r['iterations_mean']:10.3f}")
+              f" {r['iterations_mean']:10.3f} {res['rodfem_direct']['us_per_step']:10.1f}"
+              f" {res['picard_over_direct']:14.2f} {res['rodfem_newton']['us_per_step']:10.1f}")
     print(f"-> {path}")
 
 

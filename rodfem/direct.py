@@ -26,7 +26,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from rodfem.discretisation import Discretisation
-from rodfem.scheme import Scheme, lu_factor
+from rodfem.scheme import Scheme, lu_factor, stacked
 
 
 class DirectScheme(Scheme):
@@ -36,8 +36,8 @@ class DirectScheme(Scheme):
         super().__init__(disc)
         n = disc.nodes.size
         self._index = n + self.last  # of ΔU(1) in [ΔΘ; ΔU]
-        self.x, self.x_heat, self.x_momentum = self._stacked()
-        self.rhs, self.rhs_heat, self.rhs_momentum = self._stacked()
+        self.x, (self.x_heat, self.x_momentum) = stacked(2, n)
+        self.rhs, (self.rhs_heat, self.rhs_momentum) = stacked(2, n)
         if self.coupled:
             self.ksp, factor = lu_factor(self.coupled_operator(), "rodfem_direct_", "rcm")
             self._solve = factor.solve
@@ -62,15 +62,8 @@ class DirectScheme(Scheme):
             raise RuntimeError(f"the compliance at x = 1 is {self.compliance:g}, not positive")
         self.x.zeroEntries()
 
-    def _stacked(self) -> tuple[PETSc.Vec, PETSc.Vec, PETSc.Vec]:
-        """A vector [ΔΘ; ΔU] and its two halves, which share its memory."""
-        n = self.disc.nodes.size
-        array = np.zeros(2 * n)
-        wrap = lambda a: PETSc.Vec().createWithArray(a, comm=PETSc.COMM_SELF)  # noqa: E731
-        return wrap(array), wrap(array[:n]), wrap(array[n:])
-
     def _step(self) -> None:
-        self._fixed_parts(self.rhs_heat, self.rhs_momentum)
+        self._fixed_parts(self.rhs)
         self._solve(self.rhs, self.x)
         s = self.u.getValue(self.last) + self.x.getValue(self._index)
         pressure = 0.0
@@ -79,7 +72,5 @@ class DirectScheme(Scheme):
             pressure = (s - self.gap) / (w if self.rigid else self.epsilon + w)
             self.x.axpy(pressure, self.response)
         self.pressure = pressure
-        # ΔUⁿ stays in x's second half: it becomes ``du``, and x is only overwritten by the next
-        # step's solve, after that step has read ΔUⁿ⁻¹.
         self._accept(self.x_heat, self.x_momentum)
         self.iterations = 1

@@ -1,7 +1,7 @@
 """What a run records at every step: the rows of ``history.csv``.
 
 The state is held whole, in node order, on every rank (:mod:`rodfem.nodes`), so every rank computes
-the same rows; rank 0 writes them. Each step copies Θⁿ, ΔUⁿ = Uⁿ − Uⁿ⁻¹ and Uⁿ into one stacked
+the same rows; rank 0 writes them. A scheme keeps Θⁿ, ΔUⁿ = Uⁿ − Uⁿ⁻¹ and Uⁿ in one stacked
 vector s, whose energy is a single product with a block-diagonal matrix, and whose point values
 are read off its array.
 """
@@ -44,21 +44,15 @@ class Energy:
         self.z = disc.vector(copetti.thermal_load(disc.r, v, disc.dx))
         self.a_theta_A = scene["model.a"] * scene["model.theta_A"]
         n = disc.nodes.size
-        self.stack = np.zeros(3 * n)  # [Θ; ΔU; U]
-        self.s = PETSc.Vec().createWithArray(self.stack, comm=PETSc.COMM_SELF)
-        self.parts = [PETSc.Vec().createWithArray(self.stack[i * n:(i + 1) * n],
-                                                  comm=PETSc.COMM_SELF) for i in range(3)]
-        self.du, self.u = self.stack[n:2 * n], self.stack[2 * n:]
-        self._y = self.s.duplicate()
+        # a θ_A zᵀU = wᵀs with w = [0; 0; a θ_A z]
+        self.w = PETSc.Vec().createSeq(3 * n, comm=PETSc.COMM_SELF)
+        self.w.array[2 * n:] = self.a_theta_A * self.z.array_r
+        self._y = self.w.duplicate()
 
-    def __call__(self, theta: PETSc.Vec, u: PETSc.Vec, du: PETSc.Vec) -> float:
-        """Stack Θ, ΔU, U (readable afterwards as ``self.u``, ``self.du``) and return the bulk
-        energy."""
-        theta.copy(self.parts[0])
-        du.copy(self.parts[1])
-        u.copy(self.parts[2])
-        self.E.mult(self.s, self._y)
-        return 0.5 * self._y.dot(self.s) + self.a_theta_A * self.z.dot(self.parts[2])
+    def __call__(self, s: PETSc.Vec) -> float:
+        """The bulk energy of the state s = [Θ; ΔU; U]."""
+        self.E.mult(s, self._y)
+        return 0.5 * self._y.dot(s) + self.w.dot(s)
 
 
 class History:
@@ -82,10 +76,11 @@ class History:
         return self._count == len(self._rows)
 
     def record(self, state) -> None:
-        """Record the step ``state.n`` of a scheme with vectors ``theta``, ``u`` and ``du``
-        (Θⁿ, Uⁿ, Uⁿ − Uⁿ⁻¹), its count of ``iterations`` and its contact force ``pressure``."""
-        bulk = self.energy(state.theta, state.u, state.du)
-        u, du = self.energy.u, self.energy.du
+        """Record the step ``state.n`` of a scheme (:class:`rodfem.scheme.Scheme`): its state
+        [Θⁿ; ΔUⁿ; Uⁿ] (``state``, with views ``du`` and ``u``), its count of ``iterations`` and its
+        contact force ``pressure``."""
+        bulk = self.energy(state.state)
+        u, du = state.u.array_r, state.du.array_r
         i, w, j, v = self.half
         self._rows[self._count] = (state.n, state.iterations, u[-1], du[-1], w * u[i] + v * u[j],
                                    bulk, state.pressure)

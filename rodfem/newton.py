@@ -22,7 +22,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from rodfem.discretisation import Discretisation
-from rodfem.scheme import LU_OPTIONS, NotConverged, Scheme, set_default_options
+from rodfem.scheme import LU_OPTIONS, NotConverged, Scheme, set_default_options, stacked
 
 REASONS = {getattr(PETSc.SNES.ConvergedReason, name): name
            for name in dir(PETSc.SNES.ConvergedReason) if name.isupper()}
@@ -41,11 +41,8 @@ class NewtonScheme(Scheme):
         self.C_last = self.C.getValue(self._index, self._index)
         self.J = self.C.duplicate(copy=True)
         self.C_norm = self.C.norm(PETSc.NormType.FROBENIUS)
-        array = np.zeros(2 * n)
-        wrap = lambda a: PETSc.Vec().createWithArray(a, comm=PETSc.COMM_SELF)  # noqa: E731
-        self.x, self.x_heat, self.x_momentum = wrap(array), wrap(array[:n]), wrap(array[n:])
-        rhs = np.zeros(2 * n)
-        self.rhs, self.rhs_heat, self.rhs_momentum = wrap(rhs), wrap(rhs[:n]), wrap(rhs[n:])
+        self.x, (self.x_heat, self.x_momentum) = stacked(2, n)
+        self.rhs = self.x.duplicate()
 
         # Defaults that hold for every scene go to the options database (where PETSC_OPTIONS can
         # override them); the scene's own choices are set on the object, before the options.
@@ -99,12 +96,12 @@ class NewtonScheme(Scheme):
         return reason.ITERATING
 
     def _step(self) -> None:
-        self._fixed_parts(self.rhs_heat, self.rhs_momentum)
+        self._fixed_parts(self.rhs)
         self._rhs_norm = self.rhs.norm()
         if self.rigid:
             self.upper.setValue(self._index, self.gap - self.u.getValue(self.last))
             self.upper.assemble()
-        # The first guess: the last increment, which x still holds (ΔUⁿ⁻¹ is ``du``, a view).
+        # The first guess: the last step's increments, which x still holds.
         self.snes.solve(None, self.x)
         reason = self.snes.getConvergedReason()
         iterations = self.snes.getIterationNumber()

@@ -20,7 +20,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from rodfem.discretisation import Discretisation
-from rodfem.scheme import NotConverged, Scheme, lu_factor
+from rodfem.scheme import NotConverged, Scheme, lu_factor, stacked
 
 INF = PETSc.NormType.INFINITY
 
@@ -50,14 +50,15 @@ class PicardScheme(Scheme):
         self.solve_momentum = momentum_factor.solve
         new = self.heat.A.createVecRight
         self._work = [new() for _ in range(4)]
-        self._heat_step, self._momentum_step = new(), new()
+        self._fixed, (self._heat_step, self._momentum_step) = stacked(2, disc.nodes.size)
+        self._rhs = new()
 
     def _step(self) -> None:
         h_step, m_step, rhs = self._heat_step, self._momentum_step, self._rhs
         N_du, N_theta = self.heat.N["du"], self.momentum.N["theta"]
         # The parts of both right-hand sides that stay fixed during the step; Θ^{n,l} = Θⁿ⁻¹ +
         # ΔΘ^{n,l} in the momentum equation.
-        self._fixed_parts(h_step, m_step)
+        self._fixed_parts(self._fixed)
         solve_heat, solve_momentum = self.solve_heat, self.solve_momentum
         load, last, tol, coupled = self.contact_load, self.last, self.tol, self.coupled
         u_last = self.u.getValue(last)
@@ -104,7 +105,7 @@ class PicardScheme(Scheme):
         if not increment < tol:
             self._work = [dtheta_it, dtheta_new, du_it, du_new]
             raise PicardNotConverged(self.n + 1, (self.n + 1) * self.dt, increment, iteration)
-        spare = self._accept(dtheta_it, du_it)
-        self._work = [dtheta_it, dtheta_new, spare, du_new]
+        self._accept(dtheta_it, du_it)
+        self._work = [dtheta_it, dtheta_new, du_it, du_new]
         self.iterations = iteration
         self.pressure = self.contact_force(self.u.getValue(last))

@@ -59,6 +59,14 @@ def lu_factor(A: PETSc.Mat, prefix: str, ordering: str = "natural"):
     return ksp, ksp.getPC().getFactorMatrix()
 
 
+def stacked(parts: int, n: int) -> tuple[PETSc.Vec, list[PETSc.Vec]]:
+    """A sequential vector of ``parts`` blocks of length n, and a vector for each block that
+    shares its memory."""
+    array = np.zeros(parts * n)
+    wrap = lambda a: PETSc.Vec().createWithArray(a, comm=PETSc.COMM_SELF)  # noqa: E731
+    return wrap(array), [wrap(array[i * n:(i + 1) * n]) for i in range(parts)]
+
+
 class NotConverged(RuntimeError):
     """A step that a method could not solve; the state stays at the last step solved."""
 
@@ -119,9 +127,18 @@ class Scheme:
         self.heat_ksp, heat_factor = lu_factor(self.heat.A, "rodfem_heat_")
         self.solve_heat = heat_factor.solve
 
-        new = self.heat.A.createVecRight
-        self.theta, self.u, self.u_prev, self.du = new(), new(), new(), new()
-        self._rhs = new()
+        # The state s = [Θⁿ; ΔUⁿ; Uⁿ] in one array (History reads its energy off it at once);
+        # theta, du and u are views of its thirds. Both right-hand sides of a step, [h; m], are
+        # one product with it: [h; m] = R s + [b_h; b_m].
+        n = disc.nodes.size
+        self.state, (self.theta, self.du, self.u) = stacked(3, n)
+        self.u_prev = self.u.duplicate()
+        self.R = block_matrix([[self.heat.N["theta_prev"], None, None],
+                               [self.momentum.N["theta"], self.momentum.N["du_prev"],
+                                self.momentum.N["u_prev"]]])
+        self.b, (b_h, b_m) = stacked(2, n)
+        self.heat.b.copy(b_h)
+        self.momentum.b.copy(b_m)
         self.n = 0
         self.iterations = 0
         self.pressure = 0.0
@@ -165,33 +182,28 @@ class Scheme:
     def _first_step(self) -> None:
         """U¹ = U⁰ + Δt P u₁, and Θ¹ from (3.1) with U¹ and U⁰ known: no iteration. (Without
         inertia, b = 0, there is no initial velocity: step 1 is a step like any other.)"""
-        N, rhs, dtheta = self.heat.N, self._rhs, self._rhs.duplicate()
+        N, rhs, dtheta = self.heat.N, self.theta.duplicate(), self.theta.duplicate()
         N["theta_prev"].multAdd(self.theta, self.heat.b, rhs)
         N["du"].multAdd(self.du, rhs, rhs)  # ΔU¹ = Δt P u₁, as at n = 0
         self.solve_heat(rhs, dtheta)
-        self._accept(dtheta, self.du.copy())
+        self._accept(dtheta, self.du)
         self.iterations = 0
         self.pressure = 0.0
 
     def _step(self) -> None:
         raise NotImplementedError
 
-    def _fixed_parts(self, h: PETSc.Vec, m: PETSc.Vec) -> None:
-        """The right-hand sides h and m of a step: what Θⁿ⁻¹, Uⁿ⁻¹ and ΔUⁿ⁻¹ contribute."""
-        Nh, Nm = self.heat.N, self.momentum.N
-        Nh["theta_prev"].multAdd(self.theta, self.heat.b, h)
-        Nm["u_prev"].multAdd(self.u, self.momentum.b, m)
-        Nm["du_prev"].multAdd(self.du, m, m)
-        Nm["theta"].multAdd(self.theta, m, m)
+    def _fixed_parts(self, rhs: PETSc.Vec) -> None:
+        """The right-hand sides [h; m] of a step: what Θⁿ⁻¹, ΔUⁿ⁻¹ and Uⁿ⁻¹ contribute."""
+        self.R.multAdd(self.state, self.b, rhs)
 
-    def _accept(self, dtheta: PETSc.Vec, du: PETSc.Vec) -> PETSc.Vec:
-        """Θⁿ = Θⁿ⁻¹ + ΔΘⁿ; (ΔUⁿ, Uⁿ, Uⁿ⁻¹) take the places of (ΔUⁿ⁻¹, Uⁿ⁻¹, Uⁿ⁻²). ``du``
-        becomes ``self.du``; the vector it replaces is returned, free for reuse."""
+    def _accept(self, dtheta: PETSc.Vec, du: PETSc.Vec) -> None:
+        """Θⁿ = Θⁿ⁻¹ + ΔΘⁿ, ΔUⁿ = du, Uⁿ = Uⁿ⁻¹ + ΔUⁿ."""
         self.theta.axpy(1.0, dtheta)
-        spare_du, spare_u = self.du, self.u_prev
-        self.u_prev, self.u, self.du = self.u, spare_u, du
-        self.u.waxpy(1.0, du, self.u_prev)
-        return spare_du
+        self.u.copy(self.u_prev)
+        self.u.axpy(1.0, du)
+        if du is not self.du:
+            du.copy(self.du)
 
     def contact_force(self, u_last: float) -> float:
         """p = (1/ε)[U(1) − g]_+ of the elastic obstacle."""

@@ -50,3 +50,17 @@ def test_demo_runs_under_mpirun():
                           check=True)
     assert "intervals of contact; first at t = 0.186" in done.stdout
     assert done.stdout.count("energy") == 1  # rank 0 reports, once
+
+
+@serial_only
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+def test_contact_methods_demo_runs_under_mpirun():
+    demo = Path(__file__).resolve().parents[1] / "demos" / "demo_contact_methods.py"
+    done = subprocess.run(["mpirun", "-n", "2", sys.executable, str(demo)],
+                          env={**MPI_ENV, "CI": "1"}, capture_output=True, text=True, timeout=600,
+                          check=True)
+    out = done.stdout
+    assert out.count("picard  failed: Picard iteration did not converge at step 19") == 1
+    assert out.count("energy non-increasing: True") == 2  # direct and newton, rank 0 only
+    rate = float(out.split("rate for ε <= 1e-5: ")[1].split()[0])
+    assert abs(rate - 1.0) < 0.05, out  # ε/(ε + w) → the rate tends to 1 as ε/w → 0
