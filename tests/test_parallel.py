@@ -30,15 +30,19 @@ def rodfem_run(tmp_path, ranks, *args):
 
 @serial_only
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
-@pytest.mark.parametrize("mass", ["lumped", "consistent"])
-def test_two_ranks_write_the_serial_history(tmp_path, mass):
-    args = ["paper1", "--set", f"discretisation.mass={mass}", "--set", "output.every=1000"]
+@pytest.mark.parametrize("mass, method, obstacle", [
+    ("lumped", "picard", "elastic"), ("consistent", "picard", "elastic"),
+    ("lumped", "direct", "elastic"), ("lumped", "direct", "rigid"), ("lumped", "newton", "rigid"),
+])
+def test_two_ranks_write_the_serial_history(tmp_path, mass, method, obstacle):
+    args = ["paper1", "--set", f"discretisation.mass={mass}", "--set", "output.every=1000",
+            "--set", f"solver.method={method}", "--set", f"obstacle.kind={obstacle}"]
     serial = rodfem_run(tmp_path, 1, *args)
     parallel = rodfem_run(tmp_path, 2, *args)
     assert serial.shape == parallel.shape == (8001, 7)
     scale = np.abs(serial).max(axis=0)
     assert (np.abs(parallel - serial) <= 1e-12 * scale).all()
-    np.testing.assert_array_equal(parallel[:, 6], serial[:, 6])  # Picard iterations
+    np.testing.assert_array_equal(parallel[:, 6], serial[:, 6])  # iterations
 
 
 @serial_only
