@@ -1,5 +1,5 @@
-"""Where Picard's iteration fails: exit code 3, the paper's condition in the message, and the
-steps computed so far kept on disk."""
+"""Where a method fails: exit code 3, the reason in the message (for Picard, the paper's
+condition), and the steps computed so far kept on disk."""
 
 import json
 
@@ -37,6 +37,32 @@ def test_tight_iteration_budget_fails_inside_the_condition(shared_dir, capsys):
     capsys.readouterr()
     assert code == 3
     assert json.loads((out / "summary.json").read_text())["steps"] == 1
+
+
+def test_newton_failure_is_reported(shared_dir, capsys):
+    """Δt = 0.05 and ε = 1e-4: where the rod first touches, the first guess (the last increment)
+    has the wrong contact state and semismooth Newton needs a second iteration; with a budget of
+    one, SNES stops with DIVERGED_MAX_IT and the run with exit code 3."""
+    out = shared_dir / "newton"
+    code = main(["run", "paper1", "--out", str(out), "--set", "time.dt=0.05",
+                 "--set", "obstacle.epsilon=1e-4", "--set", "time.end=2",
+                 "--set", "solver.method=newton", "--set", "solver.max_iterations=1"])
+    err = capsys.readouterr().err
+    assert code == 3
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed" and summary["method"] == "newton"
+    if COMM.rank == 0:
+        step = summary["steps"] + 1
+        assert f"Newton's method (SNES) did not converge at step {step}" in err
+        assert "DIVERGED_MAX_IT after 1 iterations" in err
+        assert err.count("\n") == 1 and "Traceback" not in err
+    # With its default budget the same scene completes, the failing step in two iterations.
+    code = main(["run", "paper1", "--out", str(shared_dir / "newton2"), "--quiet",
+                 "--set", "time.dt=0.05", "--set", "obstacle.epsilon=1e-4", "--set", "time.end=2",
+                 "--set", "solver.method=newton"])
+    assert code == 0
+    history = np.loadtxt(shared_dir / "newton2" / "history.csv", delimiter=",", skiprows=1)
+    assert history[step, 6] == 2
 
 
 def test_scene_toml_repeats_the_run(simulate, shared_dir):
