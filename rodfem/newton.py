@@ -109,9 +109,11 @@ class NewtonScheme(Scheme):
             raise NotConverged("newton", self.n + 1, (self.n + 1) * self.dt,
                                f"{REASONS.get(reason, reason)} after {iterations} iterations",
                                iterations)
-        if self.rigid:
+        if self.rigid:  # the multiplier, where the bound holds; off it, the rod is free
+            bound = self.upper.getValue(self._index)
             self._residual(self.snes, self.x, self.F)
-            self.pressure = max(-self.F.getValue(self._index), 0.0)
+            touching = self.x.getValue(self._index) >= bound
+            self.pressure = max(-self.F.getValue(self._index), 0.0) if touching else 0.0
         else:
             self.pressure = max(self._penetration(self.x), 0.0) / self.epsilon
         self._accept(self.x_heat, self.x_momentum)
