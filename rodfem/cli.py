@@ -2,6 +2,8 @@
 
     rodfem run SCENE [--out DIR] [--set section.key=value ...] [--force]
     rodfem plot DIR [DIR ...] [--out FIGDIR]
+    rodfem stability [--out DIR] [--scene S] [--methods M,...] [--dt LIST] [--epsilon LIST]
+                     [--zeta LIST] [--a LIST] [--end T] [--force] [--progress]
 
 Exit codes: 0 complete, 2 bad input (nothing written), 3 the method did not converge at a step
 (results so far kept), 130 interrupted.
@@ -69,6 +71,38 @@ def _parser() -> argparse.ArgumentParser:
     paper.add_argument("--set", dest="overrides", action="append", default=[],
                        metavar="SECTION.KEY=VALUE",
                        help="override a value in every experiment, e.g. --set time.end=2")
+    stability = sub.add_parser(
+        "stability",
+        help="map where each method converges over (Δt, ε, ζ, a)",
+        description="Sweep Δt, ε, ζ and a over a log grid, run the scene at every point with each "
+        "method, and write stability.csv (one row per point and method), stability.json (the grid, "
+        "the machine, and Picard's measured boundary against the paper's Δt < εζ and the "
+        "compliance's w/ε < 1) and figures/stability_<method>.png. Lists are comma-separated. "
+        "Points are shared round-robin among MPI ranks.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    stability.add_argument("--out", type=Path, default=Path("results/stability"),
+                           help="output directory")
+    stability.add_argument("--scene", default="paper1",
+                           help=f"the base scene: built-in ({', '.join(BUILTIN)}) or a TOML file")
+    stability.add_argument("--set", dest="overrides", action="append", default=[],
+                           metavar="SECTION.KEY=VALUE",
+                           help="override a base scene value, e.g. solver.max_iterations=500")
+    stability.add_argument("--methods", default="direct,newton,picard", help="methods to run")
+    from rodfem.stability import DEFAULT_A, DEFAULT_DT, DEFAULT_EPSILON, DEFAULT_ZETA
+
+    listed = lambda values: ",".join(f"{v:g}" for v in values)  # noqa: E731
+    stability.add_argument("--dt", default=listed(DEFAULT_DT),
+                           help="time steps, each a divisor of --end")
+    stability.add_argument("--epsilon", default=listed(DEFAULT_EPSILON),
+                           help="obstacle compliances ε (stiffness 1/ε)")
+    stability.add_argument("--zeta", default=listed(DEFAULT_ZETA), help="viscosities ζ")
+    stability.add_argument("--a", default=listed(DEFAULT_A), help="thermal couplings a")
+    stability.add_argument("--end", default="1", help="end time of every run")
+    stability.add_argument("--force", action="store_true",
+                           help="replace an earlier stability map in --out")
+    stability.add_argument("--progress", action="store_true",
+                           help="a line per point even when output is not a terminal (mpirun)")
     return parser
 
 
@@ -176,6 +210,43 @@ def paper(args: argparse.Namespace) -> int:
     return 0
 
 
+def stability(args: argparse.Namespace) -> int:
+    """The stability map into args.out, then its figures (rank 0)."""
+    from mpi4py import MPI
+
+    from rodfem import stability as st
+    from rodfem.output import OutputError
+
+    comm = MPI.COMM_WORLD
+    try:
+        grid = st.Grid(dt=st.parse_list(args.dt, "--dt", st.DEFAULT_DT),
+                       epsilon=st.parse_list(args.epsilon, "--epsilon", st.DEFAULT_EPSILON),
+                       zeta=st.parse_list(args.zeta, "--zeta", st.DEFAULT_ZETA),
+                       a=st.parse_list(args.a, "--a", st.DEFAULT_A),
+                       methods=st.parse_methods(args.methods),
+                       end=st.parse_number(args.end, "--end", st.DEFAULT_END))
+        progress = args.progress or sys.stderr.isatty()
+        records, seconds = st.run_map(args.out, args.scene, args.overrides, grid, args.force,
+                                   progress, comm)
+    except (st.GridError, OutputError) as err:
+        _say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    if records is None:
+        _say(f"rodfem: interrupted; nothing written to {args.out}.")
+        return EXIT_INTERRUPTED
+    written = []
+    if comm.rank == 0:
+        from rodfem.post.stability import plot_stability
+
+        written = plot_stability(args.out)
+    for line in st.report_lines(records, grid, seconds, args.out, comm.size):
+        _say(line, sys.stdout)
+    for path in written:
+        _say(str(path), sys.stdout)
+    comm.barrier()
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
@@ -183,6 +254,8 @@ def main(argv: list[str] | None = None) -> int:
             return plot(args)
         if args.command == "paper":
             return paper(args)
+        if args.command == "stability":
+            return stability(args)
         return run(args)
     except SceneError as err:
         _say(f"rodfem: error: {err}")
