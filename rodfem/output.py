@@ -144,6 +144,8 @@ def write_json(path: Path, data: dict, comm: MPI.Comm) -> None:
             return None
         if isinstance(value, dict):
             return {k: finite(v) for k, v in value.items()}
+        if isinstance(value, (list, tuple)):
+            return [finite(v) for v in value]
         return value
 
     write_text(path, json.dumps(finite(data), indent=2, allow_nan=False) + "\n", comm)

@@ -221,7 +221,7 @@ def _check_consistency(scene: Scene) -> None:
         raise SceneError(f"time.dt: at most {MAX_STEPS:g} steps, got {ratio:.3g} (end/dt)")
     if abs(ratio - round(ratio)) > 1e-9 * ratio:
         raise SceneError(
-            f"time.end: must be a whole number of steps time.dt = {dt!r}, got {end!r} "
+            f"time.end: must be a whole number of steps of time.dt = {dt!r}, got {end!r} "
             f"({ratio:.6g} steps)"
         )
     # The initial data are interpolated at the nodes; they must be finite there and, since the
