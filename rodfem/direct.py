@@ -38,6 +38,7 @@ class DirectScheme(Scheme):
         self._index = n + self.last  # of ΔU(1) in [ΔΘ; ΔU]
         self.x, (self.x_heat, self.x_momentum) = stacked(2, n)
         self.rhs, (self.rhs_heat, self.rhs_momentum) = stacked(2, n)
+        self._x_values, self._u_1 = self.x.array, 3 * n - 1  # NumPy views; U(1) in the state
         if self.coupled:
             self.ksp, factor = lu_factor(self.coupled_operator(), "rodfem_direct_", "rcm")
             self._solve = factor.solve
@@ -65,7 +66,7 @@ class DirectScheme(Scheme):
     def _step(self) -> None:
         self._fixed_parts(self.rhs)
         self._solve(self.rhs, self.x)
-        s = self.u.getValue(self.last) + self.x.getValue(self._index)
+        s = self.values[self._u_1] + self._x_values[self._index]
         pressure = 0.0
         if s > self.gap:
             w = self.compliance

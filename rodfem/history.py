@@ -44,15 +44,15 @@ class Energy:
         self.z = disc.vector(copetti.thermal_load(disc.r, v, disc.dx))
         self.a_theta_A = scene["model.a"] * scene["model.theta_A"]
         n = disc.nodes.size
-        # a θ_A zᵀU = wᵀs with w = [0; 0; a θ_A z]
-        self.w = PETSc.Vec().createSeq(3 * n, comm=PETSc.COMM_SELF)
-        self.w.array[2 * n:] = self.a_theta_A * self.z.array_r
-        self._y = self.w.duplicate()
+        # ½ sᵀE s + a θ_A zᵀU = ½ (E s + 2w)ᵀs with w = [0; 0; a θ_A z]: one product, one dot
+        self.two_w = PETSc.Vec().createSeq(3 * n, comm=PETSc.COMM_SELF)
+        self.two_w.array[2 * n:] = 2.0 * self.a_theta_A * self.z.array_r
+        self._y = self.two_w.duplicate()
 
     def __call__(self, s: PETSc.Vec) -> float:
         """The bulk energy of the state s = [Θ; ΔU; U]."""
-        self.E.mult(s, self._y)
-        return 0.5 * self._y.dot(s) + self.w.dot(s)
+        self.E.multAdd(s, self.two_w, self._y)
+        return 0.5 * self._y.dot(s)
 
 
 class History:
@@ -64,8 +64,12 @@ class History:
         self.epsilon, self.gap = scene["obstacle.epsilon"], scene["obstacle.gap"]
         self.rigid = scene["obstacle.kind"] == "rigid"
         self.energy = Energy(disc)
+        # Positions in the state [Θ; ΔU; U] of ΔU(1), U(1) and the nodes around x = 0.5.
+        n = disc.nodes.size
+        self.du_1, self.u_1 = 2 * n - 1, 3 * n - 1
         (i, *rest), (w, *rest_w) = disc.nodes.interpolation(0.5)
-        self.half = (int(i), float(w), int(rest[0]) if rest else int(i), rest_w[0] if rest else 0.0)
+        self.half = (2 * n + int(i), float(w), 2 * n + (int(rest[0]) if rest else int(i)),
+                     rest_w[0] if rest else 0.0)
         # Per step: n, iterations, Uⁿ(1), ΔUⁿ(1), Uⁿ(0.5), the energy but its contact term, and
         # the contact force p.
         self._rows = np.zeros((block, 7))
@@ -77,13 +81,13 @@ class History:
 
     def record(self, state) -> None:
         """Record the step ``state.n`` of a scheme (:class:`rodfem.scheme.Scheme`): its state
-        [Θⁿ; ΔUⁿ; Uⁿ] (``state``, with views ``du`` and ``u``), its count of ``iterations`` and its
+        [Θⁿ; ΔUⁿ; Uⁿ] (``state``, its array ``values``), its count of ``iterations`` and its
         contact force ``pressure``."""
         bulk = self.energy(state.state)
-        u, du = state.u.array_r, state.du.array_r
+        s = state.values
         i, w, j, v = self.half
-        self._rows[self._count] = (state.n, state.iterations, u[-1], du[-1], w * u[i] + v * u[j],
-                                   bulk, state.pressure)
+        self._rows[self._count] = (state.n, state.iterations, s[self.u_1], s[self.du_1],
+                                   w * s[i] + v * s[j], bulk, state.pressure)
         self._count += 1
 
     def take(self) -> np.ndarray:

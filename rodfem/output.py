@@ -87,10 +87,12 @@ class HistoryFile:
         if self.file:
             self.file.write(",".join(COLUMNS) + "\n")
 
+    ROW = ",".join(["%.17g"] * (len(COLUMNS) - 1)) + ",%d\n"  # round-trip floats; iterations
+
     def append(self, rows: np.ndarray) -> None:
         if self.file:
-            for row in rows:
-                self.file.write(",".join(f"{v:.17g}" for v in row[:-1]) + f",{int(row[-1])}\n")
+            row = self.ROW
+            self.file.write("".join([row % tuple(r) for r in rows.tolist()]))
             self.file.flush()
 
     def close(self) -> None:

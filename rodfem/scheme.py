@@ -132,6 +132,7 @@ class Scheme:
         # one product with it: [h; m] = R s + [b_h; b_m].
         n = disc.nodes.size
         self.state, (self.theta, self.du, self.u) = stacked(3, n)
+        self.values = self.state.array  # the same memory, as a NumPy array
         self.u_prev = self.u.duplicate()
         self.R = block_matrix([[self.heat.N["theta_prev"], None, None],
                                [self.momentum.N["theta"], self.momentum.N["du_prev"],
