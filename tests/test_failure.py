@@ -53,8 +53,8 @@ def test_newton_failure_is_reported(shared_dir, capsys):
     assert code == 3
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "failed" and summary["method"] == "newton"
+    step = summary["steps"] + 1
     if COMM.rank == 0:
-        step = summary["steps"] + 1
         assert f"Newton's method (SNES) did not converge at step {step}" in err
         assert "DIVERGED_MAX_IT after 1 iterations" in err
         assert err.count("\n") == 1 and "Traceback" not in err
