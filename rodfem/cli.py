@@ -15,7 +15,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from rodfem.scene import BUILTIN, SceneError, load
+from rodfem.scene import BUILTIN, EXTRA, SceneError, load
 
 EXIT_INPUT, EXIT_DIVERGED, EXIT_INTERRUPTED = 2, 3, 130
 
@@ -33,7 +33,8 @@ def _parser() -> argparse.ArgumentParser:
         "summary.json into the output directory.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    run.add_argument("scene", help=f"a built-in scene ({', '.join(BUILTIN)}) or a TOML file")
+    run.add_argument("scene",
+                     help=f"a built-in scene ({', '.join(BUILTIN + EXTRA)}) or a TOML file")
     run.add_argument("--out", type=Path, help="output directory (default: results/<scene name>)")
     run.add_argument(
         "--set",

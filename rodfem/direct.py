@@ -12,19 +12,20 @@ where the contact force p is the one scalar unknown left:
 
 * elastic obstacle, p = (1/ε)[s − p w − g]_+: p = 0 if s ≤ g, else p = (s − g)/(ε + w);
 * rigid obstacle (Signorini: Uⁿ(1) ≤ g, p ≥ 0, p (Uⁿ(1) − g) = 0): p = 0 if s ≤ g, else
-  p = (s − g)/w, so that Uⁿ(1) = g.
+  p = (s − g)/w, so that Uⁿ(1) = g;
+* Crank–Nicolson's elastic obstacle, p the discrete gradient of the obstacle's energy between
+  Uⁿ⁻¹(1) and Uⁿ(1): a quadratic or a linear equation, in closed form
+  (:func:`rodfem.contact.solve`).
 
-Both are the unique solution, since s ↦ s + (w/ε)[s − g]_+ is strictly increasing: this is the
-exact solution of (3.1)–(3.2), with no iteration and no tolerance. Steps without contact (s ≤ g)
-cost one comparison. With a = 0, C is block diagonal and the heat and momentum operators are
-factored and solved apart.
+Each is the unique solution, since y ↦ y + w p(y) is strictly increasing: this is the exact
+solution of the step, with no iteration and no tolerance. Steps without contact (s ≤ g, and for
+Crank–Nicolson Uⁿ⁻¹(1) ≤ g too) cost one comparison. With a = 0, C is block diagonal and the heat
+and momentum operators are factored and solved apart.
 """
 
 from __future__ import annotations
 
-import numpy as np
-from petsc4py import PETSc
-
+from rodfem import contact
 from rodfem.discretisation import Discretisation
 from rodfem.scheme import Scheme, lu_factor, stacked
 
@@ -66,11 +67,11 @@ class DirectScheme(Scheme):
     def _step(self) -> None:
         self._fixed_parts(self.rhs)
         self._solve(self.rhs, self.x)
-        s = self.values[self._u_1] + self._x_values[self._index]
+        c = self.values[self._u_1]
+        s = c + self._x_values[self._index]
         pressure = 0.0
-        if s > self.gap:
-            w = self.compliance
-            pressure = (s - self.gap) / (w if self.rigid else self.epsilon + w)
+        if s > self.gap or (self.rule == "gradient" and c > self.gap):
+            pressure = contact.solve(s, self.compliance, self.gap, self.epsilon, self.rule, c)
             self.x.axpy(pressure, self.response)
         self.pressure = pressure
         self._accept(self.x_heat, self.x_momentum)

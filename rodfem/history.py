@@ -14,15 +14,9 @@ from petsc4py import PETSc
 
 import forms.copetti as copetti
 from rodfem.discretisation import Discretisation
-from rodfem.nodes import block_matrix
+from rodfem.nodes import block_diagonal
 
 COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
-
-
-def block_diagonal(blocks: list[PETSc.Mat]) -> PETSc.Mat:
-    """diag(B_1, …, B_m) of sequential AIJ matrices."""
-    return block_matrix([[B if i == j else None for j, B in enumerate(blocks)]
-                         for i in range(len(blocks))])
 
 
 class Energy:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
+from rodfem import contact
 from rodfem.discretisation import Discretisation
 from rodfem.scheme import LU_OPTIONS, NotConverged, Scheme, set_default_options, stacked
 
@@ -72,15 +73,25 @@ class NewtonScheme(Scheme):
         self.C.mult(x, F)
         F.axpy(-1.0, self.rhs)
         if not self.rigid:
-            pressure = max(self._penetration(x), 0.0) / self.epsilon
+            pressure = self._force(x)
             if pressure:
                 F.setValue(self._index, F.getValue(self._index) + pressure)
                 F.assemble()
 
+    def _force(self, x: PETSc.Vec) -> float:
+        c = self.u.getValue(self.last)
+        return self.contact_force(c + x.getValue(self._index), c)
+
     def _jacobian(self, snes, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
-        active = not self.rigid and self._penetration(x) > 0.0
-        J.setValue(self._index, self._index,
-                   self.C_last + (1.0 / self.epsilon if active else 0.0))
+        """C plus the generalized derivative of the contact force in the entry of x = 1."""
+        slope = 0.0
+        if self.rule == "penalty":
+            slope = 1.0 / self.epsilon if self._penetration(x) > 0.0 else 0.0
+        elif self.rule == "gradient":
+            c = self.u.getValue(self.last)
+            slope = contact.discrete_gradient_slope(c + x.getValue(self._index), c, self.gap,
+                                                    self.epsilon)
+        J.setValue(self._index, self._index, self.C_last + slope)
         J.assemble()
 
     def _converged(self, snes, its: int, norms) -> int:
@@ -115,6 +126,6 @@ class NewtonScheme(Scheme):
             touching = self.x.getValue(self._index) >= bound
             self.pressure = max(-self.F.getValue(self._index), 0.0) if touching else 0.0
         else:
-            self.pressure = max(self._penetration(self.x), 0.0) / self.epsilon
+            self.pressure = self._force(self.x)
         self._accept(self.x_heat, self.x_momentum)
         self.iterations = iterations

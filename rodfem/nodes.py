@@ -108,3 +108,9 @@ def block_matrix(blocks: list[list[PETSc.Mat | None]]) -> PETSc.Mat:
                               csr=(indptr, c.astype(PETSc.IntType), v), comm=PETSc.COMM_SELF)
     A.assemble()
     return A
+
+
+def block_diagonal(blocks: list[PETSc.Mat]) -> PETSc.Mat:
+    """diag(B_1, …, B_m) of sequential AIJ matrices."""
+    return block_matrix([[B if i == j else None for j, B in enumerate(blocks)]
+                         for i in range(len(blocks))])

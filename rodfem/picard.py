@@ -55,7 +55,7 @@ class PicardScheme(Scheme):
 
     def _step(self) -> None:
         h_step, m_step, rhs = self._heat_step, self._momentum_step, self._rhs
-        N_du, N_theta = self.heat.N["du"], self.momentum.N["theta"]
+        N_du, N_theta = self.heat.N["du"], self.momentum.N["dtheta"]
         # The parts of both right-hand sides that stay fixed during the step; Θ^{n,l} = Θⁿ⁻¹ +
         # ΔΘ^{n,l} in the momentum equation.
         self._fixed_parts(self._fixed)
@@ -73,7 +73,7 @@ class PicardScheme(Scheme):
         increment, pressure = np.inf, np.nan
         for iteration in range(1, self.max_iterations + 1):  # noqa: B007 (used after the loop)
             last_pressure = pressure
-            pressure = self.contact_force(u_last + du_it.getValue(last))
+            pressure = self.contact_force(u_last + du_it.getValue(last), u_last)
             if not coupled and pressure == last_pressure:
                 # The same load as the last iteration: this iterate would equal the last one.
                 iteration, increment = iteration - 1, 0.0
@@ -105,7 +105,7 @@ class PicardScheme(Scheme):
         if not increment < tol:
             self._work = [dtheta_it, dtheta_new, du_it, du_new]
             raise PicardNotConverged(self.n + 1, (self.n + 1) * self.dt, increment, iteration)
+        self.pressure = self.contact_force(u_last + du_it.getValue(last), u_last)
         self._accept(dtheta_it, du_it)
         self._work = [dtheta_it, dtheta_new, du_it, du_new]
         self.iterations = iteration
-        self.pressure = self.contact_force(self.u.getValue(last))

@@ -45,6 +45,7 @@ BIG, SMALL = 1e12, 1e-12
 MAX_CELLS, MAX_STEPS = 10_000_000, 100_000_000
 # The methods that solve each step of (3.1)–(3.2): the fastest exact one is the default.
 METHODS = ("direct", "newton", "picard")
+TIME_SCHEMES = ("paper", "crank-nicolson")
 
 
 SCHEMA: dict[str, dict[str, Key]] = {
@@ -74,6 +75,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
     "time": {
         "dt": Key("real", 0.001, minimum=SMALL, maximum=BIG),
         "end": Key("real", 8.0, minimum=SMALL, maximum=BIG),
+        "scheme": Key("choice", "paper", choices=TIME_SCHEMES,
+                      help="paper: the scheme (3.1)-(3.2), first order; crank-nicolson: the "
+                      "midpoint rule, second order (docs/time-schemes.md)"),
     },
     "discretisation": {"mass": Key("choice", "lumped", choices=("lumped", "consistent"))},
     "solver": {
@@ -84,12 +88,21 @@ SCHEMA: dict[str, dict[str, Key]] = {
                    help="picard: max-norm of the change between two iterations"),
         "max_iterations": Key("integer", 100, minimum=1, maximum=1_000_000),
     },
+    # Body sources f of θ_t − θ_xx + a u_xt = f and b u_tt − σ_x = f, in x, t and the model's
+    # names: for manufactured solutions (rodfem.manufactured). "0" costs nothing.
+    "source": {
+        "heat": Key("expression", "0", help="source of the heat equation, in x and t"),
+        "momentum": Key("expression", "0", help="source of the momentum equation, in x and t"),
+    },
     "output": {"every": Key("integer", 50, minimum=1, maximum=MAX_STEPS,
                             help="save fields every n steps")},
 }
 TOP_LEVEL = {"description": ""}
 MODEL_NAMES = tuple(SCHEMA["model"])
-BUILTIN = tuple(f"paper{i}" for i in range(1, 6))
+SOURCE_NAMES = (*MODEL_NAMES, "t")
+BUILTIN = tuple(f"paper{i}" for i in range(1, 6))  # the paper's experiments
+# Other built-in scenes: a manufactured solution without contact, with sources (rodfem.manufactured)
+EXTRA = ("manufactured",)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -117,6 +130,12 @@ class Scene:
     def initial(self, name: str) -> Expression:
         return Expression(self.values["initial"][name], MODEL_NAMES)
 
+    def source_term(self, name: str) -> Expression | None:
+        """The source of the ``heat`` or ``momentum`` equation, f(x, t; parameters), or None
+        where the scene has none."""
+        text = self.values["source"][name].strip()
+        return None if _is_zero(text) else Expression(text, SOURCE_NAMES)
+
     def to_toml(self) -> str:
         """The resolved scene as TOML: loading it gives the same scene."""
         lines = []
@@ -128,6 +147,13 @@ class Scene:
                 lines.append(f"{key} = {_toml_value(self.values[section][key])}")
             lines.append("")
         return "\n".join(lines)
+
+
+def _is_zero(text: str) -> bool:
+    try:
+        return float(text) == 0.0
+    except ValueError:
+        return False
 
 
 def _toml_value(value: Any) -> str:
@@ -168,7 +194,7 @@ def _check_value(dotted: str, spec: Key, value: Any) -> Any:
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         value = repr(value)  # a constant is an expression too: u0 = 0
     try:
-        Expression(value, MODEL_NAMES)
+        Expression(value, SOURCE_NAMES if dotted.startswith("source.") else MODEL_NAMES)
     except ExpressionError as err:
         shown = _toml_value(shorten(value)) if isinstance(value, str) else _toml_value(value)
         raise SceneError(f"{dotted}: {shown} {err}") from None
@@ -213,6 +239,13 @@ def _check_consistency(scene: Scene) -> None:
             'solver.method: "picard" cannot solve obstacle.kind = "rigid" (its iteration is the '
             'penalty\'s, which needs 1/epsilon); use "direct" or "newton"'
         )
+    if (scene["time.scheme"] == "crank-nicolson" and scene["model.b"] == 0.0
+            and scene["model.zeta"] == 0.0):
+        raise SceneError(
+            'time.scheme: "crank-nicolson" needs inertia or viscosity (model.b > 0 or '
+            "model.zeta > 0): with b = zeta = 0 the momentum equation has no time derivative and "
+            'the midpoint rule makes U oscillate from step to step; use "paper"'
+        )
     dt, end = scene["time.dt"], scene["time.end"]
     if dt > end:
         raise SceneError(f"time.dt: must be <= time.end = {end!r}, got {dt!r}")
@@ -241,6 +274,16 @@ def _check_consistency(scene: Scene) -> None:
                 f"initial.{name}: must equal {required:g} at x = 0 (boundary condition), "
                 f"got {values[0]:g}"
             )
+    for name in SCHEMA["source"]:
+        f = scene.source_term(name)
+        for t in (0.0, scene["time.end"]) if f is not None else ():
+            values = f(x, {**scene.parameters, "t": t})
+            bad = np.flatnonzero(~np.isfinite(values))
+            if bad.size:
+                raise SceneError(
+                    f"source.{name}: not finite at x = {x[bad[0]]:g}, t = {t:g} "
+                    f"({_toml_value(scene.values['source'][name])})"
+                )
 
 
 def _parse_override(item: str) -> tuple[str, str, Any]:
@@ -261,14 +304,15 @@ def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
     Raises:
         SceneError: if the scene cannot be read or any value is wrong.
     """
-    if scene in BUILTIN:
+    if scene in BUILTIN or scene in EXTRA:
         text = resources.files("rodfem").joinpath("scenes", f"{scene}.toml").read_text()
         source = scene
     else:
         path = Path(scene)
         if not path.is_file():
             raise SceneError(
-                f"scene '{scene}': not a built-in scene ({', '.join(BUILTIN)}) nor a TOML file"
+                f"scene '{scene}': not a built-in scene ({', '.join(BUILTIN + EXTRA)}) nor a TOML "
+                "file"
             )
         try:
             text = path.read_text(encoding="utf-8")

@@ -25,8 +25,9 @@ import ufl
 from petsc4py import PETSc
 
 import forms.copetti as copetti
+from rodfem import contact
 from rodfem.discretisation import Discretisation
-from rodfem.nodes import block_matrix
+from rodfem.nodes import block_diagonal, block_matrix
 
 # Default options of every LU factorisation, merged under the user's (PETSC_OPTIONS can override).
 # In node order the operators are tridiagonal, so LU in the natural ordering has no fill; the
@@ -99,27 +100,49 @@ class Scheme:
         self.dt = scene["time.dt"]
         self.epsilon, self.gap = scene["obstacle.epsilon"], scene["obstacle.gap"]
         self.rigid = scene["obstacle.kind"] == "rigid"
+        # Crank–Nicolson (the midpoint rule) or the paper's scheme; the contact force of each
+        # (rodfem.contact): Signorini's multiplier, the penalty at tⁿ, or its discrete gradient.
+        self.midpoint = scene["time.scheme"] == "crank-nicolson"
+        self.rule = "rigid" if self.rigid else "gradient" if self.midpoint else "penalty"
         self.coupled = scene["model.a"] != 0.0  # a = 0: heat does not see motion, nor motion heat
         self.inertia = scene["model.b"] != 0.0
         self.tol, self.max_iterations = scene["solver.tol"], scene["solver.max_iterations"]
         c = disc.const
         dt, a, b, zeta, k, theta_A = c.dt, c.a, c.b, c.zeta, c.k, c.theta_A
         f = disc.function
-        ΔΘ, Θ_prev, Θ = f("ΔΘ"), f("Θ_prev"), f("Θ")
-        ΔU, ΔU_prev, U_prev, ΔU_other = f("ΔU"), f("ΔU_prev"), f("U_prev"), f("ΔU_other")
+        ΔΘ, Θ_prev, ΔΘ_other = f("ΔΘ"), f("Θ_prev"), f("ΔΘ_other")
+        ΔU, D_prev, U_prev, ΔU_other = f("ΔU"), f("D_prev"), f("U_prev"), f("ΔU_other")
         w = ufl.TestFunction(disc.V)
         dx_m, dx, ds_1 = disc.dx_m, disc.dx, disc.ds_1
 
         # (3.1) for ΔΘⁿ, given the displacement increment (ΔU_other: ΔUⁿ, or in Picard's (3.3)
         # the previous iterate's).
-        F_heat = copetti.heat_increment(ΔΘ, Θ_prev, ΔU_other, w, dt, a, k, dx_m, dx, ds_1)
-        self.heat = disc.affine_operator(F_heat, ΔΘ, {"theta_prev": Θ_prev, "du": ΔU_other})
-        # (3.2) for ΔUⁿ, given the temperature Θⁿ, less its contact term (a load, below).
-        F_momentum = copetti.momentum_increment(ΔU, ΔU_prev, U_prev, Θ, w, dt, b, zeta, a,
-                                                theta_A, disc.r, dx_m, dx)
-        self.momentum = disc.affine_operator(
-            F_momentum, ΔU, {"du_prev": ΔU_prev, "u_prev": U_prev, "theta": Θ}
-        )
+        heat = copetti.heat_midpoint if self.midpoint else copetti.heat_increment
+        F_heat = heat(ΔΘ, Θ_prev, ΔU_other, w, dt, a, k, dx_m, dx, ds_1)
+        # (3.2) for ΔUⁿ, given the temperature increment ΔΘⁿ, less its contact term (a load,
+        # below). Dⁿ⁻¹ is the velocity's displacement over a step: ΔUⁿ⁻¹ in the paper's scheme
+        # (δⁿ⁻¹ = ΔUⁿ⁻¹/Δt), Δt Vⁿ⁻¹ in Crank–Nicolson's.
+        if self.midpoint:
+            F_momentum = copetti.momentum_midpoint(ΔU, D_prev, U_prev, Θ_prev + 0.5 * ΔΘ_other, w,
+                                                   dt, b, zeta, a, theta_A, disc.r, dx_m, dx)
+        else:
+            F_momentum = copetti.momentum_increment(ΔU, D_prev, U_prev, Θ_prev + ΔΘ_other, w, dt,
+                                                    b, zeta, a, theta_A, disc.r, dx_m, dx)
+        # Sources only where the scene has them (a manufactured solution): their loads are
+        # N_f f with f interpolated at the nodes at the scheme's time of the step.
+        self.sources = {name: scene.source_term(name) for name in ("heat", "momentum")}
+        heat_y = {"theta_prev": Θ_prev, "du": ΔU_other}
+        momentum_y = {"du_prev": D_prev, "u_prev": U_prev, "theta_prev": Θ_prev,
+                      "dtheta": ΔΘ_other}
+        for name, F_y in (("heat", heat_y), ("momentum", momentum_y)):
+            if self.sources[name] is not None:
+                F_y["source"] = f(f"f_{name}")
+        if self.sources["heat"] is not None:
+            F_heat += copetti.source(heat_y["source"], w, dx)
+        if self.sources["momentum"] is not None:
+            F_momentum += copetti.source(momentum_y["source"], w, dx)
+        self.heat = disc.affine_operator(F_heat, ΔΘ, heat_y)
+        self.momentum = disc.affine_operator(F_momentum, ΔU, momentum_y)
         # The contact term p v(1) for p = 1: the load e of a unit force at x = 1.
         self.contact_load = disc.vector(copetti.contact(1.0, w, ds_1))
         self.last = disc.nodes.size - 1  # the node x = 1
@@ -135,11 +158,18 @@ class Scheme:
         self.values = self.state.array  # the same memory, as a NumPy array
         self.u_prev = self.u.duplicate()
         self.R = block_matrix([[self.heat.N["theta_prev"], None, None],
-                               [self.momentum.N["theta"], self.momentum.N["du_prev"],
+                               [self.momentum.N["theta_prev"], self.momentum.N["du_prev"],
                                 self.momentum.N["u_prev"]]])
         self.b, (b_h, b_m) = stacked(2, n)
         self.heat.b.copy(b_h)
         self.momentum.b.copy(b_m)
+        if any(f is not None for f in self.sources.values()):
+            self._source_values, self._source_parts = stacked(2, n)
+            zero = self.heat.N["theta_prev"].duplicate()  # the same pattern, values zero
+            zero.zeroEntries()
+            self._source_matrix = block_diagonal(
+                [self.heat.N["source"] if self.sources["heat"] else zero,
+                 self.momentum.N["source"] if self.sources["momentum"] else zero])
         self.n = 0
         self.iterations = 0
         self.pressure = 0.0
@@ -147,7 +177,7 @@ class Scheme:
 
     def coupled_operator(self) -> PETSc.Mat:
         """[[A_h, −N_U], [−N_Θ, A_m]]: (3.1)–(3.2) for [ΔΘⁿ; ΔUⁿ] without the contact term."""
-        N_u, N_theta = self.heat.N["du"].copy(), self.momentum.N["theta"].copy()
+        N_u, N_theta = self.heat.N["du"].copy(), self.momentum.N["dtheta"].copy()
         N_u.scale(-1.0)
         N_theta.scale(-1.0)
         return block_matrix([[self.heat.A, N_u], [N_theta, self.momentum.A]])
@@ -173,7 +203,7 @@ class Scheme:
 
     def advance(self) -> int:
         """Go from step n to n + 1; return the iterations it took (the method's count)."""
-        if self.n == 0 and self.inertia:
+        if self.n == 0 and self.inertia and not self.midpoint:
             self._first_step()
         else:
             self._step()
@@ -186,6 +216,8 @@ class Scheme:
         N, rhs, dtheta = self.heat.N, self.theta.duplicate(), self.theta.duplicate()
         N["theta_prev"].multAdd(self.theta, self.heat.b, rhs)
         N["du"].multAdd(self.du, rhs, rhs)  # ΔU¹ = Δt P u₁, as at n = 0
+        if self.sources["heat"] is not None:
+            self._source_load(rhs, None, self.dt)
         self.solve_heat(rhs, dtheta)
         self._accept(dtheta, self.du)
         self.iterations = 0
@@ -195,20 +227,42 @@ class Scheme:
         raise NotImplementedError
 
     def _fixed_parts(self, rhs: PETSc.Vec) -> None:
-        """The right-hand sides [h; m] of a step: what Θⁿ⁻¹, ΔUⁿ⁻¹ and Uⁿ⁻¹ contribute."""
+        """The right-hand sides [h; m] of a step: what Θⁿ⁻¹, Dⁿ⁻¹ and Uⁿ⁻¹ contribute, and the
+        sources (at tⁿ in the paper's scheme, at t^{n−½} in Crank–Nicolson's)."""
         self.R.multAdd(self.state, self.b, rhs)
+        if self.sources["heat"] is not None or self.sources["momentum"] is not None:
+            self._source_load(None, rhs, (self.n + (0.5 if self.midpoint else 1.0)) * self.dt)
+
+    def _source_load(self, heat_rhs: PETSc.Vec | None, rhs: PETSc.Vec | None, t: float) -> None:
+        """Add the sources' loads at time t: to the heat right-hand side alone, or to [h; m]."""
+        x, values = self.disc.nodes.x, self._source_values.array
+        parameters = {**self.disc.scene.parameters, "t": t}
+        n = x.size
+        for i, name in enumerate(("heat", "momentum")):
+            f = self.sources[name]
+            values[i * n:(i + 1) * n] = f(x, parameters) if f is not None else 0.0
+        if rhs is not None:
+            self._source_matrix.multAdd(self._source_values, rhs, rhs)
+        else:
+            self.heat.N["source"].multAdd(self._source_parts[0], heat_rhs, heat_rhs)
 
     def _accept(self, dtheta: PETSc.Vec, du: PETSc.Vec) -> None:
-        """Θⁿ = Θⁿ⁻¹ + ΔΘⁿ, ΔUⁿ = du, Uⁿ = Uⁿ⁻¹ + ΔUⁿ."""
+        """Θⁿ = Θⁿ⁻¹ + ΔΘⁿ, Uⁿ = Uⁿ⁻¹ + ΔUⁿ, and Dⁿ: ΔUⁿ in the paper's scheme, Dⁿ = 2ΔUⁿ − Dⁿ⁻¹
+        (the midpoint rule for the velocity) in Crank–Nicolson's."""
         self.theta.axpy(1.0, dtheta)
         self.u.copy(self.u_prev)
         self.u.axpy(1.0, du)
-        if du is not self.du:
+        if self.midpoint and self.inertia:
+            self.du.aypx(-1.0, du)
+            self.du.axpy(1.0, du)
+        elif du is not self.du:
             du.copy(self.du)
 
-    def contact_force(self, u_last: float) -> float:
-        """p = (1/ε)[U(1) − g]_+ of the elastic obstacle."""
-        return max(u_last - self.gap, 0.0) / self.epsilon
+    def contact_force(self, y: float, c: float) -> float:
+        """The elastic obstacle's force for Uⁿ(1) = y and Uⁿ⁻¹(1) = c (:mod:`rodfem.contact`)."""
+        if self.rule == "gradient":
+            return contact.discrete_gradient(y, c, self.gap, self.epsilon)
+        return contact.penalty_force(y, self.gap, self.epsilon)
 
 
 def make_scheme(disc: Discretisation) -> Scheme:

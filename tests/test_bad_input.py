@@ -50,6 +50,13 @@ CASES = [
     (["solver.max_iterations=0"], "solver.max_iterations: must be >= 1"),
     (["output.every=0"], "output.every: must be >= 1"),
     (["model.zeta"], "--set model.zeta: must be section.key=value"),
+    (["time.scheme=bdf2"], 'time.scheme: must be one of "paper" | "crank-nicolson"'),
+    (["time.scheme=crank-nicolson", "model.b=0", "model.zeta=0", "solver.method=direct"],
+     'time.scheme: "crank-nicolson" needs inertia or viscosity'),
+    (["source.heat=exp(-t)*y"], "source.heat: \"exp(-t)*y\" uses unknown name 'y'"),
+    (["initial.u1=t*x"], "initial.u1: \"t*x\" uses unknown name 't'"),
+    (["source.momentum=log(x - t)"], "source.momentum: not finite at x = 0, t = 0"),
+    (["source.mass=1"], "unknown key 'source.mass'"),
 ]
 
 
@@ -102,7 +109,7 @@ def test_unknown_scene(shared_dir, capsys):
     code, err = _run(["run", "paper9", "--out", str(out)], capsys)
     assert code == 2
     if COMM.rank == 0:
-        builtin = "paper1, paper2, paper3, paper4, paper5"
+        builtin = "paper1, paper2, paper3, paper4, paper5, manufactured"
         assert f"not a built-in scene ({builtin}) nor a TOML file" in err
     assert not out.exists()
 

@@ -47,6 +47,20 @@ def test_two_ranks_write_the_serial_history(tmp_path, mass, method, obstacle):
 
 @serial_only
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+@pytest.mark.parametrize("scene, method", [("paper1", "direct"), ("paper5", "newton"),
+                                           ("manufactured", "picard")])
+def test_two_ranks_write_the_serial_crank_nicolson_history(tmp_path, scene, method):
+    """Crank–Nicolson, and the manufactured scene's sources, under mpirun -n 2: the same bits."""
+    args = [scene, "--set", "time.scheme=crank-nicolson", "--set", f"solver.method={method}",
+            "--set", "time.end=2"]
+    serial = rodfem_run(tmp_path, 1, *args)
+    parallel = rodfem_run(tmp_path, 2, *args)
+    assert serial.shape == parallel.shape and serial.shape[0] > 100
+    np.testing.assert_array_equal(parallel, serial)
+
+
+@serial_only
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
 def test_demo_runs_under_mpirun():
     demo = Path(__file__).resolve().parents[1] / "demos" / "demo_paper1.py"
     done = subprocess.run(["mpirun", "-n", "2", sys.executable, str(demo)],
