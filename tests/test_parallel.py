@@ -82,3 +82,16 @@ def test_contact_methods_demo_runs_under_mpirun():
     assert out.count("energy non-increasing: True") == 2  # direct and newton, rank 0 only
     rate = float(out.split("rate for ε <= 1e-5: ")[1].split()[0])
     assert abs(rate - 1.0) < 0.05, out  # ε/(ε + w) → the rate tends to 1 as ε/w → 0
+
+
+@serial_only
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+def test_time_schemes_demo_runs_under_mpirun():
+    demo = Path(__file__).resolve().parents[1] / "demos" / "demo_time_schemes.py"
+    done = subprocess.run(["mpirun", "-n", "2", sys.executable, str(demo)],
+                          env={**MPI_ENV, "CI": "1"}, capture_output=True, text=True, timeout=600,
+                          check=True)
+    out = done.stdout
+    orders = [float(line.split("order ")[1]) for line in out.splitlines() if "; order " in line]
+    assert len(orders) == 2 and orders[1] > orders[0] + 0.8, out  # rank 0 only: paper, then CN
+    assert out.count("energy non-increasing: True") == 2, out
