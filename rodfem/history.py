@@ -84,6 +84,19 @@ class History:
                                    w * s[i] + v * s[j], bulk, state.pressure)
         self._count += 1
 
+    @property
+    def free(self) -> int:
+        """How many rows fit before the block is full."""
+        return len(self._rows) - self._count
+
+    def reserve(self, steps: int) -> np.ndarray:
+        """The next ``steps`` rows, for a compiled loop to fill with what :meth:`record` stores;
+        :meth:`commit` counts them in."""
+        return self._rows[self._count:self._count + steps]
+
+    def commit(self, steps: int) -> None:
+        self._count += steps
+
     def take(self) -> np.ndarray:
         """The rows recorded since the last call, with the columns ``COLUMNS``."""
         rows = self._rows[: self._count].copy()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import os
 import signal
 import sys
 import threading
@@ -81,6 +82,22 @@ def stop_requests(comm: MPI.Comm, every: int = 256):
                 signal.signal(s, handler)
 
 
+STOP_EVERY = 256  # steps between two checks, agreed by all ranks, for a request to stop
+
+
+def compiled_loop(scheme, history):
+    """The compiled time loop of the direct method (:mod:`rodfem.kernel`) where it applies and can
+    be built, else None: the same steps in one C call each, to round-off. RODFEM_KERNEL=0 in the
+    environment keeps the PETSc loop."""
+    if scheme.method != "direct" or os.environ.get("RODFEM_KERNEL", "1") == "0":
+        return None
+    if any(f is not None for f in scheme.sources.values()):
+        return None  # the manufactured solution's sources: the PETSc loop
+    from rodfem import kernel
+
+    return kernel.DirectKernel(scheme, history) if kernel.available() else None
+
+
 @dataclasses.dataclass
 class RunResult:
     status: str  # complete | failed | interrupted
@@ -146,15 +163,32 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
         if scheme.n % every == 0 or scheme.n == steps:
             save_fields()
 
+    kernel = compiled_loop(scheme, history)
     setup_seconds = time.perf_counter() - started
     status, error = "complete", None
     loop_started = time.perf_counter()
-    with stop_requests(comm) as stop_requested:
+    with stop_requests(comm, STOP_EVERY) as stop_requested:
         try:
             observe()
-            for n in range(1, steps + 1):
-                scheme.advance()
-                observe()
+            n = 0
+            while n < steps:
+                if kernel is None or scheme.n == 0 and scheme.inertia and not scheme.midpoint:
+                    # the paper's first step (U¹ = U⁰ + Δt P u₁) is the PETSc loop's
+                    scheme.advance()
+                    n += 1
+                    observe()
+                else:
+                    # As many steps as fit before the next saved fields, the end of the history's
+                    # block and the next check for a stop request, in one compiled call.
+                    chunk = min(steps - n, every - n % every, history.free,
+                                STOP_EVERY - n % STOP_EVERY)
+                    kernel.advance(chunk, history.reserve(chunk))
+                    history.commit(chunk)
+                    n += chunk
+                    if history.full:
+                        flush()
+                    if n % every == 0 or n == steps:
+                        save_fields()
                 bar.update(n)
                 if stop_requested(n):
                     status = "interrupted"

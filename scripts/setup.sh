@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 # Every name must exist in both releases (libgl1, say, not bookworm's libgl1-mesa-glx).
 APT_PACKAGES=(
   python3-dolfinx python3-petsc4py python3-mpi4py python3-ufl python3-basix python3-ffcx
-  python3-meshio python3-h5py python3-scipy python3-numpy python3-venv python3-pip
+  python3-meshio python3-h5py python3-scipy python3-numpy python3-venv python3-pip python3-cffi
   openmpi-bin libopenmpi-dev build-essential
   # rodfem plot: pyvista's matplotlib built for Debian's NumPy; VTK's wheel dlopen()s libEGL.so.1
   # at run time (ldd shows no GL library) and Mesa renders off-screen with libgl1-mesa-dri.
