@@ -4,6 +4,8 @@
     rodfem plot DIR [DIR ...] [--out FIGDIR]
     rodfem stability [--out DIR] [--scene S] [--methods M,...] [--dt LIST] [--epsilon LIST]
                      [--zeta LIST] [--a LIST] [--end T] [--force] [--progress]
+    rodfem verify [--out DIR] [--scenes S,...] [--force] [--quick] [--progress]
+    rodfem work-precision [--out DIR] [--force] [--quick] [--progress]
 
 Exit codes: 0 complete, 2 bad input (nothing written), 3 the method did not converge at a step
 (results so far kept), 130 interrupted.
@@ -104,6 +106,35 @@ def _parser() -> argparse.ArgumentParser:
                            help="replace an earlier stability map in --out")
     stability.add_argument("--progress", action="store_true",
                            help="a line per point even when output is not a terminal (mpirun)")
+    verify = sub.add_parser(
+        "verify",
+        help="observed orders of convergence in h and Δt",
+        description="Run ladders of refinements in h and in Δt of paper1, paper5 and a scene "
+        "without contact (and the manufactured solution), for every method and time scheme, "
+        "against finer reference runs, and write orders.csv, orders.md, orders.json, errors.csv "
+        "and figures/orders_<scene>.png (log-log, with slopes 1 and 2). Ladders are dealt "
+        "among MPI ranks, the costliest first.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    work = sub.add_parser(
+        "work-precision",
+        help="accuracy against wall time, per method and time scheme",
+        description="For each (method, time scheme) run a ladder of (cells, Δt) refinements of "
+        "paper1 and paper5, measure the error of u(1, ·) against a fine reference and the wall "
+        "time, and write workprecision.csv, workprecision.json (with the time at which each "
+        "choice reaches an error of 1e-3 on paper5) and figures/workprecision_<scene>.png.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    for command, default in ((verify, "results/verify"), (work, "results/work-precision")):
+        command.add_argument("--out", type=Path, default=Path(default), help="output directory")
+        command.add_argument("--force", action="store_true",
+                             help="replace an earlier result of this command in --out")
+        command.add_argument("--quick", action="store_true",
+                             help="small ladders, the direct method only (seconds)")
+        command.add_argument("--progress", action="store_true",
+                             help="a line per ladder even when output is not a terminal")
+    verify.add_argument("--scenes", help="scenes to verify (default: paper1, paper5, no-contact "
+                        "and, where rodfem.manufactured exists, manufactured)")
     return parser
 
 
@@ -254,6 +285,49 @@ def stability(args: argparse.Namespace) -> int:
     return 0
 
 
+def verify(args: argparse.Namespace) -> int:
+    """``rodfem verify`` or ``rodfem work-precision`` into args.out, then the figures (rank 0)."""
+    from mpi4py import MPI
+
+    from rodfem.output import OutputError
+
+    comm = MPI.COMM_WORLD
+    if args.command == "verify":
+        from rodfem import verify as task
+        from rodfem.post.verify import plot_orders as draw
+
+        plan = task.QUICK if args.quick else task.DEFAULT
+        try:
+            scenes = task.parse_scenes(args.scenes)
+        except task.VerifyError as err:
+            _say(f"rodfem: error: {err}")
+            return EXIT_INPUT
+
+        def start(out, plan, force, progress, comm):
+            return task.run_verify(out, plan, scenes, force, progress, comm)
+    else:
+        from rodfem import workprecision as task
+        from rodfem.post.verify import plot_work_precision as draw
+
+        plan = task.default_plan(args.quick)
+        start = task.run_work_precision
+    try:
+        data = start(args.out, plan, args.force, args.progress or sys.stderr.isatty(), comm)
+    except OutputError as err:
+        _say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    if data is None:
+        _say(f"rodfem: interrupted; nothing written to {args.out}.")
+        return EXIT_INTERRUPTED
+    written = draw(args.out) if comm.rank == 0 else []
+    for line in task.summary_lines(data, args.out):
+        _say(line, sys.stdout)
+    for path in written:
+        _say(str(path), sys.stdout)
+    comm.barrier()
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
@@ -263,6 +337,8 @@ def main(argv: list[str] | None = None) -> int:
             return paper(args)
         if args.command == "stability":
             return stability(args)
+        if args.command in ("verify", "work-precision"):
+            return verify(args)
         return run(args)
     except SceneError as err:
         _say(f"rodfem: error: {err}")

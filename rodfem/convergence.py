@@ -1,0 +1,235 @@
+"""Errors and observed orders of convergence, in NumPy.
+
+The solutions are P1 functions on uniform meshes of [0, 1]. A coarse run is compared with a finer
+reference run on a nested mesh (its cell count a multiple of the coarse one) and with time steps
+that divide the coarse one:
+
+* in space, at the end time: ‖u_c − u_f‖_{L²(0,1)}, exact for nested P1 (the coarse function,
+  interpolated at the fine nodes, is itself; the difference is P1 on the fine mesh, whose square
+  integrates to h/3 (a² + ab + b²) per cell of end values a, b);
+* in time, u(1, ·) over [0, T]: the largest difference at the coarse run's times, and its discrete
+  L² norm over them, (Σₙ Δtₙ eₙ²)^½, n ≥ 1;
+* the observed order: the least-squares slope of log error against log h (or log Δt).
+
+:func:`run_ladder` runs a ladder of (cells, Δt) refinements of a scene against a reference run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from rodfem.run import RunResult
+    from rodfem.scene import Scene
+
+# The error measures of a ladder point: u(1, ·) over [0, T] (max, L² in time), u and θ at T (L²).
+MEASURES = ("u1_max", "u1_l2", "u_T", "theta_T")
+# A coarse node (time) must lie on a fine one to this fraction of the span: x = i h and t = n Δt
+# are rounded in binary.
+MATCH = 1e-9
+
+
+def l2_difference(x_coarse: np.ndarray, f_coarse: np.ndarray, x_fine: np.ndarray,
+                  f_fine: np.ndarray) -> float:
+    """‖f_c − f_f‖_{L²} of two P1 functions given at the nodes of nested meshes, exactly.
+
+    Args:
+        x_coarse, f_coarse: the coarse mesh's nodes (increasing) and the coarse function's values.
+        x_fine, f_fine: the fine mesh's nodes, which include the coarse ones, and values.
+
+    Raises:
+        ValueError: the meshes are not nested (a coarse node is not a fine node).
+    """
+    x_coarse, x_fine = np.asarray(x_coarse, float), np.asarray(x_fine, float)
+    f_coarse, f_fine = np.asarray(f_coarse, float), np.asarray(f_fine, float)
+    if x_coarse.shape != f_coarse.shape or x_fine.shape != f_fine.shape:
+        raise ValueError("nodes and values differ in length")
+    if np.any(np.diff(x_coarse) <= 0) or np.any(np.diff(x_fine) <= 0):
+        raise ValueError("nodes must be increasing")
+    span = x_fine[-1] - x_fine[0]
+    at = np.clip(np.searchsorted(x_fine, x_coarse), 0, x_fine.size - 1)
+    left = np.clip(at - 1, 0, x_fine.size - 1)
+    nearest = np.where(np.abs(x_fine[left] - x_coarse) < np.abs(x_fine[at] - x_coarse), left, at)
+    if np.any(np.abs(x_fine[nearest] - x_coarse) > MATCH * span):
+        raise ValueError("the meshes are not nested: a coarse node is not a fine node")
+    d = np.interp(x_fine, x_coarse, f_coarse) - f_fine  # P1 interpolation is exact here
+    a, b, h = d[:-1], d[1:], np.diff(x_fine)
+    return math.sqrt(float(np.sum(h / 3.0 * (a * a + a * b + b * b))))
+
+
+def sample_indices(t_coarse: np.ndarray, t_fine: np.ndarray) -> np.ndarray:
+    """The indices of the fine run's times at the coarse run's times.
+
+    Raises:
+        ValueError: a coarse time is not one of the fine run's (Δt_f must divide Δt_c, and the
+            runs must cover the same interval).
+    """
+    t_coarse, t_fine = np.asarray(t_coarse, float), np.asarray(t_fine, float)
+    scale = MATCH * max(1.0, float(np.max(np.abs(t_fine))) if t_fine.size else 1.0)
+    at = np.clip(np.searchsorted(t_fine, t_coarse - scale), 0, max(t_fine.size - 1, 0))
+    if t_fine.size == 0 or np.any(np.abs(t_fine[at] - t_coarse) > scale):
+        bad = t_coarse[np.argmax(np.abs(t_fine[at] - t_coarse))] if t_fine.size else t_coarse[0]
+        raise ValueError(f"the coarse time {bad:g} is not one of the fine run's times: the fine "
+                         "time step must divide the coarse one, over the same interval")
+    return at
+
+
+def time_errors(t_coarse: np.ndarray, y_coarse: np.ndarray, t_fine: np.ndarray,
+                y_fine: np.ndarray) -> tuple[float, float]:
+    """max_n |y_c(tₙ) − y_f(tₙ)| and (Σ_{n≥1} (tₙ − tₙ₋₁) |y_c − y_f|²)^½ over the coarse times.
+
+    Raises:
+        ValueError: the coarse times are not a subset of the fine ones (:func:`sample_indices`).
+    """
+    t_coarse, y_coarse = np.asarray(t_coarse, float), np.asarray(y_coarse, float)
+    e = y_coarse - np.asarray(y_fine, float)[sample_indices(t_coarse, t_fine)]
+    l2 = math.sqrt(float(np.sum(np.diff(t_coarse) * e[1:] ** 2)))
+    return float(np.max(np.abs(e))), l2
+
+
+def rate(steps: Sequence[float], errors: Sequence[float]) -> float:
+    """The observed order: the least-squares slope of log error against log step (h or Δt).
+
+    Points with a non-finite or non-positive error are left out; fewer than two left give nan.
+    """
+    s, e = np.asarray(steps, float), np.asarray(errors, float)
+    keep = np.isfinite(e) & (e > 0) & np.isfinite(s) & (s > 0)
+    if np.count_nonzero(keep) < 2 or np.unique(s[keep]).size < 2:
+        return math.nan
+    return float(np.polyfit(np.log(s[keep]), np.log(e[keep]), 1)[0])
+
+
+def errors_against(run: RunResult, reference: RunResult) -> dict[str, float]:
+    """The four measures (:data:`MEASURES`) of a run against a finer reference run."""
+    u1_max, u1_l2 = time_errors(run.history[:, 0], run.history[:, 1], reference.history[:, 0],
+                                reference.history[:, 1])
+    return {"u1_max": u1_max, "u1_l2": u1_l2,
+            "u_T": l2_difference(run.x, run.u, reference.x, reference.u),
+            # Θ differs from θ by θ_A r, the same function for both runs (equal k)
+            "theta_T": l2_difference(run.x, run.theta, reference.x, reference.theta)}
+
+
+@dataclasses.dataclass
+class Point:
+    """One run of a ladder: its sizes, outcome, errors and cost."""
+
+    cells: int
+    dt: float
+    status: str
+    errors: dict[str, float]
+    seconds: float  # setup + time loop (the best of the repeats)
+    us_per_step: float
+    iterations_mean: float
+    message: str = ""
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def _nan_errors() -> dict[str, float]:
+    return dict.fromkeys(MEASURES, math.nan)
+
+
+def timed_run(scene: Scene, repeats: int = 1, budget: float = 0.0) -> tuple[RunResult, float]:
+    """Run ``scene`` in memory on one rank; the wall time is setup + loop, the best of up to
+    ``repeats`` runs, repeated only while the runs so far took less than ``budget`` seconds."""
+    from mpi4py import MPI
+
+    from rodfem.run import simulate
+
+    best, spent, result = math.inf, 0.0, None
+    for _ in range(max(1, repeats)):
+        result = simulate(scene, None, MPI.COMM_SELF, progress=False)
+        seconds = result.summary["setup_seconds"] + result.summary["loop_seconds"]
+        best, spent = min(best, seconds), spent + seconds
+        if result.status != "complete" or spent >= budget:
+            break
+    return result, best
+
+
+def point(scene: Scene, errors: Callable[[RunResult], dict[str, float]], repeats: int = 1,
+          budget: float = 0.0) -> Point:
+    """One ladder point: run ``scene`` and measure its errors (nan if the run did not complete)."""
+    result, seconds = timed_run(scene, repeats, budget)
+    s = result.summary
+    complete = result.status == "complete"
+    return Point(cells=scene["mesh.cells"], dt=scene["time.dt"], status=result.status,
+                 errors=errors(result) if complete else _nan_errors(), seconds=seconds,
+                 us_per_step=s["us_per_step"], iterations_mean=s["iterations_mean"],
+                 message=" ".join(str(result.error).split()) if result.error else "")
+
+
+def rates(points: Sequence[Point], by: str) -> dict[str, float]:
+    """The observed order of each measure over the completed points, against ``by`` = "h" or
+    "dt"."""
+    done = [p for p in points if p.status == "complete"]
+    steps = [1.0 / p.cells if by == "h" else p.dt for p in done]
+    return {m: rate(steps, [p.errors[m] for p in done]) for m in MEASURES}
+
+
+@dataclasses.dataclass
+class Ladder:
+    """A ladder's runs against its reference, and their observed orders."""
+
+    points: list[Point]
+    reference: RunResult
+    by: str  # "h" or "dt": the step the ladder refines
+
+    @property
+    def rates(self) -> dict[str, float]:
+        return rates(self.points, self.by)
+
+
+def run_ladder(make: Callable[[int, float], Scene], ladder: Sequence[tuple[int, float]],
+               reference: tuple[int, float] | RunResult, by: str, repeats: int = 1,
+               budget: float = 0.0) -> Ladder:
+    """Run a ladder of refinements of a scene against a much finer reference run.
+
+    Args:
+        make: (cells, Δt) → the scene at those sizes (validated; a SceneError propagates).
+        ladder: the (cells, Δt) of each run; every cell count must divide the reference's and
+            every Δt be a multiple of the reference's.
+        reference: the reference's (cells, Δt), run with ``make``, or a reference run already
+            made (to share one among methods).
+        by: "h" or "dt", the step whose order :attr:`Ladder.rates` fits.
+        repeats, budget: timing repeats of each point (:func:`timed_run`).
+
+    Returns:
+        The points in ladder order (errors nan where a run did not complete; the ladder stops at
+        an interrupted run), the reference run and the observed orders.
+
+    Raises:
+        ValueError: a ladder point's mesh or times are not nested in the reference's.
+        RuntimeError: the reference run did not complete.
+    """
+    if not hasattr(reference, "history"):
+        reference, _ = timed_run(make(*reference))
+        if reference.status != "complete":
+            raise RuntimeError(f"the reference run did not complete ({reference.status})")
+    points = []
+    for cells, dt in ladder:
+        points.append(point(make(cells, dt), lambda r: errors_against(r, reference), repeats,
+                            budget))
+        if points[-1].status == "interrupted":  # Ctrl-C: stop the ladder there
+            break
+    return Ladder(points, reference, by)
+
+
+def time_to_reach(seconds: Sequence[float], errors: Sequence[float], target: float) -> float:
+    """The wall time at which a ladder's error first falls to ``target``, interpolating log error
+    linearly in log time between the two points around the first crossing; nan if it never does.
+    A ladder whose first point already reaches it gives that point's time (an upper bound)."""
+    t, e = np.asarray(seconds, float), np.asarray(errors, float)
+    for i in range(t.size):
+        if not (np.isfinite(e[i]) and e[i] <= target):
+            continue
+        if i == 0 or not np.isfinite(e[i - 1]) or e[i - 1] <= target:
+            return float(t[i])
+        s = (math.log(target) - math.log(e[i - 1])) / (math.log(e[i]) - math.log(e[i - 1]))
+        return float(math.exp(math.log(t[i - 1]) + s * (math.log(t[i]) - math.log(t[i - 1]))))
+    return math.nan

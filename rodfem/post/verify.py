@@ -1,0 +1,198 @@
+"""Log–log figures of ``rodfem verify`` and ``rodfem work-precision``, from their JSON files.
+
+``orders_<scene>.png``: a row per error measure, the error against h (left) and against Δt
+(right), a line per (method, time scheme), with reference slopes 1 and 2.
+``workprecision_<scene>.png``: the error of u(1, ·) against the wall time of the run, a line per
+(method, time scheme). Reads the commands' files only; imports nothing from the solver side.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pyvista as pv
+
+from rodfem.post import backend, style
+from rodfem.post.runs import PlotError
+
+# No "|" in a label: VTK's mathtext reads it as a column separator.
+LABELS = {"u1_max": r"$\max_t \vert u(1,t) - u_{ref}(1,t)\vert$",
+          "u1_l2": r"$\Vert u(1,\cdot) - u_{ref}(1,\cdot)\Vert_{L^2(0,T)}$",
+          "u_T": r"$\Vert u(\cdot,T) - u_{ref}(\cdot,T)\Vert_{L^2}$",
+          "theta_T": r"$\Vert\theta(\cdot,T) - \theta_{ref}(\cdot,T)\Vert_{L^2}$"}
+ROWS = ("u1_max", "u_T", "theta_T")
+LINE_STYLES = {"paper": "-", "crank-nicolson": "--"}
+# The methods solve the same scheme, so their lines coincide: their markers differ in shape and
+# size, the largest below, so that all show.
+MARKERS = {"direct": ("o", 15), "newton": ("s", 10), "picard": ("d", 6)}
+PANEL = (640, 470)
+
+
+def read(path: Path) -> dict:
+    """A command's JSON, nulls (non-finite numbers) back to nan."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError, UnicodeDecodeError) as err:
+        raise PlotError(f"cannot read {path}: {err}") from None
+    for p in data.get("points", []):
+        for k, v in p.items():
+            if v is None:
+                p[k] = math.nan
+    return data
+
+
+def _log_axis(axis, lo: float, hi: float) -> None:
+    """A log axis over [lo, hi], ticks at the powers of ten (a log axis takes its tick
+    positions as log10 of the values)."""
+    axis.log_scale = True
+    axis.range = [lo, hi]
+    ticks = 10.0 ** np.arange(np.floor(np.log10(lo)), np.ceil(np.log10(hi)) + 1)
+    ticks = ticks[(ticks >= lo * (1 - 1e-9)) & (ticks <= hi * (1 + 1e-9))]
+    if ticks.size < 4:  # a few decades: ticks at 1, 2, 5 of each
+        ticks = np.array([m * 10.0 ** e for e in range(int(np.floor(np.log10(lo))),
+                                                       int(np.ceil(np.log10(hi))) + 1)
+                          for m in (1, 2, 5)])
+        ticks = ticks[(ticks >= lo) & (ticks <= hi)]
+    axis.tick_locations = np.log10(ticks)
+    axis.tick_labels = [f"{t:.0e}".replace("e-0", "e-").replace("e+00", "").replace("e+0", "e")
+                        for t in ticks]
+
+
+def _range(values: list[float], pad: float) -> tuple[float, float] | None:
+    v = np.array([x for x in values if math.isfinite(x) and x > 0])
+    if v.size == 0:
+        return None
+    return float(v.min()) / pad, float(v.max()) * pad
+
+
+def _choices(points: list[dict]) -> list[tuple[str, str]]:
+    return list(dict.fromkeys((p["method"], p["scheme"]) for p in points))
+
+
+def _series(chart: pv.Chart2D, x: np.ndarray, y: np.ndarray, i: int, method: str,
+            scheme: str, label: str) -> None:
+    keep = np.isfinite(y) & (y > 0)
+    if not keep.any():
+        return
+    chart.line(x[keep], y[keep], color=style.colour(i), width=style.LINE_WIDTH,
+               style=LINE_STYLES.get(scheme, "-."), label=label)
+    marker, size = MARKERS.get(method, ("x", 10))
+    chart.scatter(x[keep], y[keep], color=style.colour(i), size=size, style=marker)
+
+
+def _slopes(chart: pv.Chart2D, x_range: tuple[float, float], anchor: float) -> None:
+    """Reference lines C x^p, p = 1, 2, through (largest x, ``anchor``)."""
+    x = np.array(x_range)
+    for p, dash, colour in ((1, ":", "black"), (2, "-.", "gray")):
+        chart.line(x, anchor * (x / x[1]) ** p, color=colour, width=2.0, style=dash,
+                   label=f"slope {p}")
+
+
+def _panel(points: list[dict], measure: str, refined: str, legend: bool, title: str,
+           exact: bool) -> pv.Chart2D | None:
+    points = [p for p in points if p["refined"] == refined]
+    steps = lambda ps: np.array([1.0 / p["cells"] if refined == "h" else p["dt"]  # noqa: E731
+                                 for p in ps])
+    y_range = _range([p[measure] for p in points], 3.0)
+    if not points or y_range is None:
+        return None
+    x_all = steps(points)
+    x_range = (float(x_all.min()) / 1.3, float(x_all.max()) * 1.3)
+    x_label = "$h$" if refined == "h" else r"$\Delta t$"
+    y_label = LABELS[measure].replace("{ref}", "{exact}") if exact else LABELS[measure]
+    chart = style.chart(title, x_label, y_label)
+    style.use_font(chart.GetTitleProperties())
+    for i, (method, scheme) in enumerate(_choices(points)):
+        mine = [p for p in points if (p["method"], p["scheme"]) == (method, scheme)]
+        _series(chart, steps(mine), np.array([p[measure] for p in mine]), i, method, scheme,
+                f"{method}, {scheme}")
+    coarsest = [p[measure] for p in points if steps([p])[0] == x_all.max()
+                and math.isfinite(p[measure])]
+    if coarsest:
+        _slopes(chart, x_range, 1.5 * max(coarsest))
+    _log_axis(chart.x_axis, *x_range)
+    _log_axis(chart.y_axis, *y_range)
+    chart.legend_visible = legend
+    if legend:
+        chart.GetLegend().SetVerticalAlignment(chart.GetLegend().BOTTOM)
+        chart.GetLegend().SetHorizontalAlignment(chart.GetLegend().RIGHT)
+    return chart
+
+
+def orders_figure(data: dict, scene: str, path: Path) -> Path:
+    """A scene's errors against h and Δt, a row per measure."""
+    points = [p for p in data["points"] if p["scene"] == scene and p["status"] == "complete"]
+    rows = [m for m in ROWS if any(math.isfinite(p[m]) for p in points)]
+    plotter = pv.Plotter(shape=(len(rows), 2), window_size=(2 * PANEL[0], len(rows) * PANEL[1]),
+                         off_screen=True)
+    plan, exact = data["plan"], scene == "manufactured"
+    if exact:
+        fixed = {"h": f"Δt = {plan['mms_h_dt']:g}", "dt": f"{plan['mms_dt_cells']} cells"}
+    else:
+        fixed = {"h": f"Δt = {plan['h_dt']:g}", "dt": f"{plan['dt_cells']} cells"}
+    for i, measure in enumerate(rows):
+        for j, refined in enumerate(("h", "dt")):
+            title = f"{scene}: refining {'h' if refined == 'h' else 'Δt'}, {fixed[refined]}"
+            chart = _panel(points, measure, refined, (i, j) == (0, 0), title, exact)
+            if chart is not None:
+                plotter.subplot(i, j)
+                plotter.add_chart(chart)
+    plotter.screenshot(str(path))
+    plotter.close()
+    return path
+
+
+def work_precision_figure(data: dict, scene: str, path: Path) -> Path:
+    """Error of u(1, ·) (max over [0, T]) against wall time, a line per (method, scheme)."""
+    points = [p for p in data["points"] if p["scene"] == scene and p["status"] == "complete"]
+    x_range = _range([p["seconds"] for p in points], 1.4)
+    y_range = _range([p["u1_max"] for p in points], 2.0)
+    if x_range is None or y_range is None:
+        raise PlotError(f"no completed run of {scene} to draw")
+    target = data.get("target")
+    if target and scene in data.get("target_scenes", []):
+        y_range = (min(y_range[0], target / 2), max(y_range[1], target * 2))
+    chart = style.chart(f"{scene}, T = {data['end']:g}: error of u(1, ·) against wall time",
+                        "wall time of the run (s): set-up + time loop", LABELS["u1_max"])
+    style.use_font(chart.GetTitleProperties())
+    for i, (method, scheme) in enumerate(_choices(points)):
+        mine = [p for p in points if (p["method"], p["scheme"]) == (method, scheme)]
+        _series(chart, np.array([p["seconds"] for p in mine]),
+                np.array([p["u1_max"] for p in mine]), i, method, scheme, f"{method}, {scheme}")
+    if target and scene in data.get("target_scenes", []):
+        chart.line(list(x_range), [target, target], color="black", width=2.0, style=":",
+                   label=f"error {target:g}")
+    _log_axis(chart.x_axis, *x_range)
+    _log_axis(chart.y_axis, *y_range)
+    chart.GetLegend().SetVerticalAlignment(chart.GetLegend().TOP)
+    chart.GetLegend().SetHorizontalAlignment(chart.GetLegend().RIGHT)
+    plotter = pv.Plotter(window_size=(1100, 800), off_screen=True)
+    plotter.add_chart(chart)
+    plotter.screenshot(str(path))
+    plotter.close()
+    return path
+
+
+def _figures(directory: Path, name: str, draw, prefix: str) -> list[Path]:
+    data = read(Path(directory) / name)
+    out = Path(directory) / "figures"
+    try:
+        out.mkdir(exist_ok=True)
+    except OSError as err:
+        raise PlotError(f"cannot create figure directory {out}: {err.strerror}") from None
+    backend.off_screen()
+    scenes = dict.fromkeys(p["scene"] for p in data["points"] if p["status"] == "complete")
+    return [draw(data, s, out / f"{prefix}_{s}.png") for s in scenes]
+
+
+def plot_orders(directory: Path) -> list[Path]:
+    """orders_<scene>.png for every scene in ``directory``/orders.json, into figures/."""
+    return _figures(directory, "orders.json", orders_figure, "orders")
+
+
+def plot_work_precision(directory: Path) -> list[Path]:
+    """workprecision_<scene>.png for every scene in ``directory``/workprecision.json."""
+    return _figures(directory, "workprecision.json", work_precision_figure, "workprecision")

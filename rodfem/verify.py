@@ -1,0 +1,473 @@
+"""The verification harness (``rodfem verify``): observed orders of convergence in h and in Δt.
+
+For each scene (paper1: near-rigid, rough contact; paper5: a soft obstacle, smooth; and paper1
+with the obstacle out of reach), each time scheme and each method, two ladders of runs:
+
+* in h: cells 25 … 400 at a fixed Δt, against a run on 3200 cells at the same Δt;
+* in Δt: Δt = T/25 … T/800 on 250 cells, against a run with Δt = T/25600 on the same cells.
+
+Each reference is solved by the direct method with the ladder's time scheme. Sharing the other
+step with its ladder, it has the same error in that step to first order, so the differences
+measure the refined step's error alone, and the orders are those of the refined step.
+The errors are those of :mod:`rodfem.convergence`: u(1, ·) over [0, T] (max and L² in time), u and
+θ at T (L² in space). With :mod:`rodfem.manufactured` (a scene with a known exact solution), its
+ladders are measured against the exact solution.
+
+Ladders (a scene, a direction, a time scheme: the reference and every method's runs) are dealt
+to the MPI ranks, the costliest first, each run on ``MPI.COMM_SELF``; the records do not depend
+on the number of ranks, except the timings.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import importlib.util
+import math
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from rodfem import convergence as cv
+from rodfem.scene import METHODS, SCHEMA, Scene, SceneError, load
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+# Scene keys → (built-in scene, overrides). T is set by the plan.
+SCENES: dict[str, tuple[str, tuple[str, ...]]] = {
+    "paper1": ("paper1", ()),
+    "paper5": ("paper5", ()),
+    "no-contact": ("paper1", ("obstacle.gap=10",)),
+}
+MANUFACTURED = "manufactured"
+DIRECTIONS = ("h", "dt")
+FILES = ("orders.csv", "orders.md", "orders.json", "errors.csv")
+ERROR_COLUMNS = ("scene", "refined", "method", "scheme", "cells", "dt", "status", *cv.MEASURES,
+                 "seconds", "us_per_step", "iterations_mean", "message")
+ORDER_COLUMNS = ("scene", "refined", "method", "scheme", "points",
+                 *(f"rate_{m}" for m in cv.MEASURES), *(f"finest_{m}" for m in cv.MEASURES))
+
+
+def schemes() -> tuple[str, ...]:
+    """The time schemes this rodfem has ("paper" always)."""
+    spec = SCHEMA["time"].get("scheme")
+    return tuple(spec.choices) if spec is not None else ("paper",)
+
+
+def manufactured():
+    """:mod:`rodfem.manufactured`, or None where it does not exist."""
+    if importlib.util.find_spec("rodfem.manufactured") is None:
+        return None
+    import rodfem.manufactured
+
+    return rodfem.manufactured
+
+
+def scheme_overrides(scheme: str) -> list[str]:
+    return [f"time.scheme={scheme}"] if "scheme" in SCHEMA["time"] else []
+
+
+def scene_at(key: str, cells: int, dt: float, end: float, method: str, scheme: str) -> Scene:
+    """One of :data:`SCENES` at the given sizes, method and time scheme (validated)."""
+    base, extra = SCENES[key]
+    return load(base, [*extra, f"mesh.cells={cells}", f"time.dt={dt!r}", f"time.end={end!r}",
+                       f"solver.method={method}", *scheme_overrides(scheme)])
+
+
+@dataclasses.dataclass(frozen=True)
+class Plan:
+    """The ladders: sizes of every run and of the references."""
+
+    end: float
+    h_cells: tuple[int, ...]  # the h ladder, at Δt = h_dt
+    h_dt: float
+    h_reference: int  # its reference's cells, at the same Δt
+    dt_cells: int  # the Δt ladder's cells
+    dt_steps: tuple[int, ...]  # its steps N (Δt = T/N)
+    dt_reference: int  # its reference's steps, on the same cells
+    methods: tuple[str, ...]
+    # the manufactured solution's ladders, against its exact solution
+    mms_end: float
+    mms_h_cells: tuple[int, ...]
+    mms_h_dt: float
+    mms_dt_cells: int
+    mms_dt_steps: tuple[int, ...]
+
+    def ladder(self, direction: str, manufactured: bool = False) -> list[tuple[int, float]]:
+        if manufactured:
+            if direction == "h":
+                return [(c, self.mms_h_dt) for c in self.mms_h_cells]
+            return [(self.mms_dt_cells, self.mms_end / n) for n in self.mms_dt_steps]
+        if direction == "h":
+            return [(c, self.h_dt) for c in self.h_cells]
+        return [(self.dt_cells, self.end / n) for n in self.dt_steps]
+
+    def reference(self, direction: str) -> tuple[int, float]:
+        if direction == "h":
+            return self.h_reference, self.h_dt
+        return self.dt_cells, self.end / self.dt_reference
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+# T = 1 covers the first contact of paper1 and paper5 (t ≈ 0.19) and the first separation. The
+# manufactured solution: h ladder at Δt = T/5000 (the paper's time error stays below a tenth of
+# the spatial one up to 64 cells), Δt ladder on 4096 cells (the spatial error below a tenth of
+# Crank–Nicolson's time error down to Δt = T/80).
+DEFAULT = Plan(end=1.0, h_cells=(25, 50, 100, 200, 400), h_dt=1e-4, h_reference=3200,
+               dt_cells=250, dt_steps=(25, 50, 100, 200, 400, 800), dt_reference=25600,
+               methods=METHODS, mms_end=0.5, mms_h_cells=(8, 16, 32, 64), mms_h_dt=1e-4,
+               mms_dt_cells=4096, mms_dt_steps=(10, 20, 40, 80))
+# Seconds: the direct method only, three runs per ladder. At these sizes the paper scheme's
+# errors on the scene without contact already fall at order 1 in Δt to within 0.05.
+QUICK = Plan(end=1.0, h_cells=(8, 16, 32), h_dt=1e-3, h_reference=256, dt_cells=16,
+             dt_steps=(25, 50, 100), dt_reference=3200, methods=("direct",), mms_end=0.5,
+             mms_h_cells=(8, 16, 32), mms_h_dt=1e-3, mms_dt_cells=1024, mms_dt_steps=(10, 20, 40))
+
+
+class VerifyError(ValueError):
+    """A bad option of ``rodfem verify`` (one line, naming the option)."""
+
+
+def available_scenes() -> tuple[str, ...]:
+    return (*SCENES, *([MANUFACTURED] if manufactured() is not None else []))
+
+
+def parse_scenes(text: str | None) -> tuple[str, ...]:
+    """``"paper1,no-contact"`` → the scenes, in their standard order; None gives all."""
+    allowed = available_scenes()
+    if text is None:
+        return allowed
+    names = [item.strip() for item in text.split(",")]
+    for name in names:
+        if name not in allowed:
+            raise VerifyError(f"--scenes: unknown scene {name!r}; allowed: {', '.join(allowed)}")
+    return tuple(s for s in allowed if s in names)
+
+
+@dataclasses.dataclass(frozen=True)
+class Group:
+    """A ladder of one scene in one direction with one time scheme, for every method."""
+
+    scene: str
+    refined: str
+    scheme: str
+
+
+def groups(scenes: tuple[str, ...]) -> list[Group]:
+    return [Group(k, d, s) for k in scenes for s in schemes() for d in DIRECTIONS]
+
+
+def deal(costs: list[float], ranks: int) -> list[list[int]]:
+    """Indices of the tasks for each rank: the costliest first, each to the least loaded rank
+    (ties to the lowest); the same on every rank."""
+    load, share = [0.0] * ranks, [[] for _ in range(ranks)]
+    for i in sorted(range(len(costs)), key=lambda i: (-costs[i], i)):
+        rank = min(range(ranks), key=lambda r: (load[r], r))
+        load[rank] += costs[i]
+        share[rank].append(i)
+    return share
+
+
+def cost(group: Group, plan: Plan) -> float:
+    """The work of a group, in cell-steps: its ladder for each method, and its reference."""
+    ladder = plan.ladder(group.refined, group.scene == MANUFACTURED)
+    end = plan.mms_end if group.scene == MANUFACTURED else plan.end
+    work = len(plan.methods) * sum(c * end / dt for c, dt in ladder)
+    if group.scene != MANUFACTURED:
+        c, dt = plan.reference(group.refined)
+        work += c * end / dt
+    return work
+
+
+def _record(group: Group, method: str, p: cv.Point) -> dict:
+    return {"scene": group.scene, "refined": group.refined, "method": method,
+            "scheme": group.scheme, "cells": p.cells, "dt": p.dt, "status": p.status,
+            **p.errors, "seconds": p.seconds, "us_per_step": p.us_per_step,
+            "iterations_mean": p.iterations_mean, "message": p.message}
+
+
+def _maker(group: Group, plan: Plan, method: str) -> Callable[[int, float], Scene]:
+    if group.scene == MANUFACTURED:
+        mms = manufactured()
+        return lambda c, dt: mms.scene(c, dt, end=plan.mms_end, overrides=[
+            f"solver.method={method}", *scheme_overrides(group.scheme)])
+    return lambda c, dt: scene_at(group.scene, c, dt, plan.end, method, group.scheme)
+
+
+def run_group(group: Group, plan: Plan) -> tuple[list[dict], list[dict], dict]:
+    """The reference (direct) and every method's ladder of one group.
+
+    Returns:
+        The records of the runs, the (method, scheme) choices the scene rejects (with the
+        message), and the reference's sizes and wall time.
+    """
+    records, rejected, reference = [], [], {}
+    ladder = plan.ladder(group.refined, group.scene == MANUFACTURED)
+    if group.scene != MANUFACTURED:
+        cells, dt = plan.reference(group.refined)
+        run, seconds = cv.timed_run(_maker(group, plan, "direct")(cells, dt))
+        if run.status == "interrupted":
+            return [{"status": "interrupted"}], rejected, reference
+        if run.status != "complete":
+            raise RuntimeError(f"{group}: the reference run did not complete: {run.error}")
+        reference = {"cells": cells, "dt": dt, "seconds": seconds}
+    for method in plan.methods:
+        make = _maker(group, plan, method)
+        try:
+            make(*ladder[0])
+        except SceneError as err:
+            rejected.append({"scene": group.scene, "method": method, "scheme": group.scheme,
+                             "message": str(err)})
+            continue
+        if group.scene == MANUFACTURED:
+            points = []
+            for cells, dt in ladder:
+                scene = make(cells, dt)
+                points.append(cv.point(scene, _manufactured_errors(scene)))
+                if points[-1].status == "interrupted":
+                    break
+        else:
+            points = cv.run_ladder(make, ladder, run, group.refined).points
+        records += [_record(group, method, p) for p in points]
+        if any(p.status == "interrupted" for p in points):
+            break
+    return records, rejected, reference
+
+
+def _manufactured_errors(scene: Scene) -> Callable:
+    def errors(result) -> dict[str, float]:
+        e = manufactured().errors(result, scene)
+        return {"u1_max": math.nan, "u1_l2": math.nan, "u_T": e["u"], "theta_T": e["theta"]}
+
+    return errors
+
+
+def orders(records: list[dict]) -> list[dict]:
+    """The observed orders of each (scene, direction, method, scheme), and its finest errors."""
+    keys = list(dict.fromkeys((r["scene"], r["refined"], r["method"], r["scheme"])
+                              for r in records))
+    rows = []
+    for scene, refined, method, scheme in keys:
+        mine = [r for r in records if (r["scene"], r["refined"], r["method"], r["scheme"])
+                == (scene, refined, method, scheme)]
+        done = [r for r in mine if r["status"] == "complete"]
+        steps = [1.0 / r["cells"] if refined == "h" else r["dt"] for r in done]
+        row = {"scene": scene, "refined": refined, "method": method, "scheme": scheme,
+               "points": f"{len(done)}/{len(mine)}"}
+        for m in cv.MEASURES:
+            row[f"rate_{m}"] = cv.rate(steps, [r[m] for r in done])
+            row[f"finest_{m}"] = done[-1][m] if done else math.nan
+        rows.append(row)
+    return rows
+
+
+def method_spread(records: list[dict]) -> dict[str, float]:
+    """For each measure, the largest relative difference of a method's error from the direct
+    method's at the same point: how far the methods' answers differ, seen through the errors."""
+    direct = {(r["scene"], r["refined"], r["scheme"], r["cells"], r["dt"]): r for r in records
+              if r["method"] == "direct" and r["status"] == "complete"}
+    spread = dict.fromkeys(cv.MEASURES, 0.0)
+    for r in records:
+        d = direct.get((r["scene"], r["refined"], r["scheme"], r["cells"], r["dt"]))
+        if d is None or r["status"] != "complete":
+            continue
+        for m in cv.MEASURES:
+            if math.isfinite(d[m]) and d[m] > 0:
+                spread[m] = max(spread[m], abs(r[m] - d[m]) / d[m])
+    return spread
+
+
+def sweep(plan: Plan, scenes: tuple[str, ...], comm: MPI.Comm,
+          report: Callable[[str], None] | None = None
+          ) -> tuple[list[dict], list[dict], dict] | None:
+    """Every group of ``scenes``, dealt round-robin over ``comm``'s ranks; the records on every
+    rank in group order (None on every rank if a run was interrupted)."""
+    todo = groups(scenes)
+    mine, stopped = [], False
+    for index in deal([cost(g, plan) for g in todo], comm.size)[comm.rank]:
+        g = todo[index]
+        started = time.perf_counter()
+        records, rejected, reference = run_group(g, plan)
+        mine.append((index, records, rejected, reference))
+        if any(r["status"] == "interrupted" for r in records):
+            stopped = True
+            break
+        if report is not None:
+            report(f"[{index + 1}/{len(todo)}] {g.scene}, {g.refined} ladder, {g.scheme}: "
+                   f"{len(records)} runs in {time.perf_counter() - started:.1f} s")
+    gathered = comm.allgather((stopped, mine))
+    if any(s for s, _ in gathered):
+        return None
+    parts = sorted((part for _, rank in gathered for part in rank), key=lambda p: p[0])
+    records = [r for _, rs, _, _ in parts for r in rs]
+    rejected = list({(r["scene"], r["method"], r["scheme"]): r
+                     for _, _, rs, _ in parts for r in rs}.values())
+    references = {f"{todo[i].scene}/{todo[i].refined}/{todo[i].scheme}": ref
+                  for i, _, _, ref in parts if ref}
+    return records, rejected, references
+
+
+def _csv_value(value) -> str:
+    if isinstance(value, float):
+        return repr(value) if math.isfinite(value) else ""
+    return str(value)
+
+
+def write_csv(path: Path, columns: tuple[str, ...], rows: list[dict]) -> None:
+    with open(path, "w", encoding="utf-8", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(columns)
+        for row in rows:
+            writer.writerow([_csv_value(row[c]) for c in columns])
+
+
+def _g(value: float, digits: int = 3) -> str:
+    return f"{value:.{digits}g}" if isinstance(value, float) and math.isfinite(value) else "—"
+
+
+LABELS = {"u1_max": "u(1,·) max", "u1_l2": "u(1,·) L²(0,T)", "u_T": "u(·,T) L²",
+          "theta_T": "θ(·,T) L²"}
+
+
+def markdown(data: dict) -> str:
+    """orders.md: per scene, the observed orders of each (method, scheme) in h and Δt, then each
+    ladder's errors."""
+    plan = data["plan"]
+    lines = ["# Observed orders of convergence (`rodfem verify`)", "",
+             f"T = {plan['end']:g}. h ladder: cells {', '.join(map(str, plan['h_cells']))} at "
+             f"Δt = {plan['h_dt']:g}, against {plan['h_reference']} cells at the same Δt. Δt "
+             f"ladder: Δt = T/{', T/'.join(map(str, plan['dt_steps']))} on {plan['dt_cells']} "
+             f"cells, against Δt = T/{plan['dt_reference']} on the same cells. References: "
+             "direct method, the ladder's time scheme. Orders: least-squares slopes of log "
+             "error against log h or log Δt, over the runs that completed.", ""]
+    if data["manufactured"]:
+        lines += [f"Manufactured solution (against its exact solution, T = {plan['mms_end']:g}): "
+                  f"h ladder cells {', '.join(map(str, plan['mms_h_cells']))} at Δt = "
+                  f"{plan['mms_h_dt']:g}; Δt ladder Δt = T/"
+                  f"{', T/'.join(map(str, plan['mms_dt_steps']))} on {plan['mms_dt_cells']} "
+                  "cells.", ""]
+    header = "| method | scheme | " + " | ".join(f"h: {LABELS[m]}" for m in cv.MEASURES) \
+        + " | " + " | ".join(f"Δt: {LABELS[m]}" for m in cv.MEASURES) + " | runs completed |"
+    for scene in dict.fromkeys(r["scene"] for r in data["orders"]):
+        lines += [f"## {scene}", "", "Observed orders:", "", header,
+                  "|---|---|" + "---|" * (2 * len(cv.MEASURES) + 1)]
+        rows = [r for r in data["orders"] if r["scene"] == scene]
+        for method, scheme in dict.fromkeys((r["method"], r["scheme"]) for r in rows):
+            by = {r["refined"]: r for r in rows if (r["method"], r["scheme"]) == (method, scheme)}
+            cells = [_g(by[d][f"rate_{m}"], 3) if d in by else "" for d in DIRECTIONS
+                     for m in cv.MEASURES]
+            runs = ", ".join(f"{by[d]['points']} ({'h' if d == 'h' else 'Δt'})" for d in DIRECTIONS
+                             if d in by)
+            lines.append(f"| {method} | {scheme} | " + " | ".join(cells) + f" | {runs} |")
+        for refined in DIRECTIONS:
+            points = [r for r in data["points"] if r["scene"] == scene and r["refined"] == refined]
+            if not points:
+                continue
+            lines += ["", f"Errors, {'h' if refined == 'h' else 'Δt'} ladder:", "",
+                      "| method | scheme | cells | Δt | status | "
+                      + " | ".join(LABELS[m] for m in cv.MEASURES) + " | seconds |",
+                      "|---|---|---|---|---|" + "---|" * (len(cv.MEASURES) + 1)]
+            for r in points:
+                lines.append(f"| {r['method']} | {r['scheme']} | {r['cells']} | {r['dt']:.4g} | "
+                             f"{r['status']} | " + " | ".join(_g(r[m]) for m in cv.MEASURES)
+                             + f" | {r['seconds']:.3f} |")
+            failed = [r for r in points if r["status"] != "complete"]
+            if failed:
+                lines.append("")
+            lines += [f"- {r['method']}, {r['scheme']}, {r['cells']} cells, Δt = {r['dt']:.4g}: "
+                      f"{r['status']}: {r['message']}" for r in failed]
+        lines.append("")
+    if data["rejected"]:
+        lines += ["Choices the scene rejects:", ""]
+        lines += [f"- {r['method']}, {r['scheme']}: {r['message']}" for r in data["rejected"]]
+        lines.append("")
+    spread = data["method_spread"]
+    lines += ["Largest relative difference of a method's error from the direct method's at the "
+              "same point: " + ", ".join(f"{LABELS[m]} {spread[m]:.2g}" for m in cv.MEASURES)
+              + ".", ""]
+    return "\n".join(lines)
+
+
+def prepare(out: Path, force: bool, comm: MPI.Comm, files: tuple[str, ...] = FILES) -> None:
+    """Create ``out``; with ``force``, replace an earlier result of this command (``files`` and a
+    figures/ of PNGs) but nothing else.
+
+    Raises:
+        OutputError: it exists (without ``force``), or holds something else.
+    """
+    from rodfem.output import OutputError, prepare_directory
+
+    error = None
+    if comm.rank == 0 and force and out.is_dir() and not out.is_symlink():
+        entries = sorted(out.iterdir())
+        ours = [p for p in entries if p.name in files and p.is_file() and not p.is_symlink()]
+        for p in entries:
+            if p in ours:
+                continue
+            if (p.name == "figures" and p.is_dir() and not p.is_symlink()
+                    and all(f.is_file() and not f.is_symlink() and f.suffix == ".png"
+                            for f in p.iterdir())):
+                continue
+            error = (f"{out} is not a rodfem output directory (it holds {p.name}); "
+                     "not replacing it, even with --force")
+            break
+        if error is None:
+            for p in ours:
+                p.unlink()
+    error = comm.bcast(error, root=0)
+    if error:
+        raise OutputError(error)
+    prepare_directory(out, force, comm)
+
+
+def run_verify(out: Path, plan: Plan, scenes: tuple[str, ...], force: bool, progress: bool,
+               comm: MPI.Comm) -> dict | None:
+    """Prepare ``out``, run every ladder, write the tables (rank 0); return the data (None if
+    interrupted: then nothing is written). Raises OutputError (nothing written) on a bad
+    ``out``."""
+    from rodfem.output import write_json, write_text
+    from rodfem.stability import machine
+
+    prepare(out, force, comm)
+
+    def report(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
+    started = time.perf_counter()
+    swept = sweep(plan, scenes, comm, report if progress else None)
+    seconds = max(comm.allgather(time.perf_counter() - started))
+    if swept is None:
+        return None
+    records, rejected, references = swept
+    data = {
+        "plan": plan.as_dict(), "scenes": {k: {"scene": b, "overrides": list(o)}
+                                           for k, (b, o) in SCENES.items() if k in scenes},
+        "schemes": list(schemes()), "methods": list(plan.methods),
+        "manufactured": MANUFACTURED in scenes,
+        "reference_method": "direct", "references": references,
+        "orders": orders(records), "method_spread": method_spread(records),
+        "rejected": rejected, "points": records, "seconds": seconds, "machine": machine(comm),
+    }
+    if comm.rank == 0:
+        write_csv(out / "errors.csv", ERROR_COLUMNS, records)
+        write_csv(out / "orders.csv", ORDER_COLUMNS, data["orders"])
+    write_text(out / "orders.md", markdown(data), comm)
+    write_json(out / "orders.json", data, comm)
+    comm.barrier()
+    return data
+
+
+def summary_lines(data: dict, out: Path) -> list[str]:
+    """What ``rodfem verify`` prints: the observed orders of u(1, ·) max, per scene and choice."""
+    lines = [f"verify: {len(data['points'])} runs in {data['seconds']:.0f} s -> {out}"]
+    for r in data["orders"]:
+        rates = ", ".join(f"{m} {_g(r[f'rate_{m}'], 3)}" for m in cv.MEASURES
+                          if math.isfinite(r[f"rate_{m}"]))
+        lines.append(f"{r['scene']:<12} {'h ' if r['refined'] == 'h' else 'Δt'} "
+                     f"{r['method']:<6} {r['scheme']:<14} orders: {rates}")
+    return lines

@@ -1,0 +1,199 @@
+"""The work–precision chart (``rodfem work-precision``): accuracy against wall time.
+
+For each (method, time scheme), a ladder of (cells, Δt) refinements of paper1 (near-rigid, rough
+contact) and paper5 (a soft obstacle, smooth) to the scenes' own end T = 8, each run timed
+(set-up + time loop, the best of a few repeats for short runs) and measured against one reference
+run, fine in both h and Δt (the direct method, Crank–Nicolson). The first-order scheme refines Δt
+by 8 for each halving of h, the second-order one by 2. On paper5 the wall time at which each
+choice first reaches an error of 1e-3 in u(1, ·) (max over [0, T]) is interpolated log–log
+between its ladder's points, and set against (picard, paper), the paper's own choice.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from rodfem import convergence as cv
+from rodfem.scene import METHODS, SceneError
+from rodfem.verify import ERROR_COLUMNS, deal, prepare, scene_at, schemes, write_csv
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+FILES = ("workprecision.csv", "workprecision.json")
+TARGET, TARGET_SCENE = 1e-3, "paper5"
+PAPER_CHOICE = ("picard", "paper")
+
+
+@dataclasses.dataclass(frozen=True)
+class Plan:
+    """The ladders per time scheme and the reference, as (cells, n) with Δt = 1/n."""
+
+    end: float
+    scenes: tuple[str, ...]
+    ladders: dict[str, tuple[tuple[int, int], ...]]
+    reference: tuple[int, int]
+    reference_scheme: str
+    methods: tuple[str, ...] = METHODS
+    repeats: int = 3  # timing repeats of a run, while they take less than budget seconds
+    budget: float = 1.0
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+# Each rung halves Δt. The paper scheme's error in u(1, ·) is its time error (in verify, its
+# spatial error is 6e-4 at 25 cells and falls as h², its time error 1.3e-3 at Δt = 1/800 and falls
+# as Δt), so it halves h only every third rung, keeping the spatial error below a fifth of the
+# time error at no more cost than it needs; Crank–Nicolson's two errors are of a size and fall
+# alike, so it halves h on every rung.
+FIRST_ORDER = ((25, 50), (25, 100), (25, 200), (50, 400), (50, 800), (50, 1600), (100, 3200),
+               (100, 6400), (200, 12800))
+SECOND_ORDER = ((25, 25), (50, 50), (100, 100), (200, 200), (400, 400), (800, 800))
+
+
+def default_plan(quick: bool = False) -> Plan:
+    """The default ladders to the paper scenes' own end, T = 8 (or, ``quick``, three short runs
+    each, T = 1, the direct method only). The reference is Crank–Nicolson where it exists."""
+    second = "crank-nicolson" if "crank-nicolson" in schemes() else "paper"
+    if quick:
+        ladders = {s: ((8, 10), (16, 40), (32, 160)) if s == "paper"
+                   else ((8, 10), (16, 20), (32, 40)) for s in schemes()}
+        return Plan(end=1.0, scenes=("paper1", "paper5"), ladders=ladders, reference=(128, 640),
+                    reference_scheme=second, methods=("direct",), repeats=1)
+    ladders = {s: FIRST_ORDER if s == "paper" else SECOND_ORDER for s in schemes()}
+    return Plan(end=8.0, scenes=("paper1", "paper5"), ladders=ladders, reference=(3200, 25600),
+                reference_scheme=second)
+
+
+def _reference(scene: str, plan: Plan) -> tuple:
+    """The reference run, its wall time, and its own error estimate: max |u(1, t)| difference
+    from the same run with h and Δt doubled."""
+    cells, n = plan.reference
+    run, seconds = cv.timed_run(scene_at(scene, cells, 1.0 / n, plan.end, "direct",
+                                         plan.reference_scheme))
+    coarser, _ = cv.timed_run(scene_at(scene, cells // 2, 2.0 / n, plan.end, "direct",
+                                       plan.reference_scheme))
+    if run.status != "complete" or coarser.status != "complete":
+        raise RuntimeError(f"the reference run of {scene} did not complete")
+    return run, seconds, cv.errors_against(coarser, run)["u1_max"]
+
+
+def sweep(plan: Plan, comm: MPI.Comm, report=None) -> tuple[list[dict], list[dict], dict] | None:
+    """The references (a scene per rank, then shared), then every (scene, method, scheme) ladder,
+    dealt among the ranks; the records on every rank, or None if a run was interrupted."""
+    references = {}
+    for i in range(comm.rank, len(plan.scenes), comm.size):
+        references[plan.scenes[i]] = _reference(plan.scenes[i], plan)
+    references = {k: v for part in comm.allgather(references) for k, v in part.items()}
+    todo = [(scene, method, scheme) for scene in plan.scenes for scheme in plan.ladders
+            for method in plan.methods]
+    mine, rejected, stopped = [], [], False
+    costs = [sum(c * n for c, n in plan.ladders[scheme]) * (1 if method == "direct" else 3)
+             for _, method, scheme in todo]
+    for index in deal(costs, comm.size)[comm.rank]:
+        scene, method, scheme = todo[index]
+        ladder = plan.ladders[scheme]
+        try:
+            scene_at(scene, ladder[0][0], 1.0 / ladder[0][1], plan.end, method, scheme)
+        except SceneError as err:
+            rejected.append({"scene": scene, "method": method, "scheme": scheme,
+                             "message": str(err)})
+            continue
+        started, reference = time.perf_counter(), references[scene][0]
+        for cells, n in ladder:
+            p = cv.point(scene_at(scene, cells, 1.0 / n, plan.end, method, scheme),
+                         lambda r, ref=reference: cv.errors_against(r, ref), plan.repeats,
+                         plan.budget)
+            mine.append((index, {"scene": scene, "refined": "both", "method": method,
+                                 "scheme": scheme, "cells": p.cells, "dt": p.dt,
+                                 "status": p.status, **p.errors, "seconds": p.seconds,
+                                 "us_per_step": p.us_per_step,
+                                 "iterations_mean": p.iterations_mean, "message": p.message}))
+            stopped = p.status == "interrupted"
+            if stopped:
+                break
+        if stopped:
+            break
+        if report is not None:
+            report(f"[{index + 1}/{len(todo)}] {scene}, {method}, {scheme}: "
+                   f"{len(ladder)} runs in {time.perf_counter() - started:.1f} s")
+    gathered = comm.allgather((stopped, mine, rejected))
+    if any(s for s, _, _ in gathered):
+        return None
+    records = [r for _, r in sorted((pair for _, part, _ in gathered for pair in part),
+                                    key=lambda p: p[0])]
+    rejected = [r for _, _, part in gathered for r in part]
+    info = {s: {"cells": plan.reference[0], "dt": 1.0 / plan.reference[1],
+                "scheme": plan.reference_scheme, "seconds": references[s][1],
+                "u1_max_against_half_resolution": references[s][2]}
+            for s in plan.scenes}
+    return records, rejected, info
+
+
+def reach(records: list[dict], scene: str = TARGET_SCENE, target: float = TARGET) -> dict:
+    """For each (method, scheme) on ``scene``: the wall time at which u(1, ·)'s max error first
+    reaches ``target``; the fastest, and its ratio to the paper's choice (picard, paper)."""
+    times = {}
+    for method, scheme in dict.fromkeys((r["method"], r["scheme"]) for r in records
+                                        if r["scene"] == scene):
+        mine = [r for r in records if (r["scene"], r["method"], r["scheme"])
+                == (scene, method, scheme) and r["status"] == "complete"]
+        times[f"{method}, {scheme}"] = cv.time_to_reach([r["seconds"] for r in mine],
+                                                        [r["u1_max"] for r in mine], target)
+    reached = {k: v for k, v in times.items() if math.isfinite(v)}
+    fastest = min(reached, key=reached.get) if reached else None
+    paper = times.get(", ".join(PAPER_CHOICE), math.nan)
+    ratio = reached[fastest] / paper if fastest and math.isfinite(paper) else math.nan
+    return {"scene": scene, "target": target, "seconds": times, "fastest": fastest,
+            "fastest_seconds": reached.get(fastest, math.nan) if fastest else math.nan,
+            "paper_choice": ", ".join(PAPER_CHOICE), "paper_choice_seconds": paper,
+            "ratio": ratio, "goal": 0.2, "meets_goal": bool(math.isfinite(ratio) and ratio <= 0.2)}
+
+
+def run_work_precision(out: Path, plan: Plan, force: bool, progress: bool, comm: MPI.Comm
+                       ) -> dict | None:
+    """Prepare ``out``, run the ladders, write workprecision.csv/json (rank 0); the data, or None
+    if interrupted (nothing written). Raises OutputError on a bad ``out``."""
+    from rodfem.output import write_json
+    from rodfem.stability import machine
+
+    prepare(out, force, comm, FILES)
+
+    def report(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
+    started = time.perf_counter()
+    swept = sweep(plan, comm, report if progress else None)
+    seconds = max(comm.allgather(time.perf_counter() - started))
+    if swept is None:
+        return None
+    records, rejected, references = swept
+    data = {"end": plan.end, "plan": plan.as_dict(), "reference_method": "direct",
+            "references": references, "target": TARGET, "target_scenes": [TARGET_SCENE],
+            "reach": reach(records) if TARGET_SCENE in plan.scenes else None,
+            "rejected": rejected, "points": records, "seconds": seconds,
+            "machine": machine(comm)}
+    if comm.rank == 0:
+        write_csv(out / FILES[0], ERROR_COLUMNS, records)
+    write_json(out / FILES[1], data, comm)
+    comm.barrier()
+    return data
+
+
+def summary_lines(data: dict, out: Path) -> list[str]:
+    lines = [f"work-precision: {len(data['points'])} runs in {data['seconds']:.0f} s -> {out}"]
+    r = data.get("reach")
+    if r:
+        shown = ", ".join(f"{k} {v:.3g} s" if math.isfinite(v) else f"{k} not reached"
+                          for k, v in r["seconds"].items())
+        lines.append(f"{r['scene']}: time to reach max |u(1,t) error| = {r['target']:g}: {shown}")
+        if r["fastest"]:
+            lines.append(f"fastest: {r['fastest']}, {r['ratio']:.3g} of {r['paper_choice']}'s "
+                         f"time (goal <= {r['goal']:g})")
+    return lines
