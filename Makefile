@@ -26,6 +26,7 @@ clean:
 
 bench: setup
 	$(PY) benchmarks/bench_picard.py
+	$(PY) benchmarks/bench_scaling.py
 
 # The container recipe (containers/Dockerfile, Debian 13) without Docker: a debootstrapped trixie
 # chroot in build/, the Dockerfile's install step, then `make test` and an mpirun paper run there.
