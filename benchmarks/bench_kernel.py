@@ -57,7 +57,7 @@ def kernel_loop(cells: int, end: float, repeats: int) -> dict:
         runs.append(1e6 * (time.perf_counter() - t) / steps)
     return {"us_per_step": min(runs), "us_per_step_runs": runs, "steps": steps,
             "contact_steps": int(np.count_nonzero(rows[:, 6])), "u_1_final": float(rows[-1, 2]),
-            "setup_seconds": setup, "band": k.band, "blocked": k.blocked}
+            "setup_seconds": setup, "band": k.band, "blocked": k.blocked, "classes": k.classes}
 
 
 def c_loop(binary: Path, cells: int, end: float, repeats: int) -> dict:

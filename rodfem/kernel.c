@@ -67,18 +67,23 @@ typedef struct {
     /* the same factors as node-blocked recurrences (no interchanges only; else NULL) */
     const double *fwd;     /* n x (2 kl + 1): l_i, then F_i, rows 0 and 1, kl each */
     const double *bwd;     /* n x (2 ku + 3): d00, d01, d11, then H_i, rows 0 and 1, ku each */
+    /* R and b, and E and 2w, are tables of distinct rows: node i reads row r_class[i] of
+     * r_value and b (nodes whose rows of both are bitwise identical share it), and row
+     * e_class[i] of e_value and two_w */
+    const int *r_class;    /* n */
+    const int *e_class;    /* n */
     /* R by slots: heat rows (component 0), then momentum rows (component 1) */
     int r_slots[2];
     const int *r_offset;   /* r_slots[0] + r_slots[1] */
-    const double *r_value; /* n x (r_slots[0] + r_slots[1]) */
-    const double *b;       /* 2n, interleaved */
+    const double *r_value; /* r classes x (r_slots[0] + r_slots[1]) */
+    const double *b;       /* r classes x 2 (heat, momentum) */
     const double *q;       /* 2n, interleaved: the response to a unit contact force */
     /* E by slots, components 0, 1, 2 of the state */
     int e_ghost;           /* node bandwidth of E */
     int e_slots[3];
     const int *e_offset;
-    const double *e_value; /* n x (e_slots[0] + e_slots[1] + e_slots[2]) */
-    const double *two_w;   /* 3n, interleaved */
+    const double *e_value; /* e classes x (e_slots[0] + e_slots[1] + e_slots[2]) */
+    const double *two_w;   /* e classes x 3 */
     /* the contact */
     double w, gap, epsilon;
     int rule;              /* 0 penalty, 1 discrete gradient, 2 rigid (Signorini) */
@@ -134,15 +139,15 @@ typedef struct {
     int r0, r1, e0, e1, e2;
 } shape;
 
-/* Row r (interleaved) of R s + b. */
-RK_INLINE double rhs_row(const rk_problem *P, const double *sp, int r, const shape S)
+/* Row c of node i (interleaved: 2 i + c) of R s + b; k = r_class[i]. */
+RK_INLINE double rhs_row(const rk_problem *P, const double *sp, int i, int c, int k,
+                         const shape S)
 {
-    const int i = r >> 1, c = r & 1;
     const int first = c ? S.r0 : 0, count = c ? S.r1 : S.r0;
-    const double *v = P->r_value + (size_t)i * (S.r0 + S.r1) + first;
+    const double *v = P->r_value + (size_t)k * (S.r0 + S.r1) + first;
     const int *o = P->r_offset + first;
     const double *base = sp + 3 * (ptrdiff_t)i;
-    double sum = P->b[r];
+    double sum = P->b[2 * (size_t)k + c];
 #pragma GCC unroll 16
     for (int t = 0; t < count; t++)
         sum += v[t] * base[o[t]];
@@ -153,13 +158,14 @@ RK_INLINE double rhs_row(const rk_problem *P, const double *sp, int r, const sha
 RK_INLINE double energy_rows(const rk_problem *P, const double *sp, int m, const shape S)
 {
     const int count[3] = {S.e0, S.e1, S.e2};
-    const double *v = P->e_value + (size_t)m * (S.e0 + S.e1 + S.e2);
+    const int cm = P->e_class[m];
+    const double *v = P->e_value + (size_t)cm * (S.e0 + S.e1 + S.e2);
     const int *o = P->e_offset;
     const double *base = sp + 3 * (ptrdiff_t)m;
     double part[3];
 #pragma GCC unroll 3
     for (int k = 0; k < 3; k++) {
-        double y = P->two_w[3 * (size_t)m + k];
+        double y = P->two_w[3 * (size_t)cm + k];
 #pragma GCC unroll 16
         for (int t = 0; t < count[k]; t++)
             y += v[t] * base[o[t]];
@@ -179,7 +185,7 @@ RK_INLINE void forward(const rk_problem *P, const double *sp, double *z, const s
     for (int j = 0; j < N; j++) {
         const int need = j + reach < N - 1 ? j + reach : N - 1;
         for (; next <= need; next++)
-            z[next] = rhs_row(P, sp, next, S);
+            z[next] = rhs_row(P, sp, next >> 1, next & 1, P->r_class[next >> 1], S);
         double t = z[j];
         if (pivoting) {
             const int l = P->ipiv[j];
@@ -266,7 +272,8 @@ RK_INLINE void forward_blocked(const rk_problem *P, const double *sp, double *z,
     for (int t = 0; t < kl; t++)
         win[t] = 0.0;
     for (int i = 0; i < n; i++) {
-        const double z0 = rhs_row(P, sp, 2 * i, S), z1 = rhs_row(P, sp, 2 * i + 1, S);
+        const int k = P->r_class[i];
+        const double z0 = rhs_row(P, sp, i, 0, k, S), z1 = rhs_row(P, sp, i, 1, k, S);
         const double *f = P->fwd + (size_t)i * (2 * kl + 1);
         double y0 = z0, y1 = z1 - f[0] * z0;
 #pragma GCC unroll 8

@@ -24,8 +24,21 @@ factored here once, by LAPACK's dgbtrf (partial pivoting); kernel.c does dgbtrs'
 The superdiagonals of U that are zero in every column are dropped (without row interchanges U has
 only ku of the kl + ku that dgbtrf reserves for fill), as are the multipliers of L likewise, and
 U's diagonal is kept as reciprocals. R and E are stored per node as dense rows over "slots", the
-offsets into the packed state that some row of that component uses (12 values per node for R,
-5 to 9 for E), without column indices; exact zeros are dropped.
+offsets into the packed state that some row of that component uses (10 to 12 values per node for
+R, 5 to 9 for E), without column indices; exact zeros are dropped.
+
+**What is streamed.** A step is memory-bound from about 10⁵ cells: it reads every node's
+coefficients twice per step. On a uniform mesh most nodes' rows of R and b, and of E and 2w, are
+bit for bit those of other nodes (paper1 at 10⁵ cells: 163 distinct rows of [R | b], 127 of
+[E | 2w]), so each pair is stored as a table of its distinct rows, compared as int64 words, plus
+the row's number per node (``r_class``, ``e_class``; :func:`_classes`): the C loop reads 8 bytes
+per node where it read 21 doubles, and the same numbers, so the results are the same bit for bit
+(``compress=False``, a row per node, is kept for ``tests/test_kernel.py`` to check that). The
+blocked substitution coefficients (fwd, bwd: 16 per node) stay per node: the LU recurrences do
+not settle on a fixed point but wander in their last bits (paper1, 10⁵ cells: 52 535 distinct
+rows of fwd in 10⁵), so no row can be shared. q is read only in contact and z and the state are
+the step's own, so per node and step the loop streams fwd, bwd, the two class numbers, z (written,
+then read), the state (read, then written) and in contact q: about 250 bytes, from about 390.
 
 The arithmetic is the PETSc loop's but for the order of summation and for the factorisation
 (LAPACK's band LU, blocked by nodes, against PETSc's LU in reverse Cuthill–McKee order): from the
@@ -210,6 +223,29 @@ def _blocked(lu: np.ndarray, kl: int, ku: int, kl_kept: int, ku_kept: int, n: in
     return fwd, bwd
 
 
+def _classes(columns: dict[str, np.ndarray], compress: bool = True):
+    """Nodes classed by their coefficient rows: ``columns`` are n-row arrays (a row per node);
+    two nodes share a class if their rows are the same bit for bit in every array (compared as
+    int64 words: -0.0 and 0.0 differ, as they may in a product's sign). Returns the class of
+    each node (n, int) and the arrays reduced to a row per class, in order of first occurrence.
+    ``compress=False``: a class per node, the arrays as they are."""
+    columns = {k: np.ascontiguousarray(v, dtype=float) for k, v in columns.items()}
+    n = next(iter(columns.values())).shape[0]
+    assert all(v.ndim == 2 and v.shape[0] == n for v in columns.values())
+    if not compress:
+        return np.arange(n, dtype=np.intc), columns
+    bits = np.concatenate([v.view(np.int64) for v in columns.values()], axis=1)
+    _, first, inverse = np.unique(bits, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)  # classes numbered by first occurrence
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    cls = np.ascontiguousarray(rank[inverse.reshape(-1)], dtype=np.intc)
+    tables = {k: np.ascontiguousarray(v[first[order]]) for k, v in columns.items()}
+    assert all(np.array_equal(t[cls].view(np.int64), columns[k].view(np.int64))
+               for k, t in tables.items())
+    return cls, tables
+
+
 class DirectKernel:
     """Steps of a :class:`rodfem.direct.DirectScheme` in compiled code (the module's docstring).
 
@@ -217,7 +253,7 @@ class DirectKernel:
     exactly as ``scheme.advance()`` from any n ≥ 1 (n ≥ 0 where the first step is not special:
     Crank–Nicolson, or no inertia), updating the scheme in place and writing history rows."""
 
-    def __init__(self, scheme, history, blocked: bool = True):
+    def __init__(self, scheme, history, blocked: bool = True, compress: bool = True):
         from scipy.linalg import lapack
 
         self._ffi, self._lib = _library()
@@ -261,15 +297,23 @@ class DirectKernel:
         }
         # Without interchanges, the node-blocked substitutions (``blocked=False``: dgbtrs's).
         self.blocked = blocked and not pivoting and max(kl_kept, ku_kept) <= KMAX
-        if self.blocked:
+        if self.blocked:  # per node: these differ in their last bits from node to node
             arrays["fwd"], arrays["bwd"] = _blocked(lu, kl, ku, kl_kept, ku_kept, n)
+        rows_r, rows_e = {}, {}
         # R and E by slots, b, q and 2w interleaved.
-        r_counts, arrays["r_offset"], arrays["r_value"], r_width = _slots(scheme.R, 2, n)
-        e_counts, arrays["e_offset"], arrays["e_value"], e_width = _slots(history.energy.E, 3, n)
-        arrays["b"] = np.ascontiguousarray(scheme.b.array_r[to_block])
+        r_counts, arrays["r_offset"], rows_r["r_value"], r_width = _slots(scheme.R, 2, n)
+        e_counts, arrays["e_offset"], rows_e["e_value"], e_width = _slots(history.energy.E, 3, n)
+        rows_r["b"] = scheme.b.array_r[to_block].reshape(n, 2)
         arrays["q"] = np.ascontiguousarray(scheme.response.array_r[to_block])
-        arrays["two_w"] = np.ascontiguousarray(
-            history.energy.two_w.array_r.reshape(3, n).T.reshape(-1))
+        rows_e["two_w"] = history.energy.two_w.array_r.reshape(3, n).T
+        # R and b (read by the forward pass), E and 2w (the backward pass): tables of their
+        # distinct rows and each node's row in them (the module's docstring).
+        arrays["r_class"], tables_r = _classes(rows_r, compress)
+        arrays["e_class"], tables_e = _classes(rows_e, compress)
+        arrays.update(tables_r)
+        arrays.update(tables_e)
+        self.compress = compress
+        self.classes = {"r": int(tables_r["b"].shape[0]), "e": int(tables_e["two_w"].shape[0])}
         ghost = max(r_width, e_width)
         arrays["s"] = np.zeros(3 * (n + 2 * ghost))
         arrays["z"] = np.zeros(N)
