@@ -86,16 +86,25 @@ STOP_EVERY = 256  # steps between two checks, agreed by all ranks, for a request
 
 
 def compiled_loop(scheme, history):
-    """The compiled time loop of the direct method (:mod:`rodfem.kernel`) where it applies and can
-    be built, else None: the same steps in one C call each, to round-off. RODFEM_KERNEL=0 in the
-    environment keeps the PETSc loop."""
-    if scheme.method != "direct" or os.environ.get("RODFEM_KERNEL", "1") == "0":
+    """The compiled time loop of the direct method (:mod:`rodfem.kernel`) or of Picard's
+    (:mod:`rodfem.picard_kernel`) where it applies and can be built, else None: the same steps,
+    a block of them per C call, to round-off (Picard: the same iterations). RODFEM_KERNEL=0 in
+    the environment keeps the PETSc loop; so do sources (the manufactured scene), Newton, and
+    Picard with a = 0 or a rigid obstacle."""
+    if os.environ.get("RODFEM_KERNEL", "1") == "0":
         return None
     if any(f is not None for f in scheme.sources.values()):
-        return None  # the manufactured solution's sources: the PETSc loop
-    from rodfem import kernel
+        return None
+    if scheme.method == "direct":
+        from rodfem import kernel
 
-    return kernel.DirectKernel(scheme, history) if kernel.available() else None
+        return kernel.DirectKernel(scheme, history) if kernel.available() else None
+    if scheme.method == "picard" and scheme.coupled and not scheme.rigid:
+        from rodfem import picard_kernel
+
+        return (picard_kernel.PicardKernel(scheme, history) if picard_kernel.available()
+                else None)
+    return None
 
 
 @dataclasses.dataclass
@@ -182,7 +191,11 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
                     # block and the next check for a stop request, in one compiled call.
                     chunk = min(steps - n, every - n % every, history.free,
                                 STOP_EVERY - n % STOP_EVERY)
-                    kernel.advance(chunk, history.reserve(chunk))
+                    try:
+                        kernel.advance(chunk, history.reserve(chunk))
+                    except NotConverged:
+                        history.commit(kernel.done)  # the steps before the one that failed
+                        raise
                     history.commit(chunk)
                     n += chunk
                     if history.full:

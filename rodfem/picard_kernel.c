@@ -1,0 +1,306 @@
+/*
+ * picard_kernel.c -- many steps of rodfem's `picard` method in one call (C99; built by
+ * rodfem/picard_kernel.py, which documents the algebra).
+ *
+ * A step of PicardScheme (rodfem/picard.py) from the state [Theta; D; U] of n nodes (node order,
+ * x = 1 the last node), with every operator tridiagonal in node order:
+ *
+ *     [h; m] = R s + b                         once per step
+ *     T = 0, V = 0                             (the iterates dTheta^{n,l}, dU^{n,l}, l = 0)
+ *     for l = 1, 2, ...:
+ *         p  = contact force of c + V(1), c = U(1)
+ *         T' = A_h^-1 (h + N_du V)
+ *         V' = A_m^-1 (m + N_dth T' - p e)
+ *         change = max(|T' - T|_inf, |V' - V|_inf); T = T', V = V'
+ *         stop if change < tol (converged), non-finite (failed) or l = max_iterations (failed)
+ *     p = contact force of c + V(1); Theta += T, u_prev = U, U += V,
+ *     D = V (Crank-Nicolson with inertia: D = (V - D) + V)
+ *
+ * A_h is factored L U (forward elimination ascending, back substitution descending), A_m U L
+ * (elimination descending, substitution ascending), both normalised so that each recurrence is
+ * one multiplication and one subtraction per node. Then an iteration is two fused sweeps over the
+ * nodes (as benchmarks/picard_loop.c):
+ *
+ *   sweep B (descending): A_h's back substitution gives T'(i); one node behind, the momentum
+ *                         right-hand side of node i + 1 (it needs T' at i .. i + 2) and A_m's
+ *                         elimination;
+ *   sweep A (ascending):  A_m's substitution gives V'(i); one node behind, the heat right-hand
+ *                         side of the next iteration at node i - 1 and A_h's elimination (wasted
+ *                         if this iteration converged).
+ *
+ * The two recurrences of a sweep are independent chains that the CPU overlaps. The mat-vecs sum
+ * in the CSR's column order, as PETSc's MatMultAdd does; the substitutions round differently from
+ * PETSc's LU (normalised factors, U L for A_m).
+ */
+#include <math.h>
+#include <stddef.h>
+
+/* cdef begin: the declarations cffi reads (rodfem/picard_kernel.py) */
+typedef struct {
+    int n;                 /* nodes */
+    int max_iterations;
+    double tol, gap, epsilon;
+    int gradient;          /* 1: the discrete gradient (Crank-Nicolson), 0: the penalty */
+    int midpoint_inertia;  /* D = 2 dU - D (Crank-Nicolson with inertia), else D = dU */
+    /* per node i, rows of 20: the heat row of R (blocks Theta, D, U; each (i-1, i, i+1)),
+     * b_h, then the momentum row of R likewise, b_m */
+    const double *fixed;
+    int blocks[6];         /* which of these six blocks have a non-zero entry */
+    /* per node, rows of 6: A_h's factor (hp, hq, hcp), then N_du's row (i-1, i, i+1) */
+    const double *heat;
+    /* per node, rows of 7: A_m's factor (mp, mq, mcq), then N_dtheta's row, then e(i) */
+    const double *momentum;
+    /* per node, rows of 12: the rows of the blocks M, bM/dt^2, K of E (i-1, i, i+1), then
+     * 2w for Theta, D, U */
+    const double *energy;
+    /* the nodes around x = 0.5 (U(0.5) = half_wi U(half_i) + half_wj U(half_j)) */
+    int half_i, half_j;
+    double half_wi, half_wj;
+    /* 10 (n + 2) doubles of work: Theta, D, U, u_prev, T, V, h, m, gH, gM, each with a zero
+     * ghost entry on either side */
+    double *work;
+} pk_problem;
+
+int pk_factor(int n, const double *lo, const double *diag, const double *up, int ul,
+              double *out, int stride);
+long pk_advance(const pk_problem *P, double *values, double *u_prev, long n0, long steps,
+                double *rows, double *pressure, int *iterations, double *increment);
+/* cdef end */
+
+/* The tridiagonal factor of (lo, diag, up), normalised: ul = 0, L U, eliminating ascending:
+ *   m_i = d_i - lo_i cp_(i-1), p_i = 1/m_i, q_i = lo_i/m_i, cp_i = up_i/m_i;
+ * ul = 1, U L, eliminating descending:
+ *   m_i = d_i - up_i cp_(i+1), p_i = 1/m_i, q_i = up_i/m_i, cp_i = lo_i/m_i.
+ * Written to out[stride i + 0, 1, 2]. Returns 0, or 1 + the node of a zero pivot. */
+int pk_factor(int n, const double *lo, const double *diag, const double *up, int ul,
+              double *out, int stride)
+{
+    double cp = 0.0;
+    for (int k = 0; k < n; k++) {
+        const int i = ul ? n - 1 - k : k;
+        const double towards = ul ? up[i] : lo[i], away = ul ? lo[i] : up[i];
+        const double m = diag[i] - towards * cp;
+        if (m == 0.0 || !isfinite(m))
+            return i + 1;
+        double *o = out + (size_t)stride * i;
+        o[0] = 1.0 / m;
+        o[1] = towards / m;
+        o[2] = away / m;
+        cp = o[2];
+    }
+    return 0;
+}
+
+/* rodfem.contact.penalty_force and discrete_gradient, with Python's max(x, 0.0) (x unless
+ * 0.0 > x: NaN stays NaN). */
+static double pmax0(double x) { return 0.0 > x ? 0.0 : x; }
+
+static double force(const pk_problem *P, double y, double c)
+{
+    const double gap = P->gap, epsilon = P->epsilon;
+    if (!P->gradient)
+        return pmax0(y - gap) / epsilon;
+    const double dy = y - gap, dc = c - gap;
+    if (dy <= 0.0 && dc <= 0.0)
+        return 0.0;
+    if (dy > 0.0 && dc > 0.0)
+        return (dy + dc) / (2.0 * epsilon);
+    if (y == c)
+        return pmax0(dy) / epsilon;
+    const double py = pmax0(dy), pc = pmax0(dc);
+    return (py * py - pc * pc) / (2.0 * epsilon * (y - c));
+}
+
+/* One 3-term row (i-1, i, i+1) added to sum in that order. */
+#define ROW3(sum, a, x, i) \
+    ((((sum) + (a)[0] * (x)[(i) - 1]) + (a)[1] * (x)[i]) + (a)[2] * (x)[(i) + 1])
+
+/* Row i of [h; m] = R s + b (the blocks of R that are not all zero, in CSR column order), and
+ * A_h's elimination of h at node i (the heat rhs of l = 1, where V = 0). */
+static inline void fixed_row(const pk_problem *P, int i, const double *th, const double *D,
+                             const double *U, double *h, double *m, double *gH, double *gh)
+{
+    const double *f = P->fixed + 20 * (size_t)i;
+    const int *blocks = P->blocks;
+    double s = f[9], r = f[19];
+    if (blocks[0])
+        s = ROW3(s, f, th, i);
+    if (blocks[1])
+        s = ROW3(s, f + 3, D, i);
+    if (blocks[2])
+        s = ROW3(s, f + 6, U, i);
+    if (blocks[3])
+        r = ROW3(r, f + 10, th, i);
+    if (blocks[4])
+        r = ROW3(r, f + 13, D, i);
+    if (blocks[5])
+        r = ROW3(r, f + 16, U, i);
+    h[i] = s;
+    m[i] = r;
+    const double *hh = P->heat + 6 * (size_t)i;
+    *gh = s * hh[0] - hh[1] * *gh;
+    gH[i] = *gh;
+}
+
+/* Node i's part of (E s + 2w).s, per block. */
+static inline void energy_row(const pk_problem *P, int i, const double *th, const double *D,
+                              const double *U, double *e)
+{
+    const double *E = P->energy + 12 * (size_t)i;
+    e[0] += ROW3(E[9], E, th, i) * th[i];
+    e[1] += ROW3(E[10], E + 3, D, i) * D[i];
+    e[2] += ROW3(E[11], E + 6, U, i) * U[i];
+}
+
+long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0, long steps,
+                double *rows, double *pressure, int *iterations, double *increment)
+{
+    const int n = P->n, max_it = P->max_iterations;
+    const size_t stride = (size_t)n + 2;
+    double *w = P->work;
+    for (size_t i = 0; i < 10 * stride; i++)
+        w[i] = 0.0;
+    double *restrict th = w + 1, *restrict D = w + stride + 1, *restrict U = w + 2 * stride + 1;
+    double *restrict up = w + 3 * stride + 1, *restrict T = w + 4 * stride + 1;
+    double *restrict V = w + 5 * stride + 1, *restrict h = w + 6 * stride + 1;
+    double *restrict m = w + 7 * stride + 1, *restrict gH = w + 8 * stride + 1;
+    double *restrict gM = w + 9 * stride + 1;
+    for (int i = 0; i < n; i++) {
+        th[i] = values[i];
+        D[i] = values[n + i];
+        U[i] = values[2 * (size_t)n + i];
+        up[i] = u_prev_out[i];
+    }
+    const double tol = P->tol;
+    const double *restrict heat = P->heat, *restrict mom = P->momentum;
+    const int midpoint_inertia = P->midpoint_inertia;
+    long done = 0;
+    int its = *iterations;
+    double p = *pressure, inc = 0.0;
+
+    /* the first step's fixed parts; each accepted step makes the next one's */
+    {
+        double gh = 0.0;
+        for (int i = 0; i < n; i++)
+            fixed_row(P, i, th, D, U, h, m, gH, &gh);
+    }
+    for (long k = 0; k < steps; k++) {
+        const double c = U[n - 1];
+        int l;
+        int failed = 0;
+        for (int i = 0; i < n; i++) {
+            T[i] = 0.0;
+            V[i] = 0.0;
+        }
+        for (l = 1; l <= max_it; l++) {
+            const double q = -force(P, c + V[n - 1], c);
+            double ct, cu, bad, e;
+            /* sweep B, descending: T' by A_h's substitution; momentum rhs and elimination one
+             * node behind (x1 = T'(i + 1), x2 = T'(i + 2)) */
+            double x1 = gH[n - 1], x2 = 0.0, gm = 0.0;
+            e = fabs(x1 - T[n - 1]);
+            ct = e;
+            bad = e;
+            T[n - 1] = x1;
+            for (int i = n - 2; i >= 0; i--) {
+                const double ti = gH[i] - heat[6 * (size_t)i + 2] * x1;
+                e = fabs(ti - T[i]);
+                ct = e > ct ? e : ct;
+                bad += e;
+                T[i] = ti;
+                const double *mm = mom + 7 * (size_t)(i + 1);
+                double r = ((m[i + 1] + mm[3] * ti) + mm[4] * x1) + mm[5] * x2;
+                r += q * mm[6];
+                gm = r * mm[0] - mm[1] * gm;
+                gM[i + 1] = gm;
+                x2 = x1;
+                x1 = ti;
+            }
+            {
+                const double *mm = mom;
+                double r = ((m[0] + mm[3] * 0.0) + mm[4] * x1) + mm[5] * x2;
+                r += q * mm[6];
+                gm = r * mm[0] - mm[1] * gm;
+                gM[0] = gm;
+            }
+            /* sweep A, ascending: V' by A_m's substitution; the next heat rhs and elimination
+             * one node behind (y1 = V'(i - 1), y2 = V'(i - 2)) */
+            double y1 = gM[0] - mom[2] * 0.0, y2 = 0.0, gh = 0.0;
+            e = fabs(y1 - V[0]);
+            cu = e;
+            bad += e;
+            V[0] = y1;
+            for (int i = 1; i < n; i++) {
+                const double di = gM[i] - mom[7 * (size_t)i + 2] * y1;
+                e = fabs(di - V[i]);
+                cu = e > cu ? e : cu;
+                bad += e;
+                V[i] = di;
+                const double *hh = heat + 6 * (size_t)(i - 1);
+                const double r = ((h[i - 1] + hh[3] * y2) + hh[4] * y1) + hh[5] * di;
+                gh = r * hh[0] - hh[1] * gh;
+                gH[i - 1] = gh;
+                y2 = y1;
+                y1 = di;
+            }
+            {
+                const double *hh = heat + 6 * (size_t)(n - 1);
+                const double r = ((h[n - 1] + hh[3] * y2) + hh[4] * y1) + hh[5] * 0.0;
+                gh = r * hh[0] - hh[1] * gh;
+                gH[n - 1] = gh;
+            }
+            if (!isfinite(bad)) { /* inf or nan: stop at once */
+                inc = NAN;
+                failed = 1;
+                break;
+            }
+            inc = cu > ct ? cu : ct;
+            if (inc < tol)
+                break;
+        }
+        if (l > max_it) {
+            l = max_it;
+            failed = 1;
+        }
+        if (failed) {
+            its = l;
+            break;
+        }
+        p = force(P, c + V[n - 1], c);
+        /* accept node i; then, one node behind (they read node i), the energy row of node
+         * i - 1 and the next step's fixed parts there */
+        double energy[3] = {0.0, 0.0, 0.0}, gh = 0.0;
+        for (int i = 0; i < n; i++) {
+            th[i] += T[i];
+            up[i] = U[i];
+            U[i] += V[i];
+            D[i] = midpoint_inertia ? (V[i] - D[i]) + V[i] : V[i];
+            if (i > 0) {
+                energy_row(P, i - 1, th, D, U, energy);
+                fixed_row(P, i - 1, th, D, U, h, m, gH, &gh);
+            }
+        }
+        energy_row(P, n - 1, th, D, U, energy);
+        fixed_row(P, n - 1, th, D, U, h, m, gH, &gh);
+        double *row = rows + 7 * k;
+        row[0] = (double)(n0 + k + 1);
+        row[1] = (double)l;
+        row[2] = U[n - 1];
+        row[3] = D[n - 1];
+        row[4] = P->half_wi * U[P->half_i] + P->half_wj * U[P->half_j];
+        row[5] = 0.5 * ((energy[0] + energy[1]) + energy[2]);
+        row[6] = p;
+        its = l;
+        done = k + 1;
+    }
+    for (int i = 0; i < n; i++) {
+        values[i] = th[i];
+        values[n + i] = D[i];
+        values[2 * (size_t)n + i] = U[i];
+        u_prev_out[i] = up[i];
+    }
+    *pressure = p;
+    *iterations = its;
+    *increment = inc;
+    return done;
+}

@@ -1,0 +1,276 @@
+"""The `picard` method's time loop in compiled code: many steps in one C call.
+
+An iteration of :class:`rodfem.picard.PicardScheme` is two mat-vecs, two triangular solves, two
+norms and a few vector updates: about eight PETSc calls of a microsecond each, which at a few
+hundred cells is nearly all of it. :class:`PicardKernel` reads the operators off a scheme and its
+history once and runs ``steps`` steps of exactly that algebra in ``rodfem/picard_kernel.c``:
+
+    [h; m] = R s + b                  (s = [Θⁿ⁻¹; Dⁿ⁻¹; Uⁿ⁻¹], ``scheme.R``, ``scheme.b``), once
+    ΔΘ⁰ = 0, ΔU⁰ = 0, c = Uⁿ⁻¹(1)
+    for l = 1, 2, …, max_iterations:
+        p   = contact force of c + ΔU^{l−1}(1)  (penalty (1/ε)[y − g]₊, or Crank–Nicolson's
+                                                 discrete gradient from c: ``scheme.rule``)
+        ΔΘˡ = A_h⁻¹ (h + N_ΔU ΔU^{l−1})          (``scheme.heat.A``, ``heat.N["du"]``)
+        ΔUˡ = A_m⁻¹ (m + N_ΔΘ ΔΘˡ − p e)         (``scheme.momentum.A``, ``N["dtheta"]``,
+                                                 ``scheme.contact_load``)
+        change = max(‖ΔΘˡ − ΔΘ^{l−1}‖∞, ‖ΔUˡ − ΔU^{l−1}‖∞); stop if change < tol (``scheme.tol``)
+        non-finite values: stop at once (failed)
+    p = contact force of c + ΔU(1) (``scheme.pressure``)
+    Θⁿ = Θⁿ⁻¹ + ΔΘ, Uⁿ⁻¹ → u_prev, Uⁿ = Uⁿ⁻¹ + ΔU, Dⁿ = ΔU (Crank–Nicolson with inertia:
+    2ΔU − Dⁿ⁻¹, as (ΔU − Dⁿ⁻¹) + ΔU)
+
+and for each new state the 7 numbers :meth:`rodfem.history.History.record` stores (n, the
+iterations, Uⁿ(1), Dⁿ(1), Uⁿ(0.5), the bulk energy ½ (E s + 2w)·s, p).
+
+**Tridiagonal in node order.** Every operator couples only neighbouring nodes (checked at
+construction: anything wider is refused). A_h is factored L U and A_m U L, without pivoting (the
+operators are SPD up to the clamped row x = 0), once, in ``pk_factor``; the factors are
+normalised so that every recurrence is one multiplication and one subtraction per node. With A_m
+eliminated from x = 1 down, an iteration is two fused passes over the nodes (as
+``benchmarks/picard_loop.c``): descending, A_h's back substitution and, one node behind, the
+momentum right-hand side and A_m's elimination; ascending, A_m's substitution and, one node
+behind, the next iteration's heat right-hand side and A_h's elimination. The two recurrences of
+each pass are independent chains that the CPU runs side by side.
+
+**Round-off.** The mat-vecs sum in the CSR's column order, as PETSc's MatMultAdd does; the
+solves round differently from PETSc's LU (normalised factors; U L for A_m), and the energy's dot
+product is summed per block. The difference from PETSc's loop adds up about linearly in the
+steps: on the five paper scenes to t = 2 (2000 steps), both time schemes and both masses, at most
+8.2 eps per step relative to u (``tests/test_picard_kernel.py`` asks 64). Picard stops at
+``tol``: a step whose change lies within round-off of ``tol`` could take one iteration more or
+less in the two; it has not happened on any scene tested.
+
+**What it does not do.** Sources (the manufactured solution), a = 0 (``picard.py`` iterates only
+the contact force there) and the rigid obstacle are refused at construction (ValueError). The
+paper scheme's first step with inertia (n = 0 → 1, :meth:`Scheme._first_step`) is the caller's
+``scheme.advance()``: :meth:`PicardKernel.advance` refuses to start from n = 0 there.
+
+**Failure.** If a step does not converge, :meth:`PicardKernel.advance` leaves the scheme at the
+last step that did (state, ``u_prev``, ``n``, ``pressure``, ``iterations``), with the rows of
+the steps done written to ``rows[:done]``, sets ``kernel.done`` (and ``error.done``) to that
+count, and raises :class:`rodfem.picard.PicardNotConverged` with the step, time, increment and
+iterations that ``PicardScheme._step`` gives. On success ``kernel.done`` = ``steps``.
+
+**Building.** As :mod:`rodfem.kernel` (same cache directory, same flags, same atomic
+``os.replace`` into place, keyed by a hash of the source), under its own module name.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.machinery
+import importlib.util
+import os
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from rodfem.kernel import COMPILE_ARGS, _declarations, cache_directory
+from rodfem.picard import PicardNotConverged
+
+SOURCE = Path(__file__).with_name("picard_kernel.c")
+
+_loaded: list = []  # [(ffi, lib)] once built
+_failure: list[str] = []  # why it could not be built
+
+
+def _build():
+    """Compile SOURCE with cffi into the cache (the lines of rodfem.kernel._build, for another
+    source and module name)."""
+    import cffi
+
+    source = SOURCE.read_text()
+    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
+    key = "\n".join([source, repr(COMPILE_ARGS), cffi.__version__, sys.version, suffix])
+    name = "_rodfem_picard_kernel_" + hashlib.sha256(key.encode()).hexdigest()[:16]
+    for directory in (cache_directory(), Path(tempfile.gettempdir()) / f"rodfem-{os.getuid()}"):
+        target = directory / (name + suffix)
+        if not target.exists():
+            try:
+                directory.mkdir(parents=True, exist_ok=True)
+                work = tempfile.mkdtemp(prefix=name + "-", dir=directory)
+            except OSError:
+                continue
+            try:
+                ffi = cffi.FFI()
+                ffi.cdef(_declarations(source))
+                ffi.set_source(name, source, extra_compile_args=COMPILE_ARGS)
+                built = ffi.compile(tmpdir=work, verbose=False)
+                os.replace(built, target)
+            finally:
+                shutil.rmtree(work, ignore_errors=True)
+        spec = importlib.util.spec_from_file_location(name, target)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module.ffi, module.lib
+    raise OSError(f"no writable directory for the kernel: {cache_directory()}, "
+                  f"{tempfile.gettempdir()}")
+
+
+def _library():
+    if not _loaded and not _failure:
+        try:
+            _loaded.append(_build())
+        except Exception as error:  # no cffi, no compiler, no writable cache: not available
+            _failure.append(f"{type(error).__name__}: {error}")
+    if not _loaded:
+        raise RuntimeError(f"rodfem's compiled Picard kernel is not available ({_failure[0]})")
+    return _loaded[0]
+
+
+def available() -> bool:
+    """Whether the kernel could be compiled and loaded (it is, on first call)."""
+    try:
+        _library()
+    except RuntimeError:
+        return False
+    return True
+
+
+def unavailable_reason() -> str | None:
+    """Why :func:`available` is False (None if it is True or was not asked yet)."""
+    return _failure[0] if _failure else None
+
+
+def _tridiagonal(A, n: int, row_block: int = 0, col_block: int = 0) -> np.ndarray:
+    """The block (row_block, col_block) of n × n of a PETSc AIJ matrix as its three diagonals,
+    an n × 3 array (i − 1, i, i + 1 per row; 0 outside the matrix). ValueError if it couples
+    more than neighbours."""
+    ia, ja, a = A.getValuesCSR()
+    rows = np.repeat(np.arange(len(ia) - 1), np.diff(ia))
+    cols = np.asarray(ja, dtype=np.int64)
+    mine = (rows // n == row_block) & (cols // n == col_block)
+    r, c, v = rows[mine] % n, cols[mine] % n, np.asarray(a, dtype=float)[mine]
+    offset = c - r
+    if np.any(np.abs(offset[v != 0.0]) > 1):
+        raise ValueError("the Picard kernel needs tridiagonal operators in node order")
+    near = np.abs(offset) <= 1
+    out = np.zeros((n, 3))
+    out[r[near], offset[near] + 1] = v[near]
+    return out
+
+
+class PicardKernel:
+    """Steps of a :class:`rodfem.picard.PicardScheme` in compiled code (the module's docstring).
+
+    ``PicardKernel(scheme, history)`` reads the operators once; :meth:`advance` then does steps
+    exactly as ``scheme.advance()`` followed by ``history.record(scheme)``, from any n ≥ 1 (n ≥ 0
+    where the first step is not special: Crank–Nicolson, or no inertia), updating the scheme in
+    place and writing history rows."""
+
+    def __init__(self, scheme, history):
+        if scheme.method != "picard":
+            raise ValueError(f"the Picard kernel runs a PicardScheme, not {scheme.method!r}")
+        if any(f is not None for f in scheme.sources.values()):
+            raise ValueError("the compiled Picard kernel does not do source terms")
+        if not scheme.coupled:
+            raise ValueError("the compiled Picard kernel does not do a = 0 (picard.py's "
+                             "uncoupled iteration)")
+        if scheme.rigid or scheme.rule not in ("penalty", "gradient"):
+            raise ValueError("the compiled Picard kernel does only the elastic obstacle")
+        self._ffi, self._lib = ffi, lib = _library()
+        values = scheme.values
+        n = values.size // 3
+        if scheme.last != n - 1 or history.u_1 != 3 * n - 1 or history.du_1 != 2 * n - 1:
+            raise ValueError("the Picard kernel needs x = 1 at the last node")
+        self.scheme, self.n = scheme, n
+        self._first_step_special = scheme.inertia and not scheme.midpoint
+        self.done = 0
+
+        fixed = np.zeros((n, 20))
+        for c in range(2):
+            for k in range(3):
+                fixed[:, 10 * c + 3 * k:10 * c + 3 * k + 3] = _tridiagonal(scheme.R, n, c, k)
+            fixed[:, 10 * c + 9] = scheme.b.array_r[c * n:(c + 1) * n]
+        heat, momentum = np.zeros((n, 6)), np.zeros((n, 7))
+        for A, out, ul in ((scheme.heat.A, heat, 0), (scheme.momentum.A, momentum, 1)):
+            tri = np.ascontiguousarray(_tridiagonal(A, n).T)
+            info = lib.pk_factor(n, *(ffi.cast("double *", ffi.from_buffer(tri[t]))
+                                      for t in range(3)), ul,
+                                 ffi.cast("double *", ffi.from_buffer(out)), out.shape[1])
+            if info:
+                raise ValueError(f"zero pivot at node {info - 1} factoring without pivoting")
+        heat[:, 3:6] = _tridiagonal(scheme.heat.N["du"], n)
+        momentum[:, 3:6] = _tridiagonal(scheme.momentum.N["dtheta"], n)
+        momentum[:, 6] = scheme.contact_load.array_r
+        energy = np.zeros((n, 12))
+        for k in range(3):
+            energy[:, 3 * k:3 * k + 3] = _tridiagonal(history.energy.E, n, k, k)
+            energy[:, 9 + k] = history.energy.two_w.array_r[k * n:(k + 1) * n]
+        E_csr = history.energy.E.getValuesCSR()
+        E_rows = np.repeat(np.arange(3 * n), np.diff(E_csr[0]))
+        if np.any((E_rows // n != np.asarray(E_csr[1]) // n) & (E_csr[2] != 0.0)):
+            raise ValueError("the Picard kernel needs a block-diagonal energy matrix")
+        self._arrays = {"fixed": fixed, "heat": heat, "momentum": momentum, "energy": energy,
+                        "work": np.zeros(10 * (n + 2))}
+
+        P = ffi.new("pk_problem *")
+        P.n, P.max_iterations = n, int(scheme.max_iterations)
+        P.tol, P.gap, P.epsilon = float(scheme.tol), float(scheme.gap), float(scheme.epsilon)
+        P.gradient = int(scheme.rule == "gradient")
+        P.blocks = [int(np.any(fixed[:, 10 * c + 3 * k:10 * c + 3 * k + 3] != 0.0))
+                    for c in range(2) for k in range(3)]
+        P.midpoint_inertia = int(scheme.midpoint and scheme.inertia)
+        for field, array in self._arrays.items():
+            assert array.flags.c_contiguous and array.dtype == np.float64
+            setattr(P, field, ffi.cast("double *", ffi.from_buffer(array)))
+        i, wi, j, wj = history.half  # indices into the state: U's block
+        if not (2 * n <= min(i, j) and max(i, j) < 3 * n):
+            raise ValueError("the Picard kernel reads U(0.5) off U's block of the state")
+        P.half_i, P.half_j, P.half_wi, P.half_wj = i - 2 * n, j - 2 * n, wi, wj
+        self._problem = P
+        self._pressure = ffi.new("double *")
+        self._iterations = ffi.new("int *")
+        self._increment = ffi.new("double *")
+
+    def advance(self, steps: int, rows: np.ndarray) -> None:
+        """``steps`` steps of the scheme, from its step n to n + steps, in place (its state
+        ``values``, ``u_prev``, ``n``, ``pressure``, ``iterations``); ``rows[k]`` receives
+        History.record's raw row of step n + 1 + k. ``rows``: C-contiguous float64, at least
+        ``steps`` rows of 7 (e.g. ``History.reserve(steps)``).
+
+        Sets ``self.done`` to the steps done. If a step does not converge, the scheme stays at
+        the last step that did, ``rows[:self.done]`` hold their rows (commit those), and
+        PicardNotConverged is raised (with ``done`` set on it too)."""
+        scheme = self.scheme
+        steps = int(steps)
+        self.done = 0
+        if steps < 0:
+            raise ValueError(f"steps = {steps} < 0")
+        if steps == 0:
+            return
+        if scheme.n == 0 and self._first_step_special:
+            raise ValueError("the paper scheme's first step (n = 0 -> 1, with inertia) is "
+                             "Scheme._first_step: take it with scheme.advance()")
+        if not (rows.dtype == np.float64 and rows.ndim == 2 and rows.shape[1] == 7
+                and rows.shape[0] >= steps and rows.flags.c_contiguous and rows.flags.writeable):
+            raise ValueError("rows must be a writable C-contiguous float64 array of shape "
+                             f"(>= {steps}, 7), not {rows.dtype} {rows.shape}")
+        values = scheme.values
+        assert values.flags.c_contiguous and values.size == 3 * self.n
+        u_prev = scheme.u_prev.array
+        ffi = self._ffi
+        self._pressure[0] = scheme.pressure
+        self._iterations[0] = scheme.iterations
+        done = int(self._lib.pk_advance(
+            self._problem, ffi.cast("double *", ffi.from_buffer(values)),
+            ffi.cast("double *", ffi.from_buffer(u_prev)), scheme.n, steps,
+            ffi.cast("double *", ffi.from_buffer(rows)), self._pressure, self._iterations,
+            self._increment))
+        del u_prev
+        for vector in (scheme.state, scheme.theta, scheme.du, scheme.u, scheme.u_prev):
+            vector.stateIncrease()  # written behind PETSc's back: no cached norms
+        self.done = done
+        scheme.n += done
+        scheme.pressure = float(self._pressure[0])
+        if done:
+            scheme.iterations = int(rows[done - 1, 1])
+        if done < steps:
+            step = scheme.n + 1
+            error = PicardNotConverged(step, step * scheme.dt, float(self._increment[0]),
+                                       int(self._iterations[0]))
+            error.done = done
+            raise error

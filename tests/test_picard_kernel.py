@@ -1,0 +1,168 @@
+"""rodfem.picard_kernel: the compiled Picard loop against the PETSc loop.
+
+Two PicardSchemes of the same discretisation take the same steps, one through
+``scheme.advance()`` and ``History.record`` (the PETSc path), one through
+``PicardKernel.advance`` (after the paper scheme's special first step, which is the caller's).
+
+Iterations: the same at every step. Picard stops when the change falls below tol; the two loops
+apply the same map up to round-off, so their changes differ by round-off too, and only a change
+within about 1e-15 relative of tol could stop one of them an iteration earlier: a mismatch would
+be a real difference (or a vanishingly rare coincidence), so it is asked exactly.
+
+Values: the kernel sums the mat-vecs in PETSc's order but solves with other factors (normalised
+L U for A_h, U L for A_m, against PETSc's L U with inverted pivots): an iteration from the same
+iterate differs by a few eps (the operators are well conditioned, diagonally dominant), and over
+a run the difference adds up about linearly in the steps, as in ``tests/test_kernel.py``: we ask
+64 eps per step of the run relative to each column's scale (measured: at most about 7), where
+the columns made of differences of numbers of the size of u, ut_1 = D(1)/Δt and
+σ(1) = −[u(1) − g]₊/ε, are measured against u/Δt and u/ε.
+"""
+
+import numpy as np
+import pytest
+
+import rodfem.scene
+from conftest import COMM
+from rodfem import picard_kernel
+from rodfem.discretisation import Discretisation
+from rodfem.history import History
+from rodfem.picard import PicardNotConverged, PicardScheme
+
+EPS = np.finfo(float).eps
+PER_STEP = 64 * EPS
+CASES = [(name, scheme, mass) for name in rodfem.scene.BUILTIN
+         for scheme in ("paper", "crank-nicolson") for mass in ("lumped", "consistent")]
+
+
+def relative(a: np.ndarray, b: np.ndarray, scale=None) -> np.ndarray:
+    scale = np.max(np.abs(b), axis=0) if scale is None else np.asarray(scale)
+    return np.max(np.abs(a - b), axis=0) / np.where(scale > 0, scale, 1.0)
+
+
+def column_scales(rows: np.ndarray, scheme) -> np.ndarray:
+    u = np.max(np.abs(rows[:, 1]))
+    own = np.max(np.abs(rows), axis=0)
+    return np.array([own[0], u, own[2], max(own[3], u / scheme.dt),
+                     max(own[4], u / scheme.epsilon), own[5], own[6]])
+
+
+def pair(name: str, overrides=()):
+    scene = rodfem.scene.load(name, ["solver.method=picard", *overrides])
+    disc = Discretisation(scene, COMM)
+    petsc, compiled = PicardScheme(disc), PicardScheme(disc)
+    size = scene.steps + 1
+    h_petsc, h_compiled = History(disc, size), History(disc, size)
+    kernel = picard_kernel.PicardKernel(compiled, h_compiled)
+    h_petsc.record(petsc)
+    h_compiled.record(compiled)
+    return scene, petsc, h_petsc, compiled, h_compiled, kernel
+
+
+def test_available():
+    assert picard_kernel.available(), picard_kernel.unavailable_reason()
+
+
+@pytest.mark.parametrize("name,time_scheme,mass", CASES)
+def test_agrees_with_petsc_loop(name, time_scheme, mass):
+    scene, petsc, h_petsc, compiled, h_compiled, kernel = pair(
+        name, ["time.end=2", f"time.scheme={time_scheme}", f"discretisation.mass={mass}"])
+    steps = scene.steps
+    for _ in range(steps):
+        petsc.advance()
+        h_petsc.record(petsc)
+    compiled.advance()  # the first step is the caller's (special in the paper scheme)
+    h_compiled.record(compiled)
+    done, chunks = 1, (7, 500)
+    while done < steps:
+        size = min(chunks[done % 2], steps - done)
+        kernel.advance(size, h_compiled.reserve(size))
+        assert kernel.done == size
+        h_compiled.commit(size)
+        done += size
+    rows, rows_k = h_petsc.take(), h_compiled.take()
+    assert rows_k.shape == rows.shape
+    np.testing.assert_array_equal(rows_k[:, 0], rows[:, 0])  # t
+    np.testing.assert_array_equal(rows_k[:, 6], rows[:, 6])  # iterations, every step
+    np.testing.assert_array_equal(rows_k[:, 4] != 0, rows[:, 4] != 0)  # contact, same steps
+    tol = PER_STEP * steps
+    scales = column_scales(rows, petsc)
+    error = relative(rows_k, rows, scales)
+    assert np.all(error <= tol), f"history columns off by {error} (tol {tol:.1e})"
+    n = petsc.values.size // 3
+    theta, d, u = (slice(b * n, (b + 1) * n) for b in range(3))
+    u_max = np.max(np.abs(petsc.values[u]))
+    assert relative(compiled.values[theta], petsc.values[theta]) <= tol
+    assert relative(compiled.values[u], petsc.values[u]) <= tol
+    assert relative(compiled.values[d], petsc.values[d],
+                    max(u_max, np.max(np.abs(petsc.values[d])))) <= tol
+    assert relative(compiled.u_prev.array, petsc.u_prev.array) <= tol
+    assert compiled.n == petsc.n == steps
+    assert compiled.iterations == petsc.iterations
+    assert abs(compiled.pressure - petsc.pressure) <= tol * scales[4]
+
+
+def test_no_inertia_from_step_zero():
+    """b = 0: step 1 is a step like any other, and the kernel takes it."""
+    scene, petsc, h_petsc, compiled, h_compiled, kernel = pair(
+        "paper1", ["time.end=0.5", "model.b=0"])
+    for _ in range(scene.steps):
+        petsc.advance()
+        h_petsc.record(petsc)
+    kernel.advance(scene.steps, h_compiled.reserve(scene.steps))
+    h_compiled.commit(scene.steps)
+    rows, rows_k = h_petsc.take(), h_compiled.take()
+    np.testing.assert_array_equal(rows_k[:, 6], rows[:, 6])
+    tol = PER_STEP * scene.steps
+    assert np.all(relative(rows_k, rows, column_scales(rows, petsc))[1:3] <= tol)
+
+
+def test_failure_as_petsc_loop():
+    """paper1 with Δt = 0.01, ε = 0.001: Picard cycles at step 19 (t = 0.19); the kernel stops
+    there with the PETSc loop's error, the state of step 18 and its rows."""
+    overrides = ["time.dt=0.01", "obstacle.epsilon=0.001"]
+    scene, petsc, h_petsc, compiled, h_compiled, kernel = pair("paper1", overrides)
+    with pytest.raises(PicardNotConverged) as caught:
+        for _ in range(scene.steps):
+            petsc.advance()
+            h_petsc.record(petsc)
+    expected = caught.value
+    assert (expected.step, expected.iterations) == (19, 100)
+    compiled.advance()
+    h_compiled.record(compiled)
+    with pytest.raises(PicardNotConverged) as caught:
+        kernel.advance(100, h_compiled.reserve(100))
+    error = caught.value
+    assert kernel.done == error.done == 17
+    h_compiled.commit(kernel.done)
+    assert str(error) == str(expected)
+    assert (error.step, error.time, error.iterations) == (19, expected.time, 100)
+    assert error.increment == pytest.approx(expected.increment, rel=1e-9, abs=0)
+    assert f"{error.increment:.3e}" == "8.571e-03"
+    assert compiled.n == petsc.n == 18
+    assert compiled.iterations == petsc.iterations
+    rows, rows_k = h_petsc.take(), h_compiled.take()
+    assert rows_k.shape == rows.shape == (19, 7)
+    np.testing.assert_array_equal(rows_k[:, 6], rows[:, 6])
+    tol = PER_STEP * 18
+    assert np.all(relative(rows_k, rows, column_scales(rows, petsc)) <= tol)
+    assert relative(compiled.values, petsc.values) <= tol
+    assert relative(compiled.u_prev.array, petsc.u_prev.array) <= tol
+
+
+def test_refuses():
+    disc = Discretisation(rodfem.scene.load("paper1", ["solver.method=picard", "model.a=0"]),
+                          COMM)
+    with pytest.raises(ValueError, match="a = 0"):
+        picard_kernel.PicardKernel(PicardScheme(disc), History(disc))
+    disc = Discretisation(rodfem.scene.load("manufactured", ["solver.method=picard"]), COMM)
+    with pytest.raises(ValueError, match="source"):
+        picard_kernel.PicardKernel(PicardScheme(disc), History(disc))
+    disc = Discretisation(rodfem.scene.load("paper1", ["solver.method=picard"]), COMM)
+    scheme, history = PicardScheme(disc), History(disc)
+    scheme.rigid = True  # the scene refuses picard with the rigid obstacle: pretend
+    with pytest.raises(ValueError, match="elastic"):
+        picard_kernel.PicardKernel(scheme, history)
+    scheme.rigid = False
+    kernel = picard_kernel.PicardKernel(scheme, history)
+    with pytest.raises(ValueError, match="first step"):
+        kernel.advance(1, history.reserve(1))
