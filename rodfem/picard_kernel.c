@@ -31,6 +31,11 @@
  * The two recurrences of a sweep are independent chains that the CPU overlaps. The mat-vecs sum
  * in the CSR's column order, as PETSc's MatMultAdd does; the substitutions round differently from
  * PETSc's LU (normalised factors, U L for A_m).
+ *
+ * The rows of R and b, of N_du, N_dtheta and e, and of E and 2w repeat bit for bit between
+ * nodes: each is a table of its distinct rows and a class (row number) per node, so an iteration
+ * streams per node only the factor coefficients a sweep needs (3 doubles each way), a class
+ * number and the vectors.
  */
 #include <math.h>
 #include <stddef.h>
@@ -42,17 +47,23 @@ typedef struct {
     double tol, gap, epsilon;
     int gradient;          /* 1: the discrete gradient (Crank-Nicolson), 0: the penalty */
     int midpoint_inertia;  /* D = 2 dU - D (Crank-Nicolson with inertia), else D = dU */
-    /* per node i, rows of 20: the heat row of R (blocks Theta, D, U; each (i-1, i, i+1)),
-     * b_h, then the momentum row of R likewise, b_m */
+    /* Tables of distinct rows, with each node's row number (its class) in *_class: */
+    /* rows of 20: the heat row of R (blocks Theta, D, U; each (i-1, i, i+1)), b_h, then the
+     * momentum row of R likewise, b_m */
+    const int *fixed_class;
     const double *fixed;
     int blocks[6];         /* which of these six blocks have a non-zero entry */
-    /* per node, rows of 6: A_h's factor (hp, hq, hcp), then N_du's row (i-1, i, i+1) */
-    const double *heat;
-    /* per node, rows of 7: A_m's factor (mp, mq, mcq), then N_dtheta's row, then e(i) */
-    const double *momentum;
-    /* per node, rows of 12: the rows of the blocks M, bM/dt^2, K of E (i-1, i, i+1), then
-     * 2w for Theta, D, U */
+    /* rows of 8: N_du's row (i-1, i, i+1), N_dtheta's row, e(i), 0 */
+    const int *coupling_class;
+    const double *coupling;
+    /* rows of 12: the rows of the blocks M, bM/dt^2, K of E (i-1, i, i+1), then 2w for
+     * Theta, D, U */
+    const int *energy_class;
     const double *energy;
+    /* per node, rows of 3, as the sweeps read them: descending (hcp, mp, mq), ascending
+     * (mcq, hp, hq); A_h's factor is (hp, hq, hcp), A_m's (mp, mq, mcq) */
+    const double *descending;
+    const double *ascending;
     /* the nodes around x = 0.5 (U(0.5) = half_wi U(half_i) + half_wj U(half_j)) */
     int half_i, half_j;
     double half_wi, half_wj;
@@ -120,7 +131,7 @@ static double force(const pk_problem *P, double y, double c)
 static inline void fixed_row(const pk_problem *P, int i, const double *th, const double *D,
                              const double *U, double *h, double *m, double *gH, double *gh)
 {
-    const double *f = P->fixed + 20 * (size_t)i;
+    const double *f = P->fixed + 20 * (size_t)P->fixed_class[i];
     const int *blocks = P->blocks;
     double s = f[9], r = f[19];
     if (blocks[0])
@@ -137,7 +148,7 @@ static inline void fixed_row(const pk_problem *P, int i, const double *th, const
         r = ROW3(r, f + 16, U, i);
     h[i] = s;
     m[i] = r;
-    const double *hh = P->heat + 6 * (size_t)i;
+    const double *hh = P->ascending + 3 * (size_t)i + 1;
     *gh = s * hh[0] - hh[1] * *gh;
     gH[i] = *gh;
 }
@@ -146,7 +157,7 @@ static inline void fixed_row(const pk_problem *P, int i, const double *th, const
 static inline void energy_row(const pk_problem *P, int i, const double *th, const double *D,
                               const double *U, double *e)
 {
-    const double *E = P->energy + 12 * (size_t)i;
+    const double *E = P->energy + 12 * (size_t)P->energy_class[i];
     e[0] += ROW3(E[9], E, th, i) * th[i];
     e[1] += ROW3(E[10], E + 3, D, i) * D[i];
     e[2] += ROW3(E[11], E + 6, U, i) * U[i];
@@ -172,7 +183,9 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
         up[i] = u_prev_out[i];
     }
     const double tol = P->tol;
-    const double *restrict heat = P->heat, *restrict mom = P->momentum;
+    const double *restrict fd = P->descending, *restrict fa = P->ascending;
+    const double *restrict cpl = P->coupling;
+    const int *restrict cc = P->coupling_class;
     const int midpoint_inertia = P->midpoint_inertia;
     long done = 0;
     int its = *iterations;
@@ -203,49 +216,52 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
             bad = e;
             T[n - 1] = x1;
             for (int i = n - 2; i >= 0; i--) {
-                const double ti = gH[i] - heat[6 * (size_t)i + 2] * x1;
+                const double ti = gH[i] - fd[3 * (size_t)i] * x1;
                 e = fabs(ti - T[i]);
                 ct = e > ct ? e : ct;
                 bad += e;
                 T[i] = ti;
-                const double *mm = mom + 7 * (size_t)(i + 1);
-                double r = ((m[i + 1] + mm[3] * ti) + mm[4] * x1) + mm[5] * x2;
-                r += q * mm[6];
+                const double *mm = fd + 3 * (size_t)(i + 1) + 1;
+                const double *nn = cpl + 8 * (size_t)cc[i + 1] + 3;
+                double r = ((m[i + 1] + nn[0] * ti) + nn[1] * x1) + nn[2] * x2;
+                r += q * nn[3];
                 gm = r * mm[0] - mm[1] * gm;
                 gM[i + 1] = gm;
                 x2 = x1;
                 x1 = ti;
             }
             {
-                const double *mm = mom;
-                double r = ((m[0] + mm[3] * 0.0) + mm[4] * x1) + mm[5] * x2;
-                r += q * mm[6];
+                const double *mm = fd + 1, *nn = cpl + 8 * (size_t)cc[0] + 3;
+                double r = ((m[0] + nn[0] * 0.0) + nn[1] * x1) + nn[2] * x2;
+                r += q * nn[3];
                 gm = r * mm[0] - mm[1] * gm;
                 gM[0] = gm;
             }
             /* sweep A, ascending: V' by A_m's substitution; the next heat rhs and elimination
              * one node behind (y1 = V'(i - 1), y2 = V'(i - 2)) */
-            double y1 = gM[0] - mom[2] * 0.0, y2 = 0.0, gh = 0.0;
+            double y1 = gM[0] - fa[0] * 0.0, y2 = 0.0, gh = 0.0;
             e = fabs(y1 - V[0]);
             cu = e;
             bad += e;
             V[0] = y1;
             for (int i = 1; i < n; i++) {
-                const double di = gM[i] - mom[7 * (size_t)i + 2] * y1;
+                const double di = gM[i] - fa[3 * (size_t)i] * y1;
                 e = fabs(di - V[i]);
                 cu = e > cu ? e : cu;
                 bad += e;
                 V[i] = di;
-                const double *hh = heat + 6 * (size_t)(i - 1);
-                const double r = ((h[i - 1] + hh[3] * y2) + hh[4] * y1) + hh[5] * di;
+                const double *hh = fa + 3 * (size_t)(i - 1) + 1;
+                const double *nn = cpl + 8 * (size_t)cc[i - 1];
+                const double r = ((h[i - 1] + nn[0] * y2) + nn[1] * y1) + nn[2] * di;
                 gh = r * hh[0] - hh[1] * gh;
                 gH[i - 1] = gh;
                 y2 = y1;
                 y1 = di;
             }
             {
-                const double *hh = heat + 6 * (size_t)(n - 1);
-                const double r = ((h[n - 1] + hh[3] * y2) + hh[4] * y1) + hh[5] * 0.0;
+                const double *hh = fa + 3 * (size_t)(n - 1) + 1;
+                const double *nn = cpl + 8 * (size_t)cc[n - 1];
+                const double r = ((h[n - 1] + nn[0] * y2) + nn[1] * y1) + nn[2] * 0.0;
                 gh = r * hh[0] - hh[1] * gh;
                 gH[n - 1] = gh;
             }

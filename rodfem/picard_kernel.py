@@ -32,6 +32,22 @@ momentum right-hand side and A_m's elimination; ascending, A_m's substitution an
 behind, the next iteration's heat right-hand side and A_h's elimination. The two recurrences of
 each pass are independent chains that the CPU runs side by side.
 
+**What is streamed.** From about 10⁵ cells an iteration is memory-bound. On a uniform mesh
+most nodes' coefficient rows are bit for bit those of other nodes (paper1 at 10⁵ cells: 163
+distinct rows of [R | b], 13 of [N_ΔU | N_ΔΘ | e], 127 of [E | 2w]), so, as in
+:mod:`rodfem.kernel`, each of [R | b] (``fixed``), [N_ΔU | N_ΔΘ | e] (``coupling``) and
+[E | 2w] (``energy``) is stored as a table of its distinct rows, compared as int64 words,
+plus each node's row number (``*_class``; :func:`rodfem.kernel._classes`): the loop reads the
+same numbers and does the same operations, so the results are the same bit for bit
+(``compress=False``, a class per node, is kept for ``tests/test_picard_kernel.py`` to check
+that). The normalised factors of A_h and A_m do not repeat (their recurrences wander in the last
+bits: about 50 000 and 27 000 distinct rows in 10⁵), so they stay per node, but regrouped as the
+sweeps read them: (cp of A_h, p and q of A_m) descending, (cp of A_m, p and q of A_h) ascending,
+3 doubles each where a sweep read the 13 of both operators' rows. Per node and iteration the two
+sweeps stream about 150 bytes (the factors, a class number, T, V, h, m and the eliminated
+right-hand sides) where they streamed about 300; the step's own pass reads two class numbers
+instead of 32 doubles.
+
 **Round-off.** The mat-vecs sum in the CSR's column order, as PETSc's MatMultAdd does; the
 solves round differently from PETSc's LU (normalised factors; U L for A_m), and the energy's dot
 product is summed per block. The difference from PETSc's loop adds up about linearly in the
@@ -68,7 +84,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rodfem.kernel import COMPILE_ARGS, _declarations, cache_directory
+from rodfem.kernel import COMPILE_ARGS, _classes, _declarations, _private, cache_directory
 from rodfem.picard import PicardNotConverged
 
 SOURCE = Path(__file__).with_name("picard_kernel.c")
@@ -88,9 +104,14 @@ def _build():
     name = "_rodfem_picard_kernel_" + hashlib.sha256(key.encode()).hexdigest()[:16]
     for directory in (cache_directory(), Path(tempfile.gettempdir()) / f"rodfem-{os.getuid()}"):
         target = directory / (name + suffix)
+        try:
+            directory.mkdir(mode=0o700, parents=True, exist_ok=True)
+        except OSError:
+            continue
+        if not _private(directory):  # a module found there is loaded and run: only our own
+            continue
         if not target.exists():
             try:
-                directory.mkdir(parents=True, exist_ok=True)
                 work = tempfile.mkdtemp(prefix=name + "-", dir=directory)
             except OSError:
                 continue
@@ -159,9 +180,11 @@ class PicardKernel:
     ``PicardKernel(scheme, history)`` reads the operators once; :meth:`advance` then does steps
     exactly as ``scheme.advance()`` followed by ``history.record(scheme)``, from any n ≥ 1 (n ≥ 0
     where the first step is not special: Crank–Nicolson, or no inertia), updating the scheme in
-    place and writing history rows."""
+    place and writing history rows. ``compress=False``: a coefficient row per node instead of
+    tables of the distinct rows (the same results bit for bit); ``self.classes`` gives the
+    tables' sizes."""
 
-    def __init__(self, scheme, history):
+    def __init__(self, scheme, history, compress: bool = True):
         if scheme.method != "picard":
             raise ValueError(f"the Picard kernel runs a PicardScheme, not {scheme.method!r}")
         if any(f is not None for f in scheme.sources.values()):
@@ -180,12 +203,12 @@ class PicardKernel:
         self._first_step_special = scheme.inertia and not scheme.midpoint
         self.done = 0
 
-        fixed = np.zeros((n, 20))
+        fixed = np.zeros((n, 20))  # a row per node; tabled by _classes below
         for c in range(2):
             for k in range(3):
                 fixed[:, 10 * c + 3 * k:10 * c + 3 * k + 3] = _tridiagonal(scheme.R, n, c, k)
             fixed[:, 10 * c + 9] = scheme.b.array_r[c * n:(c + 1) * n]
-        heat, momentum = np.zeros((n, 6)), np.zeros((n, 7))
+        heat, momentum = np.zeros((n, 3)), np.zeros((n, 3))  # (p, q, cp) per node
         for A, out, ul in ((scheme.heat.A, heat, 0), (scheme.momentum.A, momentum, 1)):
             tri = np.ascontiguousarray(_tridiagonal(A, n).T)
             info = lib.pk_factor(n, *(ffi.cast("double *", ffi.from_buffer(tri[t]))
@@ -193,9 +216,10 @@ class PicardKernel:
                                  ffi.cast("double *", ffi.from_buffer(out)), out.shape[1])
             if info:
                 raise ValueError(f"zero pivot at node {info - 1} factoring without pivoting")
-        heat[:, 3:6] = _tridiagonal(scheme.heat.N["du"], n)
-        momentum[:, 3:6] = _tridiagonal(scheme.momentum.N["dtheta"], n)
-        momentum[:, 6] = scheme.contact_load.array_r
+        coupling = np.zeros((n, 8))
+        coupling[:, 0:3] = _tridiagonal(scheme.heat.N["du"], n)
+        coupling[:, 3:6] = _tridiagonal(scheme.momentum.N["dtheta"], n)
+        coupling[:, 6] = scheme.contact_load.array_r
         energy = np.zeros((n, 12))
         for k in range(3):
             energy[:, 3 * k:3 * k + 3] = _tridiagonal(history.energy.E, n, k, k)
@@ -204,19 +228,30 @@ class PicardKernel:
         E_rows = np.repeat(np.arange(3 * n), np.diff(E_csr[0]))
         if np.any((E_rows // n != np.asarray(E_csr[1]) // n) & (E_csr[2] != 0.0)):
             raise ValueError("the Picard kernel needs a block-diagonal energy matrix")
-        self._arrays = {"fixed": fixed, "heat": heat, "momentum": momentum, "energy": energy,
-                        "work": np.zeros(10 * (n + 2))}
+        blocks = [int(np.any(fixed[:, 10 * c + 3 * k:10 * c + 3 * k + 3] != 0.0))
+                  for c in range(2) for k in range(3)]
+        self._arrays, self.classes = {}, {}
+        for name, table in (("fixed", fixed), ("coupling", coupling), ("energy", energy)):
+            cls, tables = _classes({name: table}, compress)
+            self._arrays[name + "_class"], self._arrays[name] = cls, tables[name]
+            self.classes[name] = tables[name].shape[0]
+        self._arrays["descending"] = np.ascontiguousarray(
+            np.column_stack([heat[:, 2], momentum[:, 0], momentum[:, 1]]))
+        self._arrays["ascending"] = np.ascontiguousarray(
+            np.column_stack([momentum[:, 2], heat[:, 0], heat[:, 1]]))
+        self._arrays["work"] = np.zeros(10 * (n + 2))
 
         P = ffi.new("pk_problem *")
         P.n, P.max_iterations = n, int(scheme.max_iterations)
         P.tol, P.gap, P.epsilon = float(scheme.tol), float(scheme.gap), float(scheme.epsilon)
         P.gradient = int(scheme.rule == "gradient")
-        P.blocks = [int(np.any(fixed[:, 10 * c + 3 * k:10 * c + 3 * k + 3] != 0.0))
-                    for c in range(2) for k in range(3)]
+        P.blocks = blocks
         P.midpoint_inertia = int(scheme.midpoint and scheme.inertia)
         for field, array in self._arrays.items():
-            assert array.flags.c_contiguous and array.dtype == np.float64
-            setattr(P, field, ffi.cast("double *", ffi.from_buffer(array)))
+            kind = "int" if field.endswith("_class") else "double"
+            assert array.flags.c_contiguous and array.dtype == (np.intc if kind == "int"
+                                                                else np.float64)
+            setattr(P, field, ffi.cast(kind + " *", ffi.from_buffer(array)))
         i, wi, j, wj = history.half  # indices into the state: U's block
         if not (2 * n <= min(i, j) and max(i, j) < 3 * n):
             raise ValueError("the Picard kernel reads U(0.5) off U's block of the state")

@@ -166,3 +166,66 @@ def test_refuses():
     kernel = picard_kernel.PicardKernel(scheme, history)
     with pytest.raises(ValueError, match="first step"):
         kernel.advance(1, history.reserve(1))
+
+
+def run_kernel(name: str, overrides, compress: bool):
+    """The scene's steps through the kernel (after the caller's first step): the history's raw
+    rows, the state, u_prev, n, iterations, pressure, and the error raised (or None)."""
+    scene = rodfem.scene.load(name, ["solver.method=picard", *overrides])
+    disc = Discretisation(scene, COMM)
+    scheme, history = PicardScheme(disc), History(disc, scene.steps + 1)
+    kernel = picard_kernel.PicardKernel(scheme, history, compress=compress)
+    history.record(scheme)
+    scheme.advance()
+    history.record(scheme)
+    error, done = None, 1
+    while done < scene.steps:
+        size = min(7 if done % 2 else 300, scene.steps - done)
+        try:
+            kernel.advance(size, history.reserve(size))
+        except PicardNotConverged as caught:
+            error = caught
+        history.commit(kernel.done)
+        done += kernel.done
+        if error is not None:
+            break
+    return kernel, {"rows": history.take(), "values": scheme.values.copy(),
+                    "u_prev": scheme.u_prev.array.copy(), "n": scheme.n,
+                    "iterations": scheme.iterations, "pressure": scheme.pressure}, error
+
+
+def bits(x) -> np.ndarray:
+    return np.ascontiguousarray(np.asarray(x, dtype=float)).view(np.int64)
+
+
+@pytest.mark.parametrize("name,time_scheme,mass",
+                         [c for c in CASES if c[0] in ("paper1", "paper5")])
+def test_compressed_bitwise_as_uncompressed(name, time_scheme, mass):
+    """The coefficient rows tabled by class (compress=True) give the same numbers, in the same
+    order, as a row per node (compress=False): the same history, iterations, state and pressure
+    bit for bit."""
+    overrides = ["time.end=2", f"time.scheme={time_scheme}", f"discretisation.mass={mass}"]
+    tabled, a, _ = run_kernel(name, overrides, True)
+    per_node, b, _ = run_kernel(name, overrides, False)
+    assert set(per_node.classes.values()) == {per_node.n}
+    assert all(count < per_node.n / 4 for count in tabled.classes.values()), tabled.classes
+    assert a["n"] == b["n"] == round(2 / tabled.scheme.dt)
+    for key in ("rows", "values", "u_prev", "pressure", "iterations"):
+        np.testing.assert_array_equal(bits(a[key]), bits(b[key]), err_msg=key)
+
+
+def test_compressed_failure_bitwise_as_uncompressed():
+    overrides = ["time.dt=0.01", "obstacle.epsilon=0.001"]
+    tabled, a, error_a = run_kernel("paper1", overrides, True)
+    per_node, b, error_b = run_kernel("paper1", overrides, False)
+    assert error_a is not None and error_b is not None
+    assert str(error_a) == str(error_b)
+    # steps 2 .. 8 in a call of 7, then 9 .. 18 done of a call of 300 that fails at step 19
+    assert (error_a.step, error_a.iterations, error_a.done) == (19, 100, 10)
+    assert bits(error_a.increment) == bits(error_b.increment)
+    assert (error_a.step, error_a.time, error_a.iterations, error_a.done) == (
+        error_b.step, error_b.time, error_b.iterations, error_b.done)
+    assert tabled.done == per_node.done == 10
+    assert a["n"] == b["n"] == 18
+    for key in ("rows", "values", "u_prev", "pressure", "iterations"):
+        np.testing.assert_array_equal(bits(a[key]), bits(b[key]), err_msg=key)
