@@ -83,19 +83,28 @@ class Discretisation:
         f.name = name
         return f
 
-    def affine_operator(self, F: ufl.Form, x: fem.Function, y: dict[str, fem.Function]):
+    def affine_operator(self, F: ufl.Form, x: fem.Function, y: dict[str, fem.Function],
+                        loads: tuple[str, ...] = ()):
         """Read A, N_k and b off the residual F(x; y), which must be affine in x and each y_k.
 
-        Every function in F must be zero when this is called, so that F itself is F(0; 0).
+        Every function in F must be zero when this is called, so that F itself is F(0; 0). The
+        y_k named in ``loads`` are data on all of I, not functions of S_E (a source f, whose value
+        at x = 0 counts): their N_k keep the column of x = 0.
         """
         du = ufl.TrialFunction(self.V)
         A = self.matrix(ufl.derivative(F, x, du), diagonal=1.0)
-        N = {name: self.matrix(-ufl.derivative(F, yk, du)) for name, yk in y.items()}
+        N = {name: self.matrix(-ufl.derivative(F, yk, du), rows_only=name in loads)
+             for name, yk in y.items()}
         return AffineOperator(A, N, self.vector(-F))
 
-    def matrix(self, a: ufl.Form, diagonal: float = 0.0) -> PETSc.Mat:
-        """The matrix of a bilinear form on S_E (``diagonal`` in the row of x = 0), node order."""
-        return self.nodes.matrix(compat.assemble_matrix(fem.form(a), self.bcs, diagonal))
+    def matrix(self, a: ufl.Form, diagonal: float = 0.0, rows_only: bool = False) -> PETSc.Mat:
+        """The matrix of a bilinear form on S_E (``diagonal`` in the row of x = 0), node order.
+        With ``rows_only`` the column of x = 0 is kept and only its row is zero."""
+        if not rows_only:
+            return self.nodes.matrix(compat.assemble_matrix(fem.form(a), self.bcs, diagonal))
+        B = self.nodes.matrix(compat.assemble_matrix(fem.form(a), [], 0.0))
+        B.zeroRows(np.flatnonzero(self.nodes.x == 0.0).astype(PETSc.IntType), diag=0.0)
+        return B
 
     def vector(self, L: ufl.Form) -> PETSc.Vec:
         """The vector of a linear form on S_E (0 in the row of x = 0), node order."""

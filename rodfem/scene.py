@@ -246,6 +246,12 @@ def _check_consistency(scene: Scene) -> None:
             "model.zeta > 0): with b = zeta = 0 the momentum equation has no time derivative and "
             'the midpoint rule makes U oscillate from step to step; use "paper"'
         )
+    if scene["time.scheme"] == "crank-nicolson" and scene["obstacle.kind"] == "rigid":
+        raise SceneError(
+            'time.scheme: "crank-nicolson" cannot model obstacle.kind = "rigid": while the rod '
+            "rests on the obstacle its velocity there flips sign every step (the midpoint rule "
+            'with U(1) held at g) and the contact force with it; use "paper"'
+        )
     dt, end = scene["time.dt"], scene["time.end"]
     if dt > end:
         raise SceneError(f"time.dt: must be <= time.end = {end!r}, got {dt!r}")
@@ -274,9 +280,13 @@ def _check_consistency(scene: Scene) -> None:
                 f"initial.{name}: must equal {required:g} at x = 0 (boundary condition), "
                 f"got {values[0]:g}"
             )
+    # Sources are evaluated from the first step's time on (t¹ = Δt, or t^½ for Crank–Nicolson):
+    # checked there and at the end here, at every step as the run goes (a non-finite value stops
+    # the run with exit code 3).
+    first = scene["time.dt"] * (0.5 if scene["time.scheme"] == "crank-nicolson" else 1.0)
     for name in SCHEMA["source"]:
         f = scene.source_term(name)
-        for t in (0.0, scene["time.end"]) if f is not None else ():
+        for t in (first, scene["time.end"]) if f is not None else ():
             values = f(x, {**scene.parameters, "t": t})
             bad = np.flatnonzero(~np.isfinite(values))
             if bad.size:

@@ -82,6 +82,14 @@ class NotConverged(RuntimeError):
             self.method, self.method)
 
 
+class SourceNotFinite(NotConverged):
+    """A source that is not finite at a step's time: the step cannot be taken."""
+
+    def __init__(self, method: str, step: int, time: float, name: str, t: float):
+        super().__init__(method, step, time, f"source.{name} is not finite at t = {t:g}", 0)
+        RuntimeError.__init__(self, f"step {step} (t = {time:g}) cannot be taken: {self.detail}")
+
+
 class Scheme:
     """Θⁿ, Uⁿ of (3.1)–(3.2), from n = 0 on, one step per call of :meth:`advance`.
 
@@ -141,8 +149,8 @@ class Scheme:
             F_heat += copetti.source(heat_y["source"], w, dx)
         if self.sources["momentum"] is not None:
             F_momentum += copetti.source(momentum_y["source"], w, dx)
-        self.heat = disc.affine_operator(F_heat, ΔΘ, heat_y)
-        self.momentum = disc.affine_operator(F_momentum, ΔU, momentum_y)
+        self.heat = disc.affine_operator(F_heat, ΔΘ, heat_y, loads=("source",))
+        self.momentum = disc.affine_operator(F_momentum, ΔU, momentum_y, loads=("source",))
         # The contact term p v(1) for p = 1: the load e of a unit force at x = 1.
         self.contact_load = disc.vector(copetti.contact(1.0, w, ds_1))
         self.last = disc.nodes.size - 1  # the node x = 1
@@ -241,6 +249,9 @@ class Scheme:
         for i, name in enumerate(("heat", "momentum")):
             f = self.sources[name]
             values[i * n:(i + 1) * n] = f(x, parameters) if f is not None else 0.0
+        if not np.isfinite(values).all():
+            name = "heat" if not np.isfinite(values[:n]).all() else "momentum"
+            raise SourceNotFinite(self.method, self.n + 1, (self.n + 1) * self.dt, name, t)
         if rhs is not None:
             self._source_matrix.multAdd(self._source_values, rhs, rhs)
         else:

@@ -53,9 +53,12 @@ CASES = [
     (["time.scheme=bdf2"], 'time.scheme: must be one of "paper" | "crank-nicolson"'),
     (["time.scheme=crank-nicolson", "model.b=0", "model.zeta=0", "solver.method=direct"],
      'time.scheme: "crank-nicolson" needs inertia or viscosity'),
+    (["time.scheme=crank-nicolson", "obstacle.kind=rigid", "solver.method=direct"],
+     'time.scheme: "crank-nicolson" cannot model obstacle.kind = "rigid"'),
     (["source.heat=exp(-t)*y"], "source.heat: \"exp(-t)*y\" uses unknown name 'y'"),
     (["initial.u1=t*x"], "initial.u1: \"t*x\" uses unknown name 't'"),
-    (["source.momentum=log(x - t)"], "source.momentum: not finite at x = 0, t = 0"),
+    (["source.momentum=log(x - t)"], "source.momentum: not finite at x = 0, t = 0.001"),
+    (["source.heat=1/(t - 8)"], "source.heat: not finite at x = 0, t = 8"),
     (["source.mass=1"], "unknown key 'source.mass'"),
 ]
 

@@ -83,3 +83,19 @@ def test_scene_toml_repeats_the_run(simulate, shared_dir):
     assert again.description == 'ζ = 1, ε → 0 😀 "quoted"'
     _, second = simulate(str(first / "scene.toml"))
     assert (first / "history.csv").read_bytes() == (second / "history.csv").read_bytes()
+
+
+def test_source_that_is_not_finite_mid_run_stops_it(shared_dir, capsys):
+    """A source infinite at t = 0.5 only (validation checks the first and last times): the run
+    stops there with exit code 3 and says which source, keeping the steps before."""
+    out = shared_dir / "source"
+    code = main(["run", "manufactured", "--out", str(out), "--set", "source.heat=1/(t - 0.5)",
+                 "--set", "solver.method=direct"])
+    err = capsys.readouterr().err
+    assert code == 3
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed" and summary["steps"] == 49
+    if COMM.rank == 0:
+        assert "source.heat is not finite at t = 0.5" in err and err.count("\n") == 1
+    history = np.loadtxt(out / "history.csv", delimiter=",", skiprows=1)
+    assert history.shape[0] == 50 and np.isfinite(history).all()
