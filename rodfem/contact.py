@@ -77,10 +77,10 @@ def solve(s: float, w: float, gap: float, epsilon: float, rule: str, c: float = 
         two_eps = 2.0 * epsilon
         d = _positive_root(two_eps + w, -two_eps * (e + sigma), two_eps * sigma * e)
         return d * d / (2.0 * epsilon * (d - e))
-    # The rod was in contact. If it stays (y > g): p = (y − g + e)/(2ε), linear in y.
+    # The rod was in contact. If it stays (y > g): p = (y − g + e)/(2ε), linear in y, and with
+    # y = s − w p that is p = (σ + e)/(2ε + w), free of cancellation.
     if sigma > w * e / (2.0 * epsilon):  # s > g + w p(g), p(g) = e/(2ε)
-        y = (2.0 * epsilon * s - w * (e - gap)) / (2.0 * epsilon + w)
-        return (y - gap + e) / (2.0 * epsilon)
+        return (sigma + e) / (2.0 * epsilon + w)
     # It leaves (y = g − q, q ≥ 0): p = e²/(2ε(e + q)) and −q + w p = σ, i.e.
     # 2ε q² + 2ε(e + σ) q + (2εσe − w e²) = 0.
     two_eps = 2.0 * epsilon

@@ -123,8 +123,7 @@ static double contact_solve(double s, double w, double gap, double epsilon, int 
         return d * d / (2.0 * epsilon * (d - e));
     }
     if (sigma > w * e / (2.0 * epsilon)) {
-        double y = (2.0 * epsilon * s - w * (e - gap)) / (2.0 * epsilon + w);
-        return (y - gap + e) / (2.0 * epsilon);
+        return (sigma + e) / (two_eps + w);  /* p = (y - g + e)/(2 eps), y + w p = s */
     }
     double q = positive_root(two_eps, two_eps * (e + sigma), e * (two_eps * sigma - w * e));
     return e * e / (2.0 * epsilon * (e + q));

@@ -90,6 +90,13 @@ def cache_directory() -> Path:
     return Path(base) / "rodfem"
 
 
+def _private(directory: Path) -> bool:
+    """Whether ``directory`` is ours alone: owned by this user, writable by nobody else (a shared
+    /tmp fallback could otherwise hold a module planted by another user)."""
+    status = directory.stat()
+    return status.st_uid == os.getuid() and not status.st_mode & 0o022
+
+
 def _declarations(source: str) -> str:
     begin = source.index("/* cdef begin")
     begin = source.index("*/", begin) + 2
@@ -106,9 +113,14 @@ def _build():
     suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
     for directory in (cache_directory(), Path(tempfile.gettempdir()) / f"rodfem-{os.getuid()}"):
         target = directory / (name + suffix)
+        try:
+            directory.mkdir(mode=0o700, parents=True, exist_ok=True)
+        except OSError:
+            continue
+        if not _private(directory):  # a module found there is loaded and run: only our own
+            continue
         if not target.exists():
             try:
-                directory.mkdir(parents=True, exist_ok=True)
                 work = tempfile.mkdtemp(prefix=name + "-", dir=directory)
             except OSError:
                 continue

@@ -85,6 +85,9 @@ def stop_requests(comm: MPI.Comm, every: int = 256):
 STOP_EVERY = 256  # steps between two checks, agreed by all ranks, for a request to stop
 
 
+_warned: dict[str, bool] = {}
+
+
 def compiled_loop(scheme, history):
     """The compiled time loop of the direct method (:mod:`rodfem.kernel`) or of Picard's
     (:mod:`rodfem.picard_kernel`) where it applies and can be built, else None: the same steps,
@@ -96,15 +99,22 @@ def compiled_loop(scheme, history):
     if any(f is not None for f in scheme.sources.values()):
         return None
     if scheme.method == "direct":
-        from rodfem import kernel
-
-        return kernel.DirectKernel(scheme, history) if kernel.available() else None
-    if scheme.method == "picard" and scheme.coupled and not scheme.rigid:
-        from rodfem import picard_kernel
-
-        return (picard_kernel.PicardKernel(scheme, history) if picard_kernel.available()
-                else None)
-    return None
+        from rodfem import kernel as module
+    elif scheme.method == "picard" and scheme.coupled and not scheme.rigid:
+        from rodfem import picard_kernel as module
+    else:
+        return None
+    # Every rank must run the same loop (the same arithmetic, the same failures).
+    comm = scheme.disc.comm
+    if not comm.allreduce(module.available(), op=MPI.LAND):
+        if comm.rank == 0 and not _warned.get(module.__name__):
+            _warned[module.__name__] = True
+            reason = module.unavailable_reason() or "not built on every rank"
+            print(f"rodfem: the compiled loop is not available ({reason}); using the PETSc "
+                  "loop, the same steps, slower", file=sys.stderr)
+        return None
+    cls = module.DirectKernel if scheme.method == "direct" else module.PicardKernel
+    return cls(scheme, history)
 
 
 @dataclasses.dataclass
@@ -162,7 +172,11 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
 
     def save_fields() -> None:
         if field_file is not None:
-            field_file.write(scheme.n * dt, scheme.theta, scheme.u, scheme.u_prev)
+            back = scheme.u_prev
+            if scheme.midpoint:  # σ's u_t: the velocity Vⁿ = Dⁿ/Δt, not the half step's δⁿ
+                back = scheme.u.copy()
+                back.axpy(-1.0, scheme.du)
+            field_file.write(scheme.n * dt, scheme.theta, scheme.u, back)
         saved[0] = scheme.n
 
     def observe() -> None:
@@ -194,7 +208,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
                     try:
                         kernel.advance(chunk, history.reserve(chunk))
                     except NotConverged:
-                        history.commit(kernel.done)  # the steps before the one that failed
+                        history.commit(getattr(kernel, "done", 0))  # the steps before the failure
                         raise
                     history.commit(chunk)
                     n += chunk

@@ -66,11 +66,11 @@ def test_closed_form_contact_force_solves_the_step(rule):
 
 @pytest.mark.parametrize("overrides", [[], ["discretisation.mass=consistent"],
                                         ["obstacle.epsilon=1", "model.zeta=0"],
-                                        ["obstacle.kind=rigid", "model.k=100"]])
+                                        ["model.k=100", "obstacle.epsilon=1e-4"]])
 def test_energy_identity_is_exact(overrides):
     """Tested with Θ^{n−½} and δⁿ, Crank–Nicolson gives
 
-        Ẽⁿ − Ẽⁿ⁻¹ = −Δt (‖Θ^{n−½}_x‖² + k Θ^{n−½}(1)² + ζ ‖δⁿ_x‖²) − p (g − Uⁿ⁻¹(1))[rigid]
+        Ẽⁿ − Ẽⁿ⁻¹ = −Δt (‖Θ^{n−½}_x‖² + k Θ^{n−½}(1)² + ζ ‖δⁿ_x‖²)
 
     with Ẽⁿ = ½ (‖Θⁿ‖² + b‖Vⁿ‖² + ‖Uⁿ_x‖² + (1/ε)[Uⁿ(1) − g]_+²) + a θ_A (r, Uⁿ_x), the energy the
     history records. Checked step by step over the first contact (t ≤ 0.4), to round-off."""
@@ -80,7 +80,6 @@ def test_energy_identity_is_exact(overrides):
     u, v = ufl.TrialFunction(disc.V), ufl.TestFunction(disc.V)
     K = disc.matrix(copetti.stiffness(u, v, disc.dx))
     dt, k, zeta = scene["time.dt"], scene["model.k"], scene["model.zeta"]
-    gap = scene["obstacle.gap"]
     history.record(scheme)
     worst, touched = 0.0, 0
     for _ in range(scene.steps):
@@ -93,8 +92,6 @@ def test_energy_identity_is_exact(overrides):
         delta.array[:] = (scheme.u.array - u_prev) / dt
         dissipation = dt * (K(theta_mid).dot(theta_mid) + k * theta_mid.array[-1] ** 2
                             + zeta * K(delta).dot(delta))
-        if scheme.rigid:
-            dissipation += scheme.pressure * (gap - u_prev[-1])
         touched += scheme.pressure > 0.0
         rows = history.take()
         change = rows[-1, 5] - rows[0, 5]
@@ -137,30 +134,15 @@ def test_stable_where_the_paper_is(overrides):
             assert energy.max() <= energy[0] + 64 * EPS * abs(energy[0])
 
 
-@pytest.mark.parametrize("method", ["direct", "newton"])
-def test_rigid_obstacle(method):
-    """Signorini at every step: Uⁿ(1) ≤ g, σ(1) ≤ 0, σ(1)(Uⁿ(1) − g) = 0, energy non-increasing."""
-    run = simulate(rodfem.scene.load("paper1", [CN, "time.end=2", "obstacle.kind=rigid",
-                                                f"solver.method={method}"]), None, progress=False)
-    u_1, sigma_1 = run.history[:, 1], run.history[:, 4]
-    gap = 0.1
-    assert run.summary["energy_non_increasing"]
-    assert (u_1 <= gap + 1e-14).all() and (sigma_1 <= 0).all() and (sigma_1 < 0).any()
-    assert np.abs(sigma_1 * (u_1 - gap)).max() <= 1e-12
-
-
-def test_stiff_elastic_obstacle_and_rigid_one_meet_as_dt_shrinks():
-    """Unlike the paper's scheme, Crank–Nicolson's elastic obstacle does not tend to its rigid one
-    as ε → 0 at a fixed Δt: the discrete gradient gives back all the energy the obstacle stored (an
-    elastic impact), while the rigid step's multiplier dissipates p (g − Uⁿ⁻¹(1)). Both are
-    consistent: at ε = 1e-9 their difference in u(1, ·) shrinks with Δt (measured 7.6e-4, 1.5e-4,
-    8.5e-5 at Δt = 2e-3, 1e-3, 5e-4)."""
-    differences = []
-    for dt in (2e-3, 1e-3, 5e-4):
-        base = [CN, "time.end=2", "solver.method=direct", f"time.dt={dt}"]
-        rigid = simulate(rodfem.scene.load("paper1", [*base, "obstacle.kind=rigid"]), None,
-                         progress=False)
-        stiff = simulate(rodfem.scene.load("paper1", [*base, "obstacle.epsilon=1e-9"]), None,
-                         progress=False)
-        differences.append(np.abs(rigid.history[:, 1] - stiff.history[:, 1]).max())
-    assert differences[0] > differences[1] > differences[2], differences
+def test_stiff_obstacle_chatters_but_its_energy_decreases():
+    """With an obstacle much stiffer than the rod over a step (ε = 1e-9 ≪ w), sustained contact
+    holds ΔUⁿ(1) ≈ 0, so the midpoint rule makes Vⁿ(1) ≈ −Vⁿ⁻¹(1): the velocity at x = 1 flips
+    sign from step to step (docs/time-schemes.md; the reason the rigid obstacle is refused). The
+    energy identity still holds: Ẽⁿ is non-increasing and bounded by Ẽ⁰."""
+    run = simulate(rodfem.scene.load("paper1", [CN, "time.end=2", "solver.method=direct",
+                                                "obstacle.epsilon=1e-9"]), None, progress=False)
+    ut_1, energy = run.history[:, 3], run.history[:, 5]
+    touching = run.history[:, 1] > 0.1 - 1e-6
+    flips = np.sum(ut_1[1:] * ut_1[:-1] < 0)
+    assert touching.sum() > 100 and flips > touching.sum() / 2
+    assert run.summary["energy_non_increasing"] and energy.max() <= energy[0] * (1 + 64 * EPS)
