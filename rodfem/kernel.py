@@ -54,115 +54,27 @@ in the two; it has not happened on any scene tested.
 manufactured solution) are refused at construction. The kernel is rank-local, as the state is
 (every rank holds all of it and computes the same rows).
 
-**Building.** kernel.c is compiled with cffi (API mode, the system's C compiler, as dolfinx's JIT
-does) once per hash of its source, the compiler flags, the cffi version and the interpreter,
-into ``$XDG_CACHE_HOME/rodfem`` (or ``~/.cache/rodfem``): in a private temporary directory, then
-moved into place with :func:`os.replace`, so that MPI ranks compiling at once never see each
-other's half-written file. :func:`available` says whether it could be built and loaded (no
-compiler, no cffi: False, and the caller keeps the PETSc loop); importing this module compiles
-nothing and raises nothing.
+**Building.** kernel.c is compiled with cffi on first use and cached (:mod:`rodfem.cbuild`).
+:func:`available` says whether it could be built and loaded (no compiler, no cffi: False, and the
+caller keeps the PETSc loop); importing this module compiles nothing and raises nothing.
 """
 
 from __future__ import annotations
 
-import hashlib
-import importlib.machinery
-import importlib.util
-import os
-import shutil
-import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from rodfem.cbuild import CompiledSource
+
 SOURCE = Path(__file__).with_name("kernel.c")
-COMPILE_ARGS = ["-O2", "-std=c99"]
 RULES = {"penalty": 0, "gradient": 1, "rigid": 2}
 KMAX = 8  # the widest band of the blocked substitutions (kernel.c)
 
-_loaded: list = []  # [(ffi, lib)] once built
-_failure: list[str] = []  # why it could not be built
-
-
-def cache_directory() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "rodfem"
-
-
-def _private(directory: Path) -> bool:
-    """Whether ``directory`` is ours alone: owned by this user, writable by nobody else (a shared
-    /tmp fallback could otherwise hold a module planted by another user)."""
-    status = directory.stat()
-    return status.st_uid == os.getuid() and not status.st_mode & 0o022
-
-
-def _declarations(source: str) -> str:
-    begin = source.index("/* cdef begin")
-    begin = source.index("*/", begin) + 2
-    return source[begin:source.index("/* cdef end */")]
-
-
-def _build():
-    import cffi  # optional: available() is False without it
-
-    source = SOURCE.read_text()
-    key = "\n".join([source, repr(COMPILE_ARGS), cffi.__version__, sys.version,
-                     importlib.machinery.EXTENSION_SUFFIXES[0]])
-    name = "_rodfem_kernel_" + hashlib.sha256(key.encode()).hexdigest()[:16]
-    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
-    for directory in (cache_directory(), Path(tempfile.gettempdir()) / f"rodfem-{os.getuid()}"):
-        target = directory / (name + suffix)
-        try:
-            directory.mkdir(mode=0o700, parents=True, exist_ok=True)
-        except OSError:
-            continue
-        if not _private(directory):  # a module found there is loaded and run: only our own
-            continue
-        if not target.exists():
-            try:
-                work = tempfile.mkdtemp(prefix=name + "-", dir=directory)
-            except OSError:
-                continue
-            try:
-                ffi = cffi.FFI()
-                ffi.cdef(_declarations(source))
-                ffi.set_source(name, source, extra_compile_args=COMPILE_ARGS)
-                built = ffi.compile(tmpdir=work, verbose=False)
-                os.replace(built, target)
-            finally:
-                shutil.rmtree(work, ignore_errors=True)
-        spec = importlib.util.spec_from_file_location(name, target)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        return module.ffi, module.lib
-    raise OSError(f"no writable directory for the kernel: {cache_directory()}, "
-                  f"{tempfile.gettempdir()}")
-
-
-def _library():
-    if not _loaded and not _failure:
-        try:
-            _loaded.append(_build())
-        except Exception as error:  # no cffi, no compiler, no writable cache: not available
-            _failure.append(f"{type(error).__name__}: {error}")
-    if not _loaded:
-        raise RuntimeError(f"rodfem's compiled kernel is not available ({_failure[0]})")
-    return _loaded[0]
-
-
-def available() -> bool:
-    """Whether the kernel could be compiled and loaded (it is, on first call)."""
-    try:
-        _library()
-    except RuntimeError:
-        return False
-    return True
-
-
-def unavailable_reason() -> str | None:
-    """Why :func:`available` is False (None if it is True or was not asked yet)."""
-    return _failure[0] if _failure else None
+_source = CompiledSource(SOURCE, "_rodfem_kernel_", "kernel")
+_library = _source.library
+available = _source.available
+unavailable_reason = _source.unavailable_reason
 
 
 def _csr(A) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

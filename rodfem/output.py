@@ -82,6 +82,38 @@ def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None
         raise OutputError(error)
 
 
+def prepare_result_directory(out: Path, force: bool, comm: MPI.Comm,
+                             files: tuple[str, ...]) -> None:
+    """Create ``out`` for a command's result (``rodfem stability``, ``verify``,
+    ``work-precision``); with ``force``, replace an earlier result of that command (its ``files``
+    and a figures/ of PNGs) but nothing else.
+
+    Raises:
+        OutputError: it exists (without ``force``), or holds something else.
+    """
+    error = None
+    if comm.rank == 0 and force and out.is_dir() and not out.is_symlink():
+        entries = sorted(out.iterdir())
+        ours = [p for p in entries if p.name in files and p.is_file() and not p.is_symlink()]
+        for p in entries:
+            if p in ours:
+                continue
+            if (p.name == "figures" and p.is_dir() and not p.is_symlink()
+                    and all(f.is_file() and not f.is_symlink() and f.suffix == ".png"
+                            for f in p.iterdir())):
+                continue
+            error = (f"{out} is not a rodfem output directory (it holds {p.name}); "
+                     "not replacing it, even with --force")
+            break
+        if error is None:
+            for p in ours:
+                p.unlink()
+    error = comm.bcast(error, root=0)
+    if error:
+        raise OutputError(error)
+    prepare_directory(out, force, comm)
+
+
 class HistoryFile:
     """history.csv, one row per step, appended block by block (rank 0).
 

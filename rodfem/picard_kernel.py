@@ -67,93 +67,25 @@ the steps done written to ``rows[:done]``, sets ``kernel.done`` (and ``error.don
 count, and raises :class:`rodfem.picard.PicardNotConverged` with the step, time, increment and
 iterations that ``PicardScheme._step`` gives. On success ``kernel.done`` = ``steps``.
 
-**Building.** As :mod:`rodfem.kernel` (same cache directory, same flags, same atomic
-``os.replace`` into place, keyed by a hash of the source), under its own module name.
+**Building.** As :mod:`rodfem.kernel`'s, by :mod:`rodfem.cbuild`, under its own module name.
 """
 
 from __future__ import annotations
 
-import hashlib
-import importlib.machinery
-import importlib.util
-import os
-import shutil
-import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from rodfem.kernel import COMPILE_ARGS, _classes, _declarations, _private, cache_directory
+from rodfem.cbuild import CompiledSource
+from rodfem.kernel import _classes
 from rodfem.picard import PicardNotConverged
 
 SOURCE = Path(__file__).with_name("picard_kernel.c")
 
-_loaded: list = []  # [(ffi, lib)] once built
-_failure: list[str] = []  # why it could not be built
-
-
-def _build():
-    """Compile SOURCE with cffi into the cache (the lines of rodfem.kernel._build, for another
-    source and module name)."""
-    import cffi
-
-    source = SOURCE.read_text()
-    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
-    key = "\n".join([source, repr(COMPILE_ARGS), cffi.__version__, sys.version, suffix])
-    name = "_rodfem_picard_kernel_" + hashlib.sha256(key.encode()).hexdigest()[:16]
-    for directory in (cache_directory(), Path(tempfile.gettempdir()) / f"rodfem-{os.getuid()}"):
-        target = directory / (name + suffix)
-        try:
-            directory.mkdir(mode=0o700, parents=True, exist_ok=True)
-        except OSError:
-            continue
-        if not _private(directory):  # a module found there is loaded and run: only our own
-            continue
-        if not target.exists():
-            try:
-                work = tempfile.mkdtemp(prefix=name + "-", dir=directory)
-            except OSError:
-                continue
-            try:
-                ffi = cffi.FFI()
-                ffi.cdef(_declarations(source))
-                ffi.set_source(name, source, extra_compile_args=COMPILE_ARGS)
-                built = ffi.compile(tmpdir=work, verbose=False)
-                os.replace(built, target)
-            finally:
-                shutil.rmtree(work, ignore_errors=True)
-        spec = importlib.util.spec_from_file_location(name, target)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        return module.ffi, module.lib
-    raise OSError(f"no writable directory for the kernel: {cache_directory()}, "
-                  f"{tempfile.gettempdir()}")
-
-
-def _library():
-    if not _loaded and not _failure:
-        try:
-            _loaded.append(_build())
-        except Exception as error:  # no cffi, no compiler, no writable cache: not available
-            _failure.append(f"{type(error).__name__}: {error}")
-    if not _loaded:
-        raise RuntimeError(f"rodfem's compiled Picard kernel is not available ({_failure[0]})")
-    return _loaded[0]
-
-
-def available() -> bool:
-    """Whether the kernel could be compiled and loaded (it is, on first call)."""
-    try:
-        _library()
-    except RuntimeError:
-        return False
-    return True
-
-
-def unavailable_reason() -> str | None:
-    """Why :func:`available` is False (None if it is True or was not asked yet)."""
-    return _failure[0] if _failure else None
+_source = CompiledSource(SOURCE, "_rodfem_picard_kernel_", "Picard kernel")
+_library = _source.library
+available = _source.available
+unavailable_reason = _source.unavailable_reason
 
 
 def _tridiagonal(A, n: int, row_block: int = 0, col_block: int = 0) -> np.ndarray:

@@ -382,29 +382,9 @@ def prepare(out: Path, force: bool, comm: MPI.Comm) -> None:
     Raises:
         OutputError: it exists (without ``force``), or holds something else.
     """
-    from rodfem.output import OutputError, prepare_directory
+    from rodfem.output import prepare_result_directory
 
-    error = None
-    if comm.rank == 0 and force and out.is_dir() and not out.is_symlink():
-        entries = sorted(out.iterdir())
-        ours = [p for p in entries if p.name in FILES and p.is_file() and not p.is_symlink()]
-        for p in entries:
-            if p in ours:
-                continue
-            if (p.name == "figures" and p.is_dir() and not p.is_symlink()
-                    and all(f.is_file() and not f.is_symlink() and f.suffix == ".png"
-                            for f in p.iterdir())):
-                continue
-            error = (f"{out} is not a rodfem output directory (it holds {p.name}); "
-                     "not replacing it, even with --force")
-            break
-        if error is None:
-            for p in ours:
-                p.unlink()
-    error = comm.bcast(error, root=0)
-    if error:
-        raise OutputError(error)
-    prepare_directory(out, force, comm)
+    prepare_result_directory(out, force, comm, FILES)
 
 
 def write(out: Path, records: list[dict], grid: Grid, base: Scene, overrides: list[str],
