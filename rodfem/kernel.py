@@ -77,6 +77,27 @@ available = _source.available
 unavailable_reason = _source.unavailable_reason
 
 
+def checked_steps(scheme, steps: int, rows: np.ndarray, first_step_special: bool,
+                  n: int) -> int:
+    """The arguments of a compiled loop's ``advance``, checked: ``steps`` ≥ 0 as an int, not from
+    the paper scheme's special first step, ``rows`` a writable C-contiguous float64 array of at
+    least ``steps`` rows of 7, the state contiguous with 3n values. ValueError otherwise."""
+    steps = int(steps)
+    if steps < 0:
+        raise ValueError(f"steps = {steps} < 0")
+    if steps and scheme.n == 0 and first_step_special:
+        raise ValueError("the paper scheme's first step (n = 0 -> 1, with inertia) is "
+                         "Scheme._first_step: take it with scheme.advance()")
+    if steps and not (rows.dtype == np.float64 and rows.ndim == 2 and rows.shape[1] == 7
+                      and rows.shape[0] >= steps and rows.flags.c_contiguous
+                      and rows.flags.writeable):
+        raise ValueError("rows must be a writable C-contiguous float64 array of shape "
+                         f"(>= {steps}, 7), not {rows.dtype} {rows.shape}")
+    values = scheme.values
+    assert values.flags.c_contiguous and values.size == 3 * n
+    return steps
+
+
 def _csr(A) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(row of each entry, column, value) of a PETSc AIJ matrix."""
     ia, ja, a = A.getValuesCSR()
@@ -273,20 +294,10 @@ class DirectKernel:
         History.record's raw row of step n + 1 + k. ``rows``: C-contiguous float64, at least
         ``steps`` rows of 7 (e.g. a slice of ``History._rows``)."""
         scheme = self.scheme
-        steps = int(steps)
-        if steps < 0:
-            raise ValueError(f"steps = {steps} < 0")
+        steps = checked_steps(scheme, steps, rows, self._first_step_special, self.n)
         if steps == 0:
             return
-        if scheme.n == 0 and self._first_step_special:
-            raise ValueError("the paper scheme's first step (n = 0 -> 1, with inertia) is "
-                             "Scheme._first_step: take it with scheme.advance()")
-        if not (rows.dtype == np.float64 and rows.ndim == 2 and rows.shape[1] == 7
-                and rows.shape[0] >= steps and rows.flags.c_contiguous and rows.flags.writeable):
-            raise ValueError("rows must be a writable C-contiguous float64 array of shape "
-                             f"(>= {steps}, 7), not {rows.dtype} {rows.shape}")
         values = scheme.values
-        assert values.flags.c_contiguous and values.size == 3 * self.n
         u_prev = scheme.u_prev.array
         ffi = self._ffi
         self._lib.rk_advance(self._problem, ffi.cast("double *", ffi.from_buffer(values)),

@@ -77,7 +77,7 @@ from pathlib import Path
 import numpy as np
 
 from rodfem.cbuild import CompiledSource
-from rodfem.kernel import _classes
+from rodfem.kernel import _classes, checked_steps
 from rodfem.picard import PicardNotConverged
 
 SOURCE = Path(__file__).with_name("picard_kernel.c")
@@ -203,21 +203,11 @@ class PicardKernel:
         the last step that did, ``rows[:self.done]`` hold their rows (commit those), and
         PicardNotConverged is raised (with ``done`` set on it too)."""
         scheme = self.scheme
-        steps = int(steps)
         self.done = 0
-        if steps < 0:
-            raise ValueError(f"steps = {steps} < 0")
+        steps = checked_steps(scheme, steps, rows, self._first_step_special, self.n)
         if steps == 0:
             return
-        if scheme.n == 0 and self._first_step_special:
-            raise ValueError("the paper scheme's first step (n = 0 -> 1, with inertia) is "
-                             "Scheme._first_step: take it with scheme.advance()")
-        if not (rows.dtype == np.float64 and rows.ndim == 2 and rows.shape[1] == 7
-                and rows.shape[0] >= steps and rows.flags.c_contiguous and rows.flags.writeable):
-            raise ValueError("rows must be a writable C-contiguous float64 array of shape "
-                             f"(>= {steps}, 7), not {rows.dtype} {rows.shape}")
         values = scheme.values
-        assert values.flags.c_contiguous and values.size == 3 * self.n
         u_prev = scheme.u_prev.array
         ffi = self._ffi
         self._pressure[0] = scheme.pressure
