@@ -26,10 +26,10 @@ import numpy as np
 from mpi4py import MPI
 
 import rodfem.scene
-from rodfem import kernel
-from rodfem.direct import DirectScheme
-from rodfem.discretisation import Discretisation
-from rodfem.history import History
+from rodfem.solver.compiled import direct as kernel
+from rodfem.solver.methods.direct import DirectScheme
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.output.history import History
 
 HERE = Path(__file__).resolve().parent
 END = {250: 2.0, 10_000: 0.5, 100_000: 0.5, 1_000_000: 0.02}

@@ -1,4 +1,4 @@
-"""Benchmark: the compiled Picard loop of rodfem (:mod:`rodfem.picard_kernel`) against
+"""Benchmark: the compiled Picard loop of rodfem (:mod:`rodfem.solver.compiled.picard`) against
 ``benchmarks/picard_loop.c`` and rodfem's PETSc Picard loop, in the same run.
 
 paper1 (250 cells, Δt = 1e-3, T = 8: 8000 steps) with lumped and consistent mass. The time loop
@@ -33,10 +33,10 @@ import numpy as np
 from mpi4py import MPI
 
 import rodfem.scene
-from rodfem.discretisation import Discretisation
-from rodfem.history import History
-from rodfem.picard import PicardScheme
-from rodfem.picard_kernel import PicardKernel
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.output.history import History
+from rodfem.solver.methods.picard import PicardScheme
+from rodfem.solver.compiled.picard import PicardKernel
 
 HERE = Path(__file__).resolve().parent
 CHUNK = 256

@@ -35,8 +35,8 @@ import numpy as np
 from mpi4py import MPI
 
 import rodfem.scene
-from rodfem.direct import DirectScheme
-from rodfem.discretisation import Discretisation
+from rodfem.solver.methods.direct import DirectScheme
+from rodfem.discrete.discretisation import Discretisation
 from rodfem.run import simulate
 
 COMM = MPI.COMM_WORLD

@@ -33,9 +33,9 @@ import numpy as np
 from mpi4py import MPI
 
 import rodfem.scene
-from rodfem.discretisation import Discretisation
-from rodfem.history import History
-from rodfem.picard import PicardScheme
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.output.history import History
+from rodfem.solver.methods.picard import PicardScheme
 
 # -
 

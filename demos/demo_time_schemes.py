@@ -29,7 +29,7 @@ import numpy as np
 from mpi4py import MPI
 
 import rodfem.scene
-from rodfem import manufactured
+from rodfem.model import manufactured
 from rodfem.run import simulate
 
 COMM = MPI.COMM_WORLD

@@ -92,7 +92,7 @@ def _parser() -> argparse.ArgumentParser:
                            metavar="SECTION.KEY=VALUE",
                            help="override a base scene value, e.g. solver.max_iterations=500")
     stability.add_argument("--methods", default="direct,newton,picard", help="methods to run")
-    from rodfem.stability import DEFAULT_A, DEFAULT_DT, DEFAULT_EPSILON, DEFAULT_ZETA
+    from rodfem.studies.stability import DEFAULT_A, DEFAULT_DT, DEFAULT_EPSILON, DEFAULT_ZETA
 
     listed = lambda values: ",".join(f"{v:g}" for v in values)  # noqa: E731
     stability.add_argument("--dt", default=listed(DEFAULT_DT),
@@ -134,7 +134,7 @@ def _parser() -> argparse.ArgumentParser:
         command.add_argument("--progress", action="store_true",
                              help="a line per ladder even when output is not a terminal")
     verify.add_argument("--scenes", help="scenes to verify (default: paper1, paper5, no-contact "
-                        "and, where rodfem.manufactured exists, manufactured)")
+                        "and, where rodfem.model.manufactured exists, manufactured)")
     return parser
 
 
@@ -152,7 +152,7 @@ def _advice(scene, error) -> str:
         return f"{error}."
     from mpi4py import MPI
 
-    from rodfem.direct import compliance
+    from rodfem.solver.methods.direct import compliance
 
     dt, eps, zeta, a = (scene[k] for k in ("time.dt", "obstacle.epsilon", "model.zeta", "model.a"))
     ratio = f"{dt / (eps * zeta):.3g}" if eps * zeta > 0 else "inf (ζ = 0)"
@@ -175,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
 
     from mpi4py import MPI
 
-    from rodfem.output import OutputError, prepare_directory
+    from rodfem.output.files import OutputError, prepare_directory
     from rodfem.run import simulate
 
     try:
@@ -232,8 +232,8 @@ def paper(args: argparse.Namespace) -> int:
     """Reproduce Section 6 into args.out; print where its index is."""
     from mpi4py import MPI
 
-    from rodfem.output import OutputError
-    from rodfem.paper import reproduce
+    from rodfem.output.files import OutputError
+    from rodfem.studies.paper import reproduce
     from rodfem.scene import load
 
     for name in BUILTIN:  # every override is checked before anything runs
@@ -252,8 +252,8 @@ def stability(args: argparse.Namespace) -> int:
     """The stability map into args.out, then its figures (rank 0)."""
     from mpi4py import MPI
 
-    from rodfem import stability as st
-    from rodfem.output import OutputError
+    from rodfem.studies import stability as st
+    from rodfem.output.files import OutputError
 
     comm = MPI.COMM_WORLD
     try:
@@ -289,11 +289,11 @@ def verify(args: argparse.Namespace) -> int:
     """``rodfem verify`` or ``rodfem work-precision`` into args.out, then the figures (rank 0)."""
     from mpi4py import MPI
 
-    from rodfem.output import OutputError
+    from rodfem.output.files import OutputError
 
     comm = MPI.COMM_WORLD
     if args.command == "verify":
-        from rodfem import verify as task
+        from rodfem.studies import verify as task
         from rodfem.post.verify import plot_orders as draw
 
         plan = task.QUICK if args.quick else task.DEFAULT
@@ -306,7 +306,7 @@ def verify(args: argparse.Namespace) -> int:
         def start(out, plan, force, progress, comm):
             return task.run_verify(out, plan, scenes, force, progress, comm)
     else:
-        from rodfem import workprecision as task
+        from rodfem.studies import workprecision as task
         from rodfem.post.verify import plot_work_precision as draw
 
         plan = task.default_plan(args.quick)

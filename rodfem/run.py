@@ -17,12 +17,12 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import rodfem
-from rodfem.discretisation import Discretisation
-from rodfem.history import History
-from rodfem.output import FieldFile, HistoryFile, write_json, write_text
-from rodfem.progress import Progress
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.output.history import History
+from rodfem.output.files import FieldFile, HistoryFile, write_json, write_text
+from rodfem.output.progress import Progress
 from rodfem.scene import Scene
-from rodfem.scheme import NotConverged, make_scheme
+from rodfem.solver.methods.base import NotConverged, make_scheme
 
 # Êⁿ is non-increasing in exact arithmetic (Remark 4.4). An increase counts only if it exceeds the
 # round-off of Ê, a sum of a few O(max |Ê|) terms each good to a few ulps.
@@ -89,8 +89,8 @@ _warned: dict[str, bool] = {}
 
 
 def compiled_loop(scheme, history):
-    """The compiled time loop of the direct method (:mod:`rodfem.kernel`) or of Picard's
-    (:mod:`rodfem.picard_kernel`) where it applies and can be built, else None: the same steps,
+    """The compiled time loop of the direct method (:mod:`rodfem.solver.compiled.direct`) or of Picard's
+    (:mod:`rodfem.solver.compiled.picard`) where it applies and can be built, else None: the same steps,
     a block of them per C call, to round-off (Picard: the same iterations). RODFEM_KERNEL=0 in
     the environment keeps the PETSc loop; so do sources (the manufactured scene), Newton, and
     Picard with a = 0 or a rigid obstacle."""
@@ -99,9 +99,9 @@ def compiled_loop(scheme, history):
     if any(f is not None for f in scheme.sources.values()):
         return None
     if scheme.method == "direct":
-        from rodfem import kernel as module
+        from rodfem.solver.compiled import direct as module
     elif scheme.method == "picard" and scheme.coupled and not scheme.rigid:
-        from rodfem import picard_kernel as module
+        from rodfem.solver.compiled import picard as module
     else:
         return None
     # Every rank must run the same loop (the same arithmetic, the same failures).

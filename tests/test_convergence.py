@@ -1,4 +1,4 @@
-"""The verification harness: the error measures and rate fits of ``rodfem.convergence``, and the
+"""The verification harness: the error measures and rate fits of ``rodfem.studies.convergence``, and the
 ``rodfem verify`` and ``rodfem work-precision`` commands at their quick sizes."""
 
 import csv
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from conftest import COMM
-from rodfem import convergence as cv
+from rodfem.studies import convergence as cv
 from rodfem.cli import main
-from rodfem.verify import schemes
+from rodfem.studies.verify import schemes
 
 EPS = np.finfo(float).eps
 

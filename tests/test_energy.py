@@ -7,10 +7,10 @@ from dolfinx import fem
 
 import forms.copetti as copetti
 import rodfem.scene
-from rodfem import compat
-from rodfem.discretisation import Discretisation
-from rodfem.history import History
-from rodfem.picard import PicardScheme
+from rodfem.discrete import compat
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.output.history import History
+from rodfem.solver.methods.picard import PicardScheme
 
 EPS = np.finfo(float).eps
 

@@ -4,7 +4,7 @@ user text as Python."""
 import numpy as np
 import pytest
 
-from rodfem.expressions import Expression, ExpressionError
+from rodfem.scene.expressions import Expression, ExpressionError
 
 NAMES = ("a", "b", "zeta", "k", "theta_A")
 PARAMS = {"a": 0.017, "b": 1.0, "zeta": 0.2, "k": 1.0, "theta_A": 10.0}

@@ -50,8 +50,8 @@ def test_increment_forms_are_the_paper_forms():
 
     import forms.copetti as copetti
     import rodfem.scene
-    from rodfem import compat
-    from rodfem.discretisation import Discretisation
+    from rodfem.discrete import compat
+    from rodfem.discrete.discretisation import Discretisation
 
     for mass in ("lumped", "consistent"):
         disc = Discretisation(rodfem.scene.load("paper1", ["mesh.cells=16",

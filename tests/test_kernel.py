@@ -1,4 +1,4 @@
-"""rodfem.kernel: the compiled time loop of the `direct` method against the PETSc loop.
+"""rodfem.solver.compiled.direct: the compiled time loop of the `direct` method against the PETSc loop.
 
 Two DirectSchemes of the same discretisation take the same steps, one through
 ``scheme.advance()`` and ``History.record`` (the PETSc path), one through
@@ -21,10 +21,10 @@ import pytest
 
 import rodfem.scene
 from conftest import COMM
-from rodfem import kernel
-from rodfem.direct import DirectScheme
-from rodfem.discretisation import Discretisation
-from rodfem.history import History
+from rodfem.solver.compiled import direct as kernel
+from rodfem.solver.methods.direct import DirectScheme
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.output.history import History
 
 EPS = np.finfo(float).eps
 PER_STEP = 64 * EPS  # accumulated over a run

@@ -1,4 +1,4 @@
-"""The manufactured solution (rodfem.manufactured): its sources are right, and every method with
+"""The manufactured solution (rodfem.model.manufactured): its sources are right, and every method with
 each time scheme converges to it at the scheme's order: 2 in space (L2, P1), 1 in time for the
 paper's scheme and 2 for Crank–Nicolson's. Rates are least-squares slopes, within ±0.1, with an
 absolute cap on the finest error."""
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import rodfem.scene
-from rodfem import manufactured
+from rodfem.model import manufactured
 from rodfem.run import simulate
 
 SCENE = rodfem.scene.load("manufactured")

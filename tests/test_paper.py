@@ -12,7 +12,7 @@ import pytest
 
 from conftest import COMM, serial_only
 from rodfem.cli import main
-from rodfem.paper import EXPERIMENTS
+from rodfem.studies.paper import EXPERIMENTS
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,4 +1,4 @@
-"""rodfem.picard_kernel: the compiled Picard loop against the PETSc loop.
+"""rodfem.solver.compiled.picard: the compiled Picard loop against the PETSc loop.
 
 Two PicardSchemes of the same discretisation take the same steps, one through
 ``scheme.advance()`` and ``History.record`` (the PETSc path), one through
@@ -23,10 +23,10 @@ import pytest
 
 import rodfem.scene
 from conftest import COMM
-from rodfem import picard_kernel
-from rodfem.discretisation import Discretisation
-from rodfem.history import History
-from rodfem.picard import PicardNotConverged, PicardScheme
+from rodfem.solver.compiled import picard as picard_kernel
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.output.history import History
+from rodfem.solver.methods.picard import PicardNotConverged, PicardScheme
 
 EPS = np.finfo(float).eps
 PER_STEP = 64 * EPS

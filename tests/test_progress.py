@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from conftest import serial_only
-from rodfem.progress import Progress
+from rodfem.output.progress import Progress
 
 
 def test_progress_draws_after_its_delay():

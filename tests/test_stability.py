@@ -22,7 +22,7 @@ from mpi4py import MPI
 
 import rodfem.scene
 from conftest import COMM, serial_only
-from rodfem import stability as st
+from rodfem.studies import stability as st
 from rodfem.cli import main
 
 # Far from every boundary: w/ε is 0.011-0.25 or 1.96-50 at these points (w = 2.2e-3, 9.8e-3,
@@ -152,9 +152,9 @@ def test_picard_step_agrees_with_the_exact_step(a):
     """From the same state, a Picard step and the exact (direct) step differ by at most the
     a-posteriori bound of a contraction by ρ = w/ε stopped at an increment below tol:
     |x_l − x*| ≤ ρ/(1 − ρ) tol (here ρ = 0.8: 4 tol)."""
-    from rodfem.direct import DirectScheme
-    from rodfem.discretisation import Discretisation
-    from rodfem.picard import PicardScheme
+    from rodfem.solver.methods.direct import DirectScheme
+    from rodfem.discrete.discretisation import Discretisation
+    from rodfem.solver.methods.picard import PicardScheme
 
     scene = rodfem.scene.load("paper1", _edge_scene(a, 1.25, "picard", 400))
     exact = DirectScheme(Discretisation(scene, MPI.COMM_SELF))

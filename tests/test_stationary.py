@@ -5,7 +5,7 @@ and σ = (g − U*)/(1 + ε) with it; P1 is exact at the nodes, so the scheme mu
 import numpy as np
 import pytest
 
-from rodfem.stationary import stationary
+from rodfem.model.stationary import stationary
 
 
 @pytest.mark.parametrize("k, in_contact", [(1.0, True), (100.0, False)])

@@ -8,11 +8,11 @@ import ufl
 
 import forms.copetti as copetti
 import rodfem.scene
-from rodfem import contact
-from rodfem.discretisation import Discretisation
-from rodfem.history import History
+from rodfem.model import contact
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.output.history import History
 from rodfem.run import simulate
-from rodfem.scheme import make_scheme
+from rodfem.solver.methods.base import make_scheme
 
 EPS = np.finfo(float).eps
 CN = "time.scheme=crank-nicolson"

@@ -15,7 +15,7 @@ import numpy as np
 
 from rodfem.post.fields import Fields, FieldsError, read_fields
 
-# The columns of history.csv, as rodfem.history writes them (not imported from there: it needs
+# The columns of history.csv, as rodfem.output.history writes them (not imported from there: it needs
 # dolfinx, and reading a run's files should not).
 HISTORY_COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
 

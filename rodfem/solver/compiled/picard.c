@@ -102,7 +102,7 @@ int pk_factor(int n, const double *lo, const double *diag, const double *up, int
     return 0;
 }
 
-/* rodfem.contact.penalty_force and discrete_gradient, with Python's max(x, 0.0) (x unless
+/* rodfem.model.contact.penalty_force and discrete_gradient, with Python's max(x, 0.0) (x unless
  * 0.0 > x: NaN stays NaN). */
 static double pmax0(double x) { return 0.0 > x ? 0.0 : x; }
 

@@ -18,9 +18,9 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rodfem import convergence as cv
+from rodfem.studies import convergence as cv
 from rodfem.scene import METHODS, SceneError
-from rodfem.verify import ERROR_COLUMNS, deal, prepare, scene_at, schemes, write_csv
+from rodfem.studies.verify import ERROR_COLUMNS, deal, prepare, scene_at, schemes, write_csv
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -160,8 +160,8 @@ def run_work_precision(out: Path, plan: Plan, force: bool, progress: bool, comm:
                        ) -> dict | None:
     """Prepare ``out``, run the ladders, write workprecision.csv/json (rank 0); the data, or None
     if interrupted (nothing written). Raises OutputError on a bad ``out``."""
-    from rodfem.output import write_json
-    from rodfem.stability import machine
+    from rodfem.output.files import write_json
+    from rodfem.studies.stability import machine
 
     prepare(out, force, comm, FILES)
 

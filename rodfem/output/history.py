@@ -1,6 +1,6 @@
 """What a run records at every step: the rows of ``history.csv``.
 
-The state is held whole, in node order, on every rank (:mod:`rodfem.nodes`), so every rank computes
+The state is held whole, in node order, on every rank (:mod:`rodfem.discrete.nodes`), so every rank computes
 the same rows; rank 0 writes them. A scheme keeps Θⁿ, ΔUⁿ = Uⁿ − Uⁿ⁻¹ and Uⁿ in one stacked
 vector s, whose energy is a single product with a block-diagonal matrix, and whose point values
 are read off its array.
@@ -13,8 +13,8 @@ import ufl
 from petsc4py import PETSc
 
 import forms.copetti as copetti
-from rodfem.discretisation import Discretisation
-from rodfem.nodes import block_diagonal
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.discrete.nodes import block_diagonal
 
 COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
 
@@ -74,7 +74,7 @@ class History:
         return self._count == len(self._rows)
 
     def record(self, state) -> None:
-        """Record the step ``state.n`` of a scheme (:class:`rodfem.scheme.Scheme`): its state
+        """Record the step ``state.n`` of a scheme (:class:`rodfem.solver.methods.base.Scheme`): its state
         [Θⁿ; ΔUⁿ; Uⁿ] (``state``, its array ``values``), its count of ``iterations`` and its
         contact force ``pressure``."""
         bulk = self.energy(state.state)

@@ -1,9 +1,9 @@
 """The `picard` method's time loop in compiled code: many steps in one C call.
 
-An iteration of :class:`rodfem.picard.PicardScheme` is two mat-vecs, two triangular solves, two
+An iteration of :class:`rodfem.solver.methods.picard.PicardScheme` is two mat-vecs, two triangular solves, two
 norms and a few vector updates: about eight PETSc calls of a microsecond each, which at a few
 hundred cells is nearly all of it. :class:`PicardKernel` reads the operators off a scheme and its
-history once and runs ``steps`` steps of exactly that algebra in ``rodfem/picard_kernel.c``:
+history once and runs ``steps`` steps of exactly that algebra in ``rodfem/solver/compiled/picard.c``:
 
     [h; m] = R s + b                  (s = [Θⁿ⁻¹; Dⁿ⁻¹; Uⁿ⁻¹], ``scheme.R``, ``scheme.b``), once
     ΔΘ⁰ = 0, ΔU⁰ = 0, c = Uⁿ⁻¹(1)
@@ -19,7 +19,7 @@ history once and runs ``steps`` steps of exactly that algebra in ``rodfem/picard
     Θⁿ = Θⁿ⁻¹ + ΔΘ, Uⁿ⁻¹ → u_prev, Uⁿ = Uⁿ⁻¹ + ΔU, Dⁿ = ΔU (Crank–Nicolson with inertia:
     2ΔU − Dⁿ⁻¹, as (ΔU − Dⁿ⁻¹) + ΔU)
 
-and for each new state the 7 numbers :meth:`rodfem.history.History.record` stores (n, the
+and for each new state the 7 numbers :meth:`rodfem.output.history.History.record` stores (n, the
 iterations, Uⁿ(1), Dⁿ(1), Uⁿ(0.5), the bulk energy ½ (E s + 2w)·s, p).
 
 **Tridiagonal in node order.** Every operator couples only neighbouring nodes (checked at
@@ -35,9 +35,9 @@ each pass are independent chains that the CPU runs side by side.
 **What is streamed.** From about 10⁵ cells an iteration is memory-bound. On a uniform mesh
 most nodes' coefficient rows are bit for bit those of other nodes (paper1 at 10⁵ cells: 163
 distinct rows of [R | b], 13 of [N_ΔU | N_ΔΘ | e], 127 of [E | 2w]), so, as in
-:mod:`rodfem.kernel`, each of [R | b] (``fixed``), [N_ΔU | N_ΔΘ | e] (``coupling``) and
+:mod:`rodfem.solver.compiled.direct`, each of [R | b] (``fixed``), [N_ΔU | N_ΔΘ | e] (``coupling``) and
 [E | 2w] (``energy``) is stored as a table of its distinct rows, compared as int64 words,
-plus each node's row number (``*_class``; :func:`rodfem.kernel._classes`): the loop reads the
+plus each node's row number (``*_class``; :func:`rodfem.solver.compiled.direct._classes`): the loop reads the
 same numbers and does the same operations, so the results are the same bit for bit
 (``compress=False``, a class per node, is kept for ``tests/test_picard_kernel.py`` to check
 that). The normalised factors of A_h and A_m do not repeat (their recurrences wander in the last
@@ -64,10 +64,10 @@ paper scheme's first step with inertia (n = 0 → 1, :meth:`Scheme._first_step`)
 **Failure.** If a step does not converge, :meth:`PicardKernel.advance` leaves the scheme at the
 last step that did (state, ``u_prev``, ``n``, ``pressure``, ``iterations``), with the rows of
 the steps done written to ``rows[:done]``, sets ``kernel.done`` (and ``error.done``) to that
-count, and raises :class:`rodfem.picard.PicardNotConverged` with the step, time, increment and
+count, and raises :class:`rodfem.solver.methods.picard.PicardNotConverged` with the step, time, increment and
 iterations that ``PicardScheme._step`` gives. On success ``kernel.done`` = ``steps``.
 
-**Building.** As :mod:`rodfem.kernel`'s, by :mod:`rodfem.cbuild`, under its own module name.
+**Building.** As :mod:`rodfem.solver.compiled.direct`'s, by :mod:`rodfem.solver.compiled.build`, under its own module name.
 """
 
 from __future__ import annotations
@@ -76,11 +76,11 @@ from pathlib import Path
 
 import numpy as np
 
-from rodfem.cbuild import CompiledSource
-from rodfem.kernel import _classes, checked_steps
-from rodfem.picard import PicardNotConverged
+from rodfem.solver.compiled.build import CompiledSource
+from rodfem.solver.compiled.direct import _classes, checked_steps
+from rodfem.solver.methods.picard import PicardNotConverged
 
-SOURCE = Path(__file__).with_name("picard_kernel.c")
+SOURCE = Path(__file__).with_name("picard.c")
 
 _source = CompiledSource(SOURCE, "_rodfem_picard_kernel_", "Picard kernel")
 _library = _source.library
@@ -107,7 +107,7 @@ def _tridiagonal(A, n: int, row_block: int = 0, col_block: int = 0) -> np.ndarra
 
 
 class PicardKernel:
-    """Steps of a :class:`rodfem.picard.PicardScheme` in compiled code (the module's docstring).
+    """Steps of a :class:`rodfem.solver.methods.picard.PicardScheme` in compiled code (the module's docstring).
 
     ``PicardKernel(scheme, history)`` reads the operators once; :meth:`advance` then does steps
     exactly as ``scheme.advance()`` followed by ``history.record(scheme)``, from any n ≥ 1 (n ≥ 0

@@ -1,9 +1,9 @@
 """The `direct` method's time loop in compiled code: many steps in one C call.
 
-A step of :class:`rodfem.direct.DirectScheme` is linear algebra with constant operators and one
+A step of :class:`rodfem.solver.methods.direct.DirectScheme` is linear algebra with constant operators and one
 scalar equation (the contact force); in Python each of its PETSc calls costs about a microsecond,
 which at a few hundred cells is most of the step. :class:`DirectKernel` reads the operators off a
-scheme and its history once and runs ``steps`` steps in ``rodfem/kernel.c``:
+scheme and its history once and runs ``steps`` steps in ``rodfem/solver/compiled/direct.c``:
 
     [h; m] = R s + b                  (s = [Θⁿ⁻¹; Dⁿ⁻¹; Uⁿ⁻¹], R: 2n × 3n, ``scheme.R``)
     z = C⁻¹ [h; m]                    (C = ``scheme.coupled_operator()``, 2n × 2n)
@@ -12,7 +12,7 @@ scheme and its history once and runs ``steps`` steps in ``rodfem/kernel.c``:
     [ΔΘⁿ; ΔUⁿ] = z + p q              (q = ``scheme.response``, w = ``scheme.compliance``)
     Θⁿ = Θⁿ⁻¹ + ΔΘⁿ, Uⁿ = Uⁿ⁻¹ + ΔUⁿ, Dⁿ = ΔUⁿ (Crank–Nicolson with inertia: 2ΔUⁿ − Dⁿ⁻¹)
 
-and for each new state the 7 numbers :meth:`rodfem.history.History.record` stores (n, 1, Uⁿ(1),
+and for each new state the 7 numbers :meth:`rodfem.output.history.History.record` stores (n, 1, Uⁿ(1),
 ΔUⁿ(1), Uⁿ(0.5), the bulk energy ½ (E s + 2w)·s, p), so that :meth:`History.take` turns them
 into rows of ``history.csv`` as it does the PETSc loop's.
 
@@ -20,7 +20,7 @@ into rows of ``history.csv`` as it does the PETSc loop's.
 with n + i; interleaved by node, [Θ₀, D₀, U₀, Θ₁, …] for the state and [ΔΘ₀, ΔU₀, ΔΘ₁, …] for
 the unknowns, every operator couples only neighbouring nodes: C is banded, with kl = ku = 3 for P1
 (a = 0: 1), and a row of R or E reads the state of nodes i − 1 .. i + 1. C is permuted so and
-factored here once, by LAPACK's dgbtrf (partial pivoting); kernel.c does dgbtrs's substitutions.
+factored here once, by LAPACK's dgbtrf (partial pivoting); direct.c does dgbtrs's substitutions.
 The superdiagonals of U that are zero in every column are dropped (without row interchanges U has
 only ku of the kl + ku that dgbtrf reserves for fill), as are the multipliers of L likewise, and
 U's diagonal is kept as reciprocals. R and E are stored per node as dense rows over "slots", the
@@ -54,7 +54,7 @@ in the two; it has not happened on any scene tested.
 manufactured solution) are refused at construction. The kernel is rank-local, as the state is
 (every rank holds all of it and computes the same rows).
 
-**Building.** kernel.c is compiled with cffi on first use and cached (:mod:`rodfem.cbuild`).
+**Building.** direct.c is compiled with cffi on first use and cached (:mod:`rodfem.solver.compiled.build`).
 :func:`available` says whether it could be built and loaded (no compiler, no cffi: False, and the
 caller keeps the PETSc loop); importing this module compiles nothing and raises nothing.
 """
@@ -65,11 +65,11 @@ from pathlib import Path
 
 import numpy as np
 
-from rodfem.cbuild import CompiledSource
+from rodfem.solver.compiled.build import CompiledSource
 
-SOURCE = Path(__file__).with_name("kernel.c")
+SOURCE = Path(__file__).with_name("direct.c")
 RULES = {"penalty": 0, "gradient": 1, "rigid": 2}
-KMAX = 8  # the widest band of the blocked substitutions (kernel.c)
+KMAX = 8  # the widest band of the blocked substitutions (direct.c)
 
 _source = CompiledSource(SOURCE, "_rodfem_kernel_", "kernel")
 _library = _source.library
@@ -132,7 +132,7 @@ def _slots(A, parts: int, n: int):
 
 
 def _blocked(lu: np.ndarray, kl: int, ku: int, kl_kept: int, ku_kept: int, n: int):
-    """The node-blocked recurrences of kernel.c (forward_blocked, backward_blocked) from
+    """The node-blocked recurrences of direct.c (forward_blocked, backward_blocked) from
     dgbtrf's factors without interchanges, P = I: per node i, l_i and F_i (rows 0, 1), and
     d00, d01, d11 and H_i (rows 0, 1)."""
     kd, N = kl + ku, 2 * n
@@ -192,7 +192,7 @@ def _classes(columns: dict[str, np.ndarray], compress: bool = True):
 
 
 class DirectKernel:
-    """Steps of a :class:`rodfem.direct.DirectScheme` in compiled code (the module's docstring).
+    """Steps of a :class:`rodfem.solver.methods.direct.DirectScheme` in compiled code (the module's docstring).
 
     ``DirectKernel(scheme, history)`` reads the operators once; :meth:`advance` then does steps
     exactly as ``scheme.advance()`` from any n ≥ 1 (n ≥ 0 where the first step is not special:

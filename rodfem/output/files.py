@@ -19,9 +19,9 @@ from dolfinx.io import XDMFFile
 from mpi4py import MPI
 
 import forms.copetti as copetti
-from rodfem import compat
-from rodfem.discretisation import Discretisation
-from rodfem.history import COLUMNS
+from rodfem.discrete import compat
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.output.history import COLUMNS
 
 RUN_FILES = ("history.csv", "fields.xdmf", "fields.h5", "scene.toml", "summary.json")
 FIGURE_DIRS = ("figures", "figure5")

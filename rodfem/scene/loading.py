@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from rodfem.expressions import Expression, ExpressionError, shorten
+from rodfem.scene.expressions import Expression, ExpressionError, shorten
 
 
 class SceneError(ValueError):
@@ -89,7 +89,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "max_iterations": Key("integer", 100, minimum=1, maximum=1_000_000),
     },
     # Body sources f of θ_t − θ_xx + a u_xt = f and b u_tt − σ_x = f, in x, t and the model's
-    # names: for manufactured solutions (rodfem.manufactured). "0" costs nothing.
+    # names: for manufactured solutions (rodfem.model.manufactured). "0" costs nothing.
     "source": {
         "heat": Key("expression", "0", help="source of the heat equation, in x and t"),
         "momentum": Key("expression", "0", help="source of the momentum equation, in x and t"),
@@ -101,7 +101,7 @@ TOP_LEVEL = {"description": ""}
 MODEL_NAMES = tuple(SCHEMA["model"])
 SOURCE_NAMES = (*MODEL_NAMES, "t")
 BUILTIN = tuple(f"paper{i}" for i in range(1, 6))  # the paper's experiments
-# Other built-in scenes: a manufactured solution without contact, with sources (rodfem.manufactured)
+# Other built-in scenes: a manufactured solution without contact, with sources (rodfem.model.manufactured)
 EXTRA = ("manufactured",)
 
 
@@ -315,7 +315,7 @@ def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
         SceneError: if the scene cannot be read or any value is wrong.
     """
     if scene in BUILTIN or scene in EXTRA:
-        text = resources.files("rodfem").joinpath("scenes", f"{scene}.toml").read_text()
+        text = resources.files("rodfem.scene").joinpath("builtin", f"{scene}.toml").read_text()
         source = scene
     else:
         path = Path(scene)

@@ -23,9 +23,9 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from rodfem import contact
-from rodfem.discretisation import Discretisation
-from rodfem.scheme import LU_OPTIONS, NotConverged, Scheme, set_default_options, stacked
+from rodfem.model import contact
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.solver.methods.base import LU_OPTIONS, NotConverged, Scheme, set_default_options, stacked
 
 REASONS = {getattr(PETSc.SNES.ConvergedReason, name): name
            for name in dir(PETSc.SNES.ConvergedReason) if name.isupper()}

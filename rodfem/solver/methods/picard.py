@@ -6,7 +6,7 @@ LU-factored once per run, so an iteration is two mat-vecs and two triangular sol
 
 The paper proves convergence for a < 1 and Δt < εζ. Where the contact is active, the iteration
 maps the contact force through the compliance w of the momentum operator at x = 1 (the U(1)
-response to a unit force, :attr:`rodfem.direct.DirectScheme.compliance`): it contracts by about
+response to a unit force, :attr:`rodfem.solver.methods.direct.DirectScheme.compliance`): it contracts by about
 w/ε per iteration and cannot converge when w > ε (see ``rodfem stability``).
 
 With a = 0 the heat equation does not see the motion: it is solved once per step, and the
@@ -19,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from rodfem.discretisation import Discretisation
-from rodfem.scheme import NotConverged, Scheme, lu_factor, stacked
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.solver.methods.base import NotConverged, Scheme, lu_factor, stacked
 
 INF = PETSc.NormType.INFINITY
 

@@ -13,9 +13,9 @@ from mpi4py import MPI
 
 import rodfem
 import rodfem.scene
-from rodfem.output import prepare_directory
+from rodfem.output.files import prepare_directory
 from rodfem.run import simulate
-from rodfem.stationary import stationary
+from rodfem.model.stationary import stationary
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,7 +65,7 @@ def measured(scene: rodfem.scene.Scene, run: Path, result) -> str:
     return (
         f"{contact}; at t = {t[-1]:g} the rod is {'in contact' if touching[-1] else 'free'}, "
         f"u(1) = {u_1[-1]:.5f}, σ(1) = {sigma_1[-1]:.5f}, against the stationary state "
-        f"u*(1) = {u_star[0]:.5f}, σ* = {sigma_star:.5f} (`rodfem.stationary`). Energy "
+        f"u*(1) = {u_star[0]:.5f}, σ* = {sigma_star:.5f} (`rodfem.model.stationary`). Energy "
         f"non-increasing: {'yes' if s['energy_non_increasing'] else 'NO'} (largest step change "
         f"{s['energy_max_increase']:.2e}); {s['iterations_mean']:.2f} Picard iterations per step."
     )

@@ -9,8 +9,8 @@ with the obstacle out of reach), each time scheme and each method, two ladders o
 Each reference is solved by the direct method with the ladder's time scheme. Sharing the other
 step with its ladder, it has the same error in that step to first order, so the differences
 measure the refined step's error alone, and the orders are those of the refined step.
-The errors are those of :mod:`rodfem.convergence`: u(1, ·) over [0, T] (max and L² in time), u and
-θ at T (L² in space). With :mod:`rodfem.manufactured` (a scene with a known exact solution), its
+The errors are those of :mod:`rodfem.studies.convergence`: u(1, ·) over [0, T] (max and L² in time), u and
+θ at T (L² in space). With :mod:`rodfem.model.manufactured` (a scene with a known exact solution), its
 ladders are measured against the exact solution.
 
 Ladders (a scene, a direction, a time scheme: the reference and every method's runs) are dealt
@@ -30,7 +30,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rodfem import convergence as cv
+from rodfem.studies import convergence as cv
 from rodfem.scene import METHODS, SCHEMA, Scene, SceneError, load
 
 if TYPE_CHECKING:
@@ -58,12 +58,12 @@ def schemes() -> tuple[str, ...]:
 
 
 def manufactured():
-    """:mod:`rodfem.manufactured`, or None where it does not exist."""
-    if importlib.util.find_spec("rodfem.manufactured") is None:
+    """:mod:`rodfem.model.manufactured`, or None where it does not exist."""
+    if importlib.util.find_spec("rodfem.model.manufactured") is None:
         return None
-    import rodfem.manufactured
+    import rodfem.model.manufactured
 
-    return rodfem.manufactured
+    return rodfem.model.manufactured
 
 
 def scheme_overrides(scheme: str) -> list[str]:
@@ -400,7 +400,7 @@ def prepare(out: Path, force: bool, comm: MPI.Comm, files: tuple[str, ...] = FIL
     Raises:
         OutputError: it exists (without ``force``), or holds something else.
     """
-    from rodfem.output import prepare_result_directory
+    from rodfem.output.files import prepare_result_directory
 
     prepare_result_directory(out, force, comm, files)
 
@@ -410,8 +410,8 @@ def run_verify(out: Path, plan: Plan, scenes: tuple[str, ...], force: bool, prog
     """Prepare ``out``, run every ladder, write the tables (rank 0); return the data (None if
     interrupted: then nothing is written). Raises OutputError (nothing written) on a bad
     ``out``."""
-    from rodfem.output import write_json, write_text
-    from rodfem.stability import machine
+    from rodfem.output.files import write_json, write_text
+    from rodfem.studies.stability import machine
 
     prepare(out, force, comm)
 

@@ -6,7 +6,7 @@ its iterations, its energy behaviour (Remark 4.4) and its cost, next to the two 
 Picard's iteration (3.3)–(3.4):
 
 * the paper's sufficient condition, Δt < εζ and a < 1 (never true for ζ = 0);
-* the compliance condition w/ε < 1, w = :attr:`rodfem.direct.DirectScheme.compliance` the
+* the compliance condition w/ε < 1, w = :attr:`rodfem.solver.methods.direct.DirectScheme.compliance` the
   response of Uⁿ(1) to a unit contact force over one step: while the contact is active, Picard
   maps the contact force p ↦ (1/ε)[s − w p − g]_+ (exactly so for a = 0), which contracts iff
   w < ε and otherwise ends in a 2-cycle.
@@ -172,8 +172,8 @@ class Compliance:
         if key not in self._cache:
             from mpi4py import MPI
 
-            from rodfem.direct import DirectScheme
-            from rodfem.discretisation import Discretisation
+            from rodfem.solver.methods.direct import DirectScheme
+            from rodfem.discrete.discretisation import Discretisation
 
             point = dict(method="direct", a=a, zeta=zeta, dt=dt, epsilon=1.0)
             scene = _with(self.base, point, self.end)
@@ -382,7 +382,7 @@ def prepare(out: Path, force: bool, comm: MPI.Comm) -> None:
     Raises:
         OutputError: it exists (without ``force``), or holds something else.
     """
-    from rodfem.output import prepare_result_directory
+    from rodfem.output.files import prepare_result_directory
 
     prepare_result_directory(out, force, comm, FILES)
 
@@ -390,7 +390,7 @@ def prepare(out: Path, force: bool, comm: MPI.Comm) -> None:
 def write(out: Path, records: list[dict], grid: Grid, base: Scene, overrides: list[str],
           seconds: float, comm: MPI.Comm) -> None:
     """stability.csv and stability.json into ``out`` (rank 0)."""
-    from rodfem.output import write_json
+    from rodfem.output.files import write_json
 
     data = {
         "scene": base.source, "overrides": list(overrides), "grid": grid.as_dict(),

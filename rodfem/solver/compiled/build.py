@@ -1,4 +1,4 @@
-"""Building rodfem's compiled loops (``kernel.c``, ``picard_kernel.c``) with cffi.
+"""Building rodfem's compiled loops (``direct.c``, ``picard.c``) with cffi.
 
 A C source is compiled (API mode, the system's C compiler, as dolfinx's JIT does) once per hash of
 its text, the compiler flags, the cffi version and the interpreter, into ``$XDG_CACHE_HOME/rodfem``

@@ -15,7 +15,7 @@ where the contact force p is the one scalar unknown left:
   p = (s − g)/w, so that Uⁿ(1) = g;
 * Crank–Nicolson's elastic obstacle, p the discrete gradient of the obstacle's energy between
   Uⁿ⁻¹(1) and Uⁿ(1): a quadratic or a linear equation, in closed form
-  (:func:`rodfem.contact.solve`).
+  (:func:`rodfem.model.contact.solve`).
 
 Each is the unique solution, since y ↦ y + w p(y) is strictly increasing: this is the exact
 solution of the step, with no iteration and no tolerance. Steps without contact (s ≤ g, and for
@@ -25,9 +25,9 @@ and momentum operators are factored and solved apart.
 
 from __future__ import annotations
 
-from rodfem import contact
-from rodfem.discretisation import Discretisation
-from rodfem.scheme import Scheme, lu_factor, stacked
+from rodfem.model import contact
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.solver.methods.base import Scheme, lu_factor, stacked
 
 
 class DirectScheme(Scheme):

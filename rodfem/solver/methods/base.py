@@ -1,7 +1,7 @@
 """What every method shares: the scheme (3.1)–(3.2), its state, and its first step.
 
-A method (``solver.method``) is a way of solving one step of the scheme: :mod:`rodfem.picard` (the
-paper's iteration), :mod:`rodfem.direct` (exact, one solve) and :mod:`rodfem.newton` (PETSc SNES).
+A method (``solver.method``) is a way of solving one step of the scheme: :mod:`rodfem.solver.methods.picard` (the
+paper's iteration), :mod:`rodfem.solver.methods.direct` (exact, one solve) and :mod:`rodfem.solver.methods.newton` (PETSc SNES).
 All of them advance the same state, through the increments over a step, ΔΘⁿ = Θⁿ − Θⁿ⁻¹ and
 ΔUⁿ = Uⁿ − Uⁿ⁻¹, with (3.1)–(3.2) written for them (``forms.copetti.heat_increment`` and
 ``momentum_increment``): solved for Uⁿ itself, (3.2) loses |U| ε_mach/Δt² of the acceleration
@@ -15,7 +15,7 @@ its operators are read off its form once per run (:meth:`Discretisation.affine_o
 
 with e the load of a unit force at x = 1 and p the contact force there: p = (1/ε)[Uⁿ(1) − g]_+
 for the elastic obstacle, the multiplier of Signorini's condition Uⁿ(1) ≤ g for the rigid one.
-σ(1) = −p. Vectors are sequential, in node order (:mod:`rodfem.nodes`); x = 1 is the last node.
+σ(1) = −p. Vectors are sequential, in node order (:mod:`rodfem.discrete.nodes`); x = 1 is the last node.
 """
 
 from __future__ import annotations
@@ -25,9 +25,9 @@ import ufl
 from petsc4py import PETSc
 
 import forms.copetti as copetti
-from rodfem import contact
-from rodfem.discretisation import Discretisation
-from rodfem.nodes import block_diagonal, block_matrix
+from rodfem.model import contact
+from rodfem.discrete.discretisation import Discretisation
+from rodfem.discrete.nodes import block_diagonal, block_matrix
 
 # Default options of every LU factorisation, merged under the user's (PETSC_OPTIONS can override).
 # In node order the operators are tridiagonal, so LU in the natural ordering has no fill; the
@@ -109,7 +109,7 @@ class Scheme:
         self.epsilon, self.gap = scene["obstacle.epsilon"], scene["obstacle.gap"]
         self.rigid = scene["obstacle.kind"] == "rigid"
         # Crank–Nicolson (the midpoint rule) or the paper's scheme; the contact force of each
-        # (rodfem.contact): Signorini's multiplier, the penalty at tⁿ, or its discrete gradient.
+        # (rodfem.model.contact): Signorini's multiplier, the penalty at tⁿ, or its discrete gradient.
         self.midpoint = scene["time.scheme"] == "crank-nicolson"
         self.rule = "rigid" if self.rigid else "gradient" if self.midpoint else "penalty"
         self.coupled = scene["model.a"] != 0.0  # a = 0: heat does not see motion, nor motion heat
@@ -270,7 +270,7 @@ class Scheme:
             du.copy(self.du)
 
     def contact_force(self, y: float, c: float) -> float:
-        """The elastic obstacle's force for Uⁿ(1) = y and Uⁿ⁻¹(1) = c (:mod:`rodfem.contact`)."""
+        """The elastic obstacle's force for Uⁿ(1) = y and Uⁿ⁻¹(1) = c (:mod:`rodfem.model.contact`)."""
         if self.rule == "gradient":
             return contact.discrete_gradient(y, c, self.gap, self.epsilon)
         return contact.penalty_force(y, self.gap, self.epsilon)
@@ -280,9 +280,9 @@ def make_scheme(disc: Discretisation) -> Scheme:
     """The scheme of the scene's ``solver.method``."""
     method = disc.scene["solver.method"]
     if method == "picard":
-        from rodfem.picard import PicardScheme as cls
+        from rodfem.solver.methods.picard import PicardScheme as cls
     elif method == "newton":
-        from rodfem.newton import NewtonScheme as cls
+        from rodfem.solver.methods.newton import NewtonScheme as cls
     else:
-        from rodfem.direct import DirectScheme as cls
+        from rodfem.solver.methods.direct import DirectScheme as cls
     return cls(disc)

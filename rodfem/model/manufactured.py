@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rodfem.expressions import Expression
-from rodfem.scene import SOURCE_NAMES, Scene, load
+from rodfem.scene.expressions import Expression
+from rodfem.scene.loading import SOURCE_NAMES, Scene, load
 
 EXACT = {
     "u": "(cos(t) + sin(t))*sin(pi*x/2)",

@@ -100,14 +100,14 @@ int rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, lon
                double *rows, double *pressure);
 /* cdef end */
 
-/* rodfem.contact._positive_root: the root q >= 0 of A q^2 + B q + C = 0, A > 0, C <= 0. */
+/* rodfem.model.contact._positive_root: the root q >= 0 of A q^2 + B q + C = 0, A > 0, C <= 0. */
 static double positive_root(double A, double B, double C)
 {
     double disc = sqrt(B * B - 4.0 * A * C);
     return B >= 0.0 ? -2.0 * C / (B + disc) : (-B + disc) / (2.0 * A);
 }
 
-/* rodfem.contact.solve: the contact force p with y + w p(y) = s, y = U^n(1), c = U^{n-1}(1). */
+/* rodfem.model.contact.solve: the contact force p with y + w p(y) = s, y = U^n(1), c = U^{n-1}(1). */
 static double contact_solve(double s, double w, double gap, double epsilon, int rule, double c)
 {
     if (rule != 1) {

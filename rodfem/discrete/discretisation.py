@@ -11,7 +11,7 @@ same for (3.4). Rows and columns of the Dirichlet node x = 0 are removed from ev
 (identity in A, zero in N_k and b), so every vector stays in S_E.
 
 Assembly is distributed; the operators handed to the time loop are sequential copies in node order
-(see :mod:`rodfem.nodes`).
+(see :mod:`rodfem.discrete.nodes`).
 """
 
 from __future__ import annotations
@@ -26,8 +26,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import forms.copetti as copetti
-from rodfem import compat
-from rodfem.nodes import NodeOrder
+from rodfem.discrete import compat
+from rodfem.discrete.nodes import NodeOrder
 from rodfem.scene import Scene
 
 OBSTACLE = 1  # facet tag of the point x = 1

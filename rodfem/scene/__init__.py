@@ -1,0 +1,15 @@
+"""What a user asks to simulate: the scene schema, loading and validation, expressions, and the
+built-in scenes (``builtin/``)."""
+
+from rodfem.scene.loading import (
+    BUILTIN,
+    EXTRA,
+    METHODS,
+    SCHEMA,
+    Scene,
+    SceneError,
+    load,
+    validate,
+)
+
+__all__ = ["BUILTIN", "EXTRA", "METHODS", "SCHEMA", "Scene", "SceneError", "load", "validate"]
