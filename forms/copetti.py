@@ -58,16 +58,23 @@ def momentum(U, U_prev, U_prev2, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx):
 
 
 # The same two equations written for the increments ΔΘⁿ = Θⁿ − Θⁿ⁻¹ and ΔUⁿ = Uⁿ − Uⁿ⁻¹, as the
-# paper does with δⁿ − δⁿ⁻¹ in the proof of Theorem 4.3. They are (3.1) and (3.2) term by term, but
-# no term is a difference of two functions of size |Θ| or |U|: solving for the increment computes
-# it to its own accuracy, where solving (3.2) for Uⁿ loses |U| ε_mach/Δt² of the acceleration.
+# paper does with δⁿ − δⁿ⁻¹ in the proof of Theorem 4.3. No term is a difference of two functions
+# of size |Θ| or |U|: solving for the increment computes it to its own accuracy, where solving
+# (3.2) for Uⁿ loses |U| ε_mach/Δt² of the acceleration.
+#
+# One weight w places them in the step (rodfem.solver.time_schemes): w = 1 is (3.1)–(3.2) term by
+# term; w = ½ is Crank–Nicolson (the implicit midpoint rule on the first-order system u_t = v,
+# b v_t = σ_x, θ_t = θ_xx − a v_x). With D = Δt V the displacement the velocity makes over a step,
+# the midpoint rule reads (Uⁿ − Uⁿ⁻¹)/Δt = (Vⁿ + Vⁿ⁻¹)/2, i.e. Dⁿ = 2ΔUⁿ − Dⁿ⁻¹, so that
+# V^{n−½} = ΔUⁿ/Δt is the paper's δⁿ and b (Vⁿ − Vⁿ⁻¹)/Δt = 2b (ΔUⁿ − Dⁿ⁻¹)/Δt². Tested with
+# Θ^{n−½} and δⁿ, the two equations give the energy identity of docs/time-schemes.md exactly.
 
 
-def heat_increment(ΔΘ, Θ_prev, ΔU, w, dt, a, k, dx_m, dx, ds_1):
-    """(3.1) with Θⁿ = Θⁿ⁻¹ + ΔΘⁿ and Uⁿ − Uⁿ⁻¹ = ΔUⁿ:
+def heat_increment(ΔΘ, Θ_prev, ΔU, w, dt, a, k, dx_m, dx, ds_1, weight=1.0):
+    """(3.1) at tⁿ⁻¹ + weight·Δt, with Θ = Θⁿ⁻¹ + weight·ΔΘⁿ and Uⁿ − Uⁿ⁻¹ = ΔUⁿ:
 
-        (ΔΘⁿ, w)/Δt + (Θⁿ_x, w_x) + a (ΔUⁿ_x, w)/Δt + k Θⁿ(1) w(1)."""
-    Θ = Θ_prev + ΔΘ
+        (ΔΘⁿ, w)/Δt + (Θ_x, w_x) + a (ΔUⁿ_x, w)/Δt + k Θ(1) w(1)."""
+    Θ = Θ_prev + weight * ΔΘ
     return (
         ΔΘ / dt * w * dx_m
         + Θ.dx(0) * w.dx(0) * dx
@@ -76,49 +83,16 @@ def heat_increment(ΔΘ, Θ_prev, ΔU, w, dt, a, k, dx_m, dx, ds_1):
     )
 
 
-def momentum_increment(ΔU, ΔU_prev, U_prev, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx):
-    """(3.2) without its contact term, with Uⁿ = Uⁿ⁻¹ + ΔUⁿ and Uⁿ⁻¹ − Uⁿ⁻² = ΔUⁿ⁻¹:
+def momentum_increment(ΔU, D_prev, U_prev, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx,
+                       weight=1.0):
+    """(3.2) at tⁿ⁻¹ + weight·Δt without its contact term, with U = Uⁿ⁻¹ + weight·ΔUⁿ, Θ the
+    temperature there and Dⁿ⁻¹ the velocity's displacement over the last step (Uⁿ⁻¹ − Uⁿ⁻² in
+    the paper's scheme):
 
-        b (ΔUⁿ − ΔUⁿ⁻¹, v)/Δt² + (Uⁿ_x − aΘⁿ + aθ_A r, v_x) + ζ (ΔUⁿ_x, v_x)/Δt."""
-    U = U_prev + ΔU
+        b (ΔUⁿ − Dⁿ⁻¹, v)/(weight Δt²) + (U_x − aΘ + aθ_A r, v_x) + ζ (ΔUⁿ_x, v_x)/Δt."""
+    U = U_prev + weight * ΔU
     return (
-        b * (ΔU - ΔU_prev) / dt**2 * v * dx_m
-        + (U.dx(0) - a * Θ + a * theta_A * r) * v.dx(0) * dx
-        + zeta / dt * ΔU.dx(0) * v.dx(0) * dx
-    )
-
-
-# A second-order scheme for the same spatial forms: Crank–Nicolson (the implicit midpoint rule) on
-# the first-order system u_t = v, b v_t = σ_x, θ_t = θ_xx − a v_x. With D = Δt V the displacement
-# the velocity makes over a step, the midpoint rule reads
-#     (Uⁿ − Uⁿ⁻¹)/Δt = (Vⁿ + Vⁿ⁻¹)/2,  i.e.  Dⁿ = 2ΔUⁿ − Dⁿ⁻¹,
-# so that V^{n−½} = ΔUⁿ/Δt is the paper's δⁿ, and (3.1)–(3.2) are taken at t^{n−½}, with Θ and U
-# at the midpoint, Θ^{n−½} = Θⁿ⁻¹ + ΔΘⁿ/2, U^{n−½} = Uⁿ⁻¹ + ΔUⁿ/2. Tested with Θ^{n−½} and δⁿ,
-# the two equations give the energy identity of docs/time-schemes.md exactly.
-
-
-def heat_midpoint(ΔΘ, Θ_prev, ΔU, w, dt, a, k, dx_m, dx, ds_1):
-    """(3.1) at t^{n−½}:
-
-        (ΔΘⁿ, w)/Δt + (Θ^{n−½}_x, w_x) + a (ΔUⁿ_x, w)/Δt + k Θ^{n−½}(1) w(1)."""
-    Θ = Θ_prev + 0.5 * ΔΘ
-    return (
-        ΔΘ / dt * w * dx_m
-        + Θ.dx(0) * w.dx(0) * dx
-        + a / dt * ΔU.dx(0) * w * dx
-        + k * Θ * w * ds_1
-    )
-
-
-def momentum_midpoint(ΔU, D_prev, U_prev, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx):
-    """(3.2) at t^{n−½} without its contact term, with Θ = Θ^{n−½} and Dⁿ⁻¹ = Δt Vⁿ⁻¹:
-
-        b (Vⁿ − Vⁿ⁻¹, v)/Δt + (U^{n−½}_x − aΘ^{n−½} + aθ_A r, v_x) + ζ (ΔUⁿ_x, v_x)/Δt,
-
-    where b (Vⁿ − Vⁿ⁻¹)/Δt = 2b (ΔUⁿ − Dⁿ⁻¹)/Δt²."""
-    U = U_prev + 0.5 * ΔU
-    return (
-        2.0 * b * (ΔU - D_prev) / dt**2 * v * dx_m
+        b / weight * (ΔU - D_prev) / dt**2 * v * dx_m
         + (U.dx(0) - a * Θ + a * theta_A * r) * v.dx(0) * dx
         + zeta / dt * ΔU.dx(0) * v.dx(0) * dx
     )
@@ -130,9 +104,10 @@ def source(f, v, dx):
     return -f * v * dx
 
 
-def contact_pressure(U, epsilon, gap):
-    """(1/ε) [U(1) − g]_+ = −σ(1): the elastic obstacle's reaction (1.5)."""
-    return positive_part(U - gap) / epsilon
+def contact_pressure(U, epsilon, gap, exponent=1.0):
+    """(1/ε) [U(1) − g]_+^m = −σ(1): the elastic obstacle's reaction, (1.5) for m = 1 and normal
+    compliance for m > 1 (rodfem.model.contact)."""
+    return positive_part(U - gap) ** exponent / epsilon
 
 
 def contact(p, v, ds_1):
@@ -141,17 +116,19 @@ def contact(p, v, ds_1):
     return p * v * ds_1
 
 
-def energy(Θ, U, U_prev, dt, b, a, theta_A, r, epsilon, gap, dx_m, dx, ds_1):
+def energy(Θ, U, U_prev, dt, b, a, theta_A, r, epsilon, gap, dx_m, dx, ds_1, exponent=1.0):
     """Êⁿ of Remark 4.4, with δⁿ = (Uⁿ − Uⁿ⁻¹)/Δt and the norms of the scheme's inner product:
 
-        ½ (‖Θⁿ‖² + b‖δⁿ‖² + ‖Uⁿ_x‖² + (1/ε)[Uⁿ(1) − g]_+²) + a θ_A (r, Uⁿ_x)."""
+        ½ (‖Θⁿ‖² + b‖δⁿ‖² + ‖Uⁿ_x‖²) + [Uⁿ(1) − g]_+^{m+1}/((m + 1)ε) + a θ_A (r, Uⁿ_x),
+
+    the contact term (1/2ε)[Uⁿ(1) − g]_+² of the paper for m = 1."""
     δ = (U - U_prev) / dt
+    m1 = exponent + 1.0
     return 0.5 * (
         Θ**2 * dx_m
         + b * δ**2 * dx_m
         + U.dx(0) ** 2 * dx
-        + positive_part(U - gap) ** 2 / epsilon * ds_1
-    ) + a * theta_A * r * U.dx(0) * dx
+    ) + positive_part(U - gap) ** m1 / (m1 * epsilon) * ds_1 + a * theta_A * r * U.dx(0) * dx
 
 
 def temperature(Θ, theta_A, r):

@@ -152,16 +152,19 @@ def _advice(scene, error) -> str:
         return f"{error}."
     from mpi4py import MPI
 
+    from rodfem.model import contact
     from rodfem.solver.methods.direct import compliance
 
     dt, eps, zeta, a = (scene[k] for k in ("time.dt", "obstacle.epsilon", "model.zeta", "model.a"))
     ratio = f"{dt / (eps * zeta):.3g}" if eps * zeta > 0 else "inf (ζ = 0)"
     w = compliance(scene, MPI.COMM_WORLD)
+    law = contact.of_scene(scene)
+    rate = law.contraction(w, error.u_1)
     return (
         f"{error} (tol {scene['solver.tol']:g}). In contact the iteration contracts by about "
-        f"w/ε = {w / eps:.3g} (needs < 1; w = {w:.3g}, the rod's compliance at x = 1 over a "
-        f"step); the paper's sufficient condition is Δt < εζ and a < 1, here Δt/(εζ) = {ratio} "
-        f'and a = {a:g}. solver.method = "direct" solves every step exactly.'
+        f"{law.contraction_formula} = {rate:.3g} (needs < 1; w = {w:.3g}, the rod's compliance "
+        f"at x = 1 over a step); the paper's sufficient condition is Δt < εζ and a < 1, here "
+        f'Δt/(εζ) = {ratio} and a = {a:g}. solver.method = "direct" solves every step exactly.'
     )
 
 

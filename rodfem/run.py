@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import os
 import signal
 import sys
 import threading
@@ -18,11 +17,14 @@ from petsc4py import PETSc
 
 import rodfem
 from rodfem.discrete.discretisation import Discretisation
-from rodfem.output.history import History
+from rodfem.output.columns import INDEX
 from rodfem.output.files import FieldFile, HistoryFile, write_json, write_text
+from rodfem.output.history import History
 from rodfem.output.progress import Progress
 from rodfem.scene import Scene
-from rodfem.solver.methods.base import NotConverged, make_scheme
+from rodfem.solver.compiled import compiled_loop
+from rodfem.solver.errors import NotConverged
+from rodfem.solver.methods import make_method
 
 # Êⁿ is non-increasing in exact arithmetic (Remark 4.4). An increase counts only if it exceeds the
 # round-off of Ê, a sum of a few O(max |Ê|) terms each good to a few ulps.
@@ -85,38 +87,6 @@ def stop_requests(comm: MPI.Comm, every: int = 256):
 STOP_EVERY = 256  # steps between two checks, agreed by all ranks, for a request to stop
 
 
-_warned: dict[str, bool] = {}
-
-
-def compiled_loop(scheme, history):
-    """The compiled time loop of the direct method (:mod:`rodfem.solver.compiled.direct`) or of Picard's
-    (:mod:`rodfem.solver.compiled.picard`) where it applies and can be built, else None: the same steps,
-    a block of them per C call, to round-off (Picard: the same iterations). RODFEM_KERNEL=0 in
-    the environment keeps the PETSc loop; so do sources (the manufactured scene), Newton, and
-    Picard with a = 0 or a rigid obstacle."""
-    if os.environ.get("RODFEM_KERNEL", "1") == "0":
-        return None
-    if any(f is not None for f in scheme.sources.values()):
-        return None
-    if scheme.method == "direct":
-        from rodfem.solver.compiled import direct as module
-    elif scheme.method == "picard" and scheme.coupled and not scheme.rigid:
-        from rodfem.solver.compiled import picard as module
-    else:
-        return None
-    # Every rank must run the same loop (the same arithmetic, the same failures).
-    comm = scheme.disc.comm
-    if not comm.allreduce(module.available(), op=MPI.LAND):
-        if comm.rank == 0 and not _warned.get(module.__name__):
-            _warned[module.__name__] = True
-            reason = module.unavailable_reason() or "not built on every rank"
-            print(f"rodfem: the compiled loop is not available ({reason}); using the PETSc "
-                  "loop, the same steps, slower", file=sys.stderr)
-        return None
-    cls = module.DirectKernel if scheme.method == "direct" else module.PicardKernel
-    return cls(scheme, history)
-
-
 @dataclasses.dataclass
 class RunResult:
     status: str  # complete | failed | interrupted
@@ -152,7 +122,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     if out is not None:
         write_text(out / "scene.toml", scene.to_toml(), comm)
     disc = Discretisation(scene, comm)
-    scheme = make_scheme(disc)
+    method = make_method(disc)
     history = History(disc)
     history_file = HistoryFile(out / "history.csv", comm) if out is not None else InMemory()
     field_file = FieldFile(out / "fields.xdmf", disc) if out is not None else None
@@ -165,28 +135,24 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     def flush() -> None:
         rows = history.take()
         history_file.append(rows)
-        energy.update(np.rint(rows[:, 0] / dt).astype(int), rows[:, 5])
-        iterations.extend(rows[:, 6].astype(int).tolist())
+        energy.update(np.rint(rows[:, INDEX["t"]] / dt).astype(int), rows[:, INDEX["energy"]])
+        iterations.extend(rows[:, INDEX["iterations"]].astype(int).tolist())
 
     saved = [-1]
 
     def save_fields() -> None:
         if field_file is not None:
-            back = scheme.u_prev
-            if scheme.midpoint:  # σ's u_t: the velocity Vⁿ = Dⁿ/Δt, not the half step's δⁿ
-                back = scheme.u.copy()
-                back.axpy(-1.0, scheme.du)
-            field_file.write(scheme.n * dt, scheme.theta, scheme.u, back)
-        saved[0] = scheme.n
+            field_file.write(method.n * dt, method.theta, method.u, method.velocity_back)
+        saved[0] = method.n
 
     def observe() -> None:
-        history.record(scheme)
+        history.record(method)
         if history.full:
             flush()
-        if scheme.n % every == 0 or scheme.n == steps:
+        if method.n % every == 0 or method.n == steps:
             save_fields()
 
-    kernel = compiled_loop(scheme, history)
+    kernel = compiled_loop(method, history)
     setup_seconds = time.perf_counter() - started
     status, error = "complete", None
     loop_started = time.perf_counter()
@@ -195,9 +161,9 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
             observe()
             n = 0
             while n < steps:
-                if kernel is None or scheme.n == 0 and scheme.inertia and not scheme.midpoint:
+                if kernel is None or method.first_step_special:
                     # the paper's first step (U¹ = U⁰ + Δt P u₁) is the PETSc loop's
-                    scheme.advance()
+                    method.advance()
                     n += 1
                     observe()
                 else:
@@ -224,7 +190,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
             status, error = "failed", err
     loop_seconds = time.perf_counter() - loop_started
     bar.close()
-    if saved[0] != scheme.n:  # a failed or interrupted run keeps its last step's fields too
+    if saved[0] != method.n:  # a failed or interrupted run keeps its last step's fields too
         save_fields()
     flush()
     history_file.close()
@@ -259,5 +225,5 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     if out is not None:
         write_json(out / "summary.json", summary, comm)
         comm.barrier()  # every rank returns once rank 0 has written the run's files
-    return RunResult(status, summary, error, disc.nodes.x.copy(), scheme.theta.array_r.copy(),
-                     scheme.u.array_r.copy(), getattr(history_file, "rows", None))
+    return RunResult(status, summary, error, disc.nodes.x.copy(), method.theta.array_r.copy(),
+                     method.u.array_r.copy(), getattr(history_file, "rows", None))

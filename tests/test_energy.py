@@ -10,7 +10,7 @@ import rodfem.scene
 from rodfem.discrete import compat
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.history import History
-from rodfem.solver.methods.picard import PicardScheme
+from rodfem.solver.methods.picard import PicardMethod
 
 EPS = np.finfo(float).eps
 
@@ -41,7 +41,7 @@ def test_history_energy_is_the_remark_4_4_form(mass):
     """Advance paper1 into a contact interval and assemble ``copetti.energy`` there."""
     scene = rodfem.scene.load("paper1", [f"discretisation.mass={mass}", "time.end=0.25"])
     disc = Discretisation(scene)
-    scheme = PicardScheme(disc)
+    scheme = PicardMethod(disc)
     history = History(disc)
     for _ in range(scene.steps):
         scheme.advance()

@@ -22,7 +22,7 @@ import pytest
 import rodfem.scene
 from conftest import COMM
 from rodfem.solver.compiled import direct as kernel
-from rodfem.solver.methods.direct import DirectScheme
+from rodfem.solver.methods.direct import DirectMethod
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.history import History
 
@@ -55,7 +55,7 @@ def column_scales(rows: np.ndarray, scheme) -> np.ndarray:
     rigid obstacle, both are small against that, and measured against their own size they would
     be off by 300 eps per step (paper1)."""
     u = np.max(np.abs(rows[:, 1]))
-    epsilon = 0.0 if scheme.rule == "rigid" else scheme.epsilon
+    epsilon = scheme.law.epsilon  # 0 for the rigid obstacle
     own = np.max(np.abs(rows), axis=0)
     return np.array([own[0], u, own[2], max(own[3], u / scheme.dt),
                      max(own[4], u / (epsilon + scheme.compliance)), own[5], own[6]])
@@ -65,7 +65,7 @@ def pair(name: str, time_scheme: str, overrides=(), **options):
     scene = rodfem.scene.load(name, ["solver.method=direct", END, f"time.scheme={time_scheme}",
                                      *overrides])
     disc = Discretisation(scene, COMM)
-    petsc, compiled = DirectScheme(disc), DirectScheme(disc)
+    petsc, compiled = DirectMethod(disc), DirectMethod(disc)
     h_petsc, h_compiled = History(disc, scene.steps + 1), History(disc, scene.steps + 1)
     return scene, petsc, h_petsc, compiled, h_compiled, kernel.DirectKernel(compiled, h_compiled,
                                                                             **options)

@@ -25,7 +25,7 @@ from conftest import COMM
 from rodfem.cli import main
 
 EPS = np.finfo(float).eps
-COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
+from rodfem.output.columns import NAMES as COLUMNS  # noqa: E402
 QUIET = "output.every=100000"
 EXACT = 1e-10  # direct, newton against each other and the oracle's exact step
 PICARD = 1e-9  # Picard (tol 1e-10) against an exact step

@@ -25,8 +25,9 @@ import rodfem.scene
 from conftest import COMM
 from rodfem.solver.compiled import picard as picard_kernel
 from rodfem.discrete.discretisation import Discretisation
+from rodfem.model.contact import RigidObstacle
 from rodfem.output.history import History
-from rodfem.solver.methods.picard import PicardNotConverged, PicardScheme
+from rodfem.solver.methods.picard import PicardNotConverged, PicardMethod
 
 EPS = np.finfo(float).eps
 PER_STEP = 64 * EPS
@@ -43,13 +44,13 @@ def column_scales(rows: np.ndarray, scheme) -> np.ndarray:
     u = np.max(np.abs(rows[:, 1]))
     own = np.max(np.abs(rows), axis=0)
     return np.array([own[0], u, own[2], max(own[3], u / scheme.dt),
-                     max(own[4], u / scheme.epsilon), own[5], own[6]])
+                     max(own[4], u / scheme.law.epsilon), own[5], own[6]])
 
 
 def pair(name: str, overrides=()):
     scene = rodfem.scene.load(name, ["solver.method=picard", *overrides])
     disc = Discretisation(scene, COMM)
-    petsc, compiled = PicardScheme(disc), PicardScheme(disc)
+    petsc, compiled = PicardMethod(disc), PicardMethod(disc)
     size = scene.steps + 1
     h_petsc, h_compiled = History(disc, size), History(disc, size)
     kernel = picard_kernel.PicardKernel(compiled, h_compiled)
@@ -153,16 +154,17 @@ def test_refuses():
     disc = Discretisation(rodfem.scene.load("paper1", ["solver.method=picard", "model.a=0"]),
                           COMM)
     with pytest.raises(ValueError, match="a = 0"):
-        picard_kernel.PicardKernel(PicardScheme(disc), History(disc))
+        picard_kernel.PicardKernel(PicardMethod(disc), History(disc))
     disc = Discretisation(rodfem.scene.load("manufactured", ["solver.method=picard"]), COMM)
     with pytest.raises(ValueError, match="source"):
-        picard_kernel.PicardKernel(PicardScheme(disc), History(disc))
+        picard_kernel.PicardKernel(PicardMethod(disc), History(disc))
     disc = Discretisation(rodfem.scene.load("paper1", ["solver.method=picard"]), COMM)
-    scheme, history = PicardScheme(disc), History(disc)
-    scheme.rigid = True  # the scene refuses picard with the rigid obstacle: pretend
+    scheme, history = PicardMethod(disc), History(disc)
+    law = scheme.law
+    scheme.law = RigidObstacle(law.gap)  # the scene refuses picard with it: pretend
     with pytest.raises(ValueError, match="elastic"):
         picard_kernel.PicardKernel(scheme, history)
-    scheme.rigid = False
+    scheme.law = law
     kernel = picard_kernel.PicardKernel(scheme, history)
     with pytest.raises(ValueError, match="first step"):
         kernel.advance(1, history.reserve(1))
@@ -173,7 +175,7 @@ def run_kernel(name: str, overrides, compress: bool):
     rows, the state, u_prev, n, iterations, pressure, and the error raised (or None)."""
     scene = rodfem.scene.load(name, ["solver.method=picard", *overrides])
     disc = Discretisation(scene, COMM)
-    scheme, history = PicardScheme(disc), History(disc, scene.steps + 1)
+    scheme, history = PicardMethod(disc), History(disc, scene.steps + 1)
     kernel = picard_kernel.PicardKernel(scheme, history, compress=compress)
     history.record(scheme)
     scheme.advance()
@@ -209,7 +211,7 @@ def test_compressed_bitwise_as_uncompressed(name, time_scheme, mass):
     per_node, b, _ = run_kernel(name, overrides, False)
     assert set(per_node.classes.values()) == {per_node.n}
     assert all(count < per_node.n / 4 for count in tabled.classes.values()), tabled.classes
-    assert a["n"] == b["n"] == round(2 / tabled.scheme.dt)
+    assert a["n"] == b["n"] == round(2 / tabled.method.dt)
     for key in ("rows", "values", "u_prev", "pressure", "iterations"):
         np.testing.assert_array_equal(bits(a[key]), bits(b[key]), err_msg=key)
 

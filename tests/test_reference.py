@@ -19,7 +19,7 @@ from reference import simulate as reference
 import rodfem.scene
 
 TOL = 1e-10
-COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
+from rodfem.output.columns import NAMES as COLUMNS  # noqa: E402
 
 
 def run_reference(scene, increment):

@@ -152,13 +152,13 @@ def test_picard_step_agrees_with_the_exact_step(a):
     """From the same state, a Picard step and the exact (direct) step differ by at most the
     a-posteriori bound of a contraction by ρ = w/ε stopped at an increment below tol:
     |x_l − x*| ≤ ρ/(1 − ρ) tol (here ρ = 0.8: 4 tol)."""
-    from rodfem.solver.methods.direct import DirectScheme
+    from rodfem.solver.methods.direct import DirectMethod
     from rodfem.discrete.discretisation import Discretisation
-    from rodfem.solver.methods.picard import PicardScheme
+    from rodfem.solver.methods.picard import PicardMethod
 
     scene = rodfem.scene.load("paper1", _edge_scene(a, 1.25, "picard", 400))
-    exact = DirectScheme(Discretisation(scene, MPI.COMM_SELF))
-    picard = PicardScheme(Discretisation(scene, MPI.COMM_SELF))
+    exact = DirectMethod(Discretisation(scene, MPI.COMM_SELF))
+    picard = PicardMethod(Discretisation(scene, MPI.COMM_SELF))
     rho = exact.compliance / scene["obstacle.epsilon"]
     assert rho == pytest.approx(0.8, rel=1e-12)
     bound = rho / (1 - rho) * scene["solver.tol"]

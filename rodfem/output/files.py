@@ -21,7 +21,7 @@ from mpi4py import MPI
 import forms.copetti as copetti
 from rodfem.discrete import compat
 from rodfem.discrete.discretisation import Discretisation
-from rodfem.output.history import COLUMNS
+from rodfem.output.columns import COLUMNS, NAMES
 
 RUN_FILES = ("history.csv", "fields.xdmf", "fields.h5", "scene.toml", "summary.json")
 FIGURE_DIRS = ("figures", "figure5")
@@ -122,13 +122,13 @@ class HistoryFile:
     loop (a C call that releases the GIL) goes on. :meth:`close` waits for every block and passes
     on any error of the writer."""
 
-    ROW = ",".join(["%.17g"] * (len(COLUMNS) - 1)) + ",%d\n"  # round-trip floats; iterations
+    ROW = ",".join("%d" if c.integer else "%.17g" for c in COLUMNS) + "\n"  # round-trip floats
 
     def __init__(self, path: Path, comm: MPI.Comm):
         self.file = open(path, "w", encoding="utf-8") if comm.rank == 0 else None
         self._error: BaseException | None = None
         if self.file:
-            self.file.write(",".join(COLUMNS) + "\n")
+            self.file.write(",".join(NAMES) + "\n")
             self._blocks: queue.Queue = queue.Queue()
             self._writer = threading.Thread(target=self._write, name="history.csv", daemon=True)
             self._writer.start()

@@ -15,8 +15,8 @@ from petsc4py import PETSc
 import forms.copetti as copetti
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.discrete.nodes import block_diagonal
-
-COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
+from rodfem.model import contact
+from rodfem.output.columns import RAW, RAW_INDEX, columns_of
 
 
 class Energy:
@@ -55,8 +55,7 @@ class History:
     def __init__(self, disc: Discretisation, block: int = 1024):
         scene = disc.scene
         self.dt = scene["time.dt"]
-        self.epsilon, self.gap = scene["obstacle.epsilon"], scene["obstacle.gap"]
-        self.rigid = scene["obstacle.kind"] == "rigid"
+        self.obstacle = contact.of_scene(scene)
         self.energy = Energy(disc)
         # Positions in the state [Θ; ΔU; U] of ΔU(1), U(1) and the nodes around x = 0.5.
         n = disc.nodes.size
@@ -64,9 +63,10 @@ class History:
         (i, *rest), (w, *rest_w) = disc.nodes.interpolation(0.5)
         self.half = (2 * n + int(i), float(w), 2 * n + (int(rest[0]) if rest else int(i)),
                      rest_w[0] if rest else 0.0)
-        # Per step: n, iterations, Uⁿ(1), ΔUⁿ(1), Uⁿ(0.5), the energy but its contact term, and
-        # the contact force p.
-        self._rows = np.zeros((block, 7))
+        # Per step, the raw row of rodfem.output.columns.RAW.
+        self._rows = np.zeros((block, len(RAW)))
+        self._order = [RAW_INDEX[name] for name in ("n", "iterations", "u_1", "d_1", "u_half",
+                                                    "bulk_energy", "pressure")]
         self._count = 0
 
     @property
@@ -74,14 +74,15 @@ class History:
         return self._count == len(self._rows)
 
     def record(self, state) -> None:
-        """Record the step ``state.n`` of a scheme (:class:`rodfem.solver.methods.base.Scheme`): its state
+        """Record the step ``state.n`` of a scheme (:class:`rodfem.solver.methods.base.Method`): its state
         [Θⁿ; ΔUⁿ; Uⁿ] (``state``, its array ``values``), its count of ``iterations`` and its
         contact force ``pressure``."""
         bulk = self.energy(state.state)
         s = state.values
         i, w, j, v = self.half
-        self._rows[self._count] = (state.n, state.iterations, s[self.u_1], s[self.du_1],
-                                   w * s[i] + v * s[j], bulk, state.pressure)
+        self._rows[self._count, self._order] = (state.n, state.iterations, s[self.u_1],
+                                                s[self.du_1], w * s[i] + v * s[j], bulk,
+                                                state.pressure)
         self._count += 1
 
     @property
@@ -101,12 +102,4 @@ class History:
         """The rows recorded since the last call, with the columns ``COLUMNS``."""
         rows = self._rows[: self._count].copy()
         self._count = 0
-        n, iterations, u_1, du_1, u_half, bulk, pressure = rows.T
-        if self.rigid:  # σ(1) is the multiplier; no penalty energy
-            energy, sigma_1 = bulk, -pressure + 0.0  # no -0 in the file
-        else:
-            penetration = np.maximum(u_1 - self.gap, 0.0)
-            energy = bulk + 0.5 * penetration**2 / self.epsilon
-            sigma_1 = -penetration / self.epsilon + 0.0
-        return np.column_stack([n * self.dt, u_1, u_half, du_1 / self.dt, sigma_1, energy,
-                                iterations])
+        return columns_of(rows, self.dt, self.obstacle)

@@ -13,11 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from rodfem.output.columns import NAMES as HISTORY_COLUMNS
 from rodfem.post.fields import Fields, FieldsError, read_fields
-
-# The columns of history.csv, as rodfem.output.history writes them (not imported from there: it needs
-# dolfinx, and reading a run's files should not).
-HISTORY_COLUMNS = ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
 
 # Scene values that tell runs apart in a legend, with their symbols in the paper: in mathtext
 # (typeset by matplotlib, for the charts) and in Unicode (for text drawn many times, as in the
@@ -45,17 +42,21 @@ class RunDirectoryError(PlotError):
     """A path given to ``rodfem plot`` is not a complete rodfem run directory."""
 
 
-@dataclass(frozen=True)
 class History:
-    """The columns of ``history.csv``, one entry per step n = 0..N."""
+    """The columns of ``history.csv`` (:mod:`rodfem.output.columns`) by name, one entry per step
+    n = 0..N: ``history.u_1`` or ``history["u_1"]``."""
 
-    t: np.ndarray
-    u_1: np.ndarray
-    u_half: np.ndarray
-    ut_1: np.ndarray
-    sigma_1: np.ndarray
-    energy: np.ndarray
-    iterations: np.ndarray
+    def __init__(self, rows: np.ndarray):
+        self._columns = {name: rows[:, i] for i, name in enumerate(HISTORY_COLUMNS)}
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self._columns[name]
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        try:
+            return self.__dict__["_columns"][name]
+        except KeyError:
+            raise AttributeError(name) from None
 
 
 @dataclass(frozen=True)
@@ -110,7 +111,7 @@ def read_history(path: Path) -> History:
         raise RunDirectoryError(
             f"{path} has rows of {rows.shape[1]} values, not {len(HISTORY_COLUMNS)}"
         )
-    return History(*rows.T)
+    return History(rows)
 
 
 def _flatten(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:

@@ -22,87 +22,10 @@ import numpy as np
 from rodfem.scene.expressions import Expression, ExpressionError, shorten
 
 
-class SceneError(ValueError):
-    """A scene value that is wrong: the message names the key and what is allowed."""
-
-
-@dataclasses.dataclass(frozen=True)
-class Key:
-    """One scene key: its kind ("real", "integer", "choice", "expression"), default and range."""
-
-    kind: str
-    default: Any
-    minimum: float | None = None  # inclusive
-    above: float | None = None  # exclusive lower bound
-    maximum: float | None = None  # inclusive
-    choices: tuple[str, ...] = ()
-    help: str = ""
-
-
-# Bounds that keep every derived quantity (1/ε, Δt², b/Δt², the energy) far from overflow and
-# the run within memory; far beyond anything physical in the model's units.
-BIG, SMALL = 1e12, 1e-12
-MAX_CELLS, MAX_STEPS = 10_000_000, 100_000_000
-# The methods that solve each step of (3.1)–(3.2): the fastest exact one is the default.
-METHODS = ("direct", "newton", "picard")
-TIME_SCHEMES = ("paper", "crank-nicolson")
-
-
-SCHEMA: dict[str, dict[str, Key]] = {
-    "model": {
-        "a": Key("real", 0.017, minimum=0.0, maximum=BIG, help="thermal coupling"),
-        "b": Key("real", 1.0, minimum=0.0, maximum=BIG, help="inertia"),
-        "zeta": Key("real", 0.2, minimum=0.0, maximum=BIG, help="Kelvin-Voigt viscosity"),
-        "k": Key("real", 1.0, minimum=0.0, maximum=BIG, help="heat exchange at x = 1"),
-        "theta_A": Key("real", 10.0, minimum=-BIG, maximum=BIG, help="temperature at x = 0"),
-    },
-    "obstacle": {
-        "epsilon": Key("real", 0.01, minimum=SMALL, maximum=BIG,
-                       help="compliance: stiffness is 1/epsilon"),
-        "gap": Key("real", 0.1, minimum=-BIG, maximum=BIG,
-                   help="distance g of the obstacle from x = 1"),
-        "kind": Key("choice", "elastic", choices=("elastic", "rigid"),
-                    help="elastic: penalty (1/epsilon)[u(1) - g]_+; rigid: Signorini, "
-                    "u(1) <= g (epsilon unused)"),
-    },
-    "initial": {
-        "theta0": Key("expression", "theta_A*(cos(2*pi*x) - sin(pi*x/2))"),
-        "u0": Key("expression", "0"),
-        "u1": Key("expression", "20*x*(x - 1)**2",
-                  help="initial velocity; not used when b = 0 (quasi-static)"),
-    },
-    "mesh": {"cells": Key("integer", 250, minimum=2, maximum=MAX_CELLS)},
-    "time": {
-        "dt": Key("real", 0.001, minimum=SMALL, maximum=BIG),
-        "end": Key("real", 8.0, minimum=SMALL, maximum=BIG),
-        "scheme": Key("choice", "paper", choices=TIME_SCHEMES,
-                      help="paper: the scheme (3.1)-(3.2), first order; crank-nicolson: the "
-                      "midpoint rule, second order (docs/time-schemes.md)"),
-    },
-    "discretisation": {"mass": Key("choice", "lumped", choices=("lumped", "consistent"))},
-    "solver": {
-        "method": Key("choice", "direct", choices=METHODS,
-                      help="direct: one solve per step, exact; newton: SNES semismooth Newton; "
-                      "picard: the paper's iteration (3.3)-(3.4)"),
-        "tol": Key("real", 1e-10, minimum=1e-300, maximum=BIG,
-                   help="picard: max-norm of the change between two iterations"),
-        "max_iterations": Key("integer", 100, minimum=1, maximum=1_000_000),
-    },
-    # Body sources f of θ_t − θ_xx + a u_xt = f and b u_tt − σ_x = f, in x, t and the model's
-    # names: for manufactured solutions (rodfem.model.manufactured). "0" costs nothing.
-    "source": {
-        "heat": Key("expression", "0", help="source of the heat equation, in x and t"),
-        "momentum": Key("expression", "0", help="source of the momentum equation, in x and t"),
-    },
-    "output": {"every": Key("integer", 50, minimum=1, maximum=MAX_STEPS,
-                            help="save fields every n steps")},
-}
-TOP_LEVEL = {"description": ""}
-MODEL_NAMES = tuple(SCHEMA["model"])
-SOURCE_NAMES = (*MODEL_NAMES, "t")
-BUILTIN = tuple(f"paper{i}" for i in range(1, 6))  # the paper's experiments
-# Other built-in scenes: a manufactured solution without contact, with sources (rodfem.model.manufactured)
-EXTRA = ("manufactured",)
+from rodfem.scene.schema import (  # noqa: F401 (re-exported)
+    BIG, BUILTIN, EXTRA, MAX_CELLS, MAX_STEPS, METHODS, MODEL_NAMES, SCHEMA, SMALL, SOURCE_NAMES,
+    TIME_SCHEMES, TOP_LEVEL, Key, SceneError,
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -136,17 +59,28 @@ class Scene:
         text = self.values["source"][name].strip()
         return None if _is_zero(text) else Expression(text, SOURCE_NAMES)
 
+    def data(self) -> dict[str, dict[str, Any]]:
+        """The resolved scene as TOML data (a fresh copy): every key that applies, so that
+        :func:`validate` of it gives this scene again."""
+        return {section: {key: self.values[section][key] for key, spec in keys.items()
+                          if _applies(self, spec)} for section, keys in SCHEMA.items()}
+
     def to_toml(self) -> str:
         """The resolved scene as TOML: loading it gives the same scene."""
         lines = []
         if self.description:
             lines += [f"description = {_toml_value(self.description)}", ""]
-        for section, keys in SCHEMA.items():
+        for section, keys in self.data().items():
             lines.append(f"[{section}]")
-            for key in keys:
-                lines.append(f"{key} = {_toml_value(self.values[section][key])}")
+            for key, value in keys.items():
+                lines.append(f"{key} = {_toml_value(value)}")
             lines.append("")
         return "\n".join(lines)
+
+
+def _applies(scene: Scene, spec: Key) -> bool:
+    """Whether a key that applies only with another key's value (``Key.only_with``) does here."""
+    return spec.only_with is None or scene[spec.only_with[0]] == spec.only_with[1]
 
 
 def _is_zero(text: str) -> bool:
@@ -229,11 +163,22 @@ def validate(data: dict[str, Any], source: str = "") -> Scene:
             for key, spec in keys.items()
         }
     scene = Scene(values, description, source)
+    for section, keys in SCHEMA.items():
+        for key, spec in keys.items():
+            if key in data.get(section, {}) and not _applies(scene, spec):
+                other, value = spec.only_with
+                raise SceneError(f'{section}.{key}: applies only with {other} = "{value}", '
+                                 f'not "{scene[other]}"')
     _check_consistency(scene)
     return scene
 
 
 def _check_consistency(scene: Scene) -> None:
+    if scene["obstacle.kind"] == "rigid" and scene["obstacle.law"] != "linear":
+        raise SceneError(
+            f'obstacle.law: "{scene["obstacle.law"]}" is a law of the elastic obstacle; '
+            'obstacle.kind = "rigid" has none (Signorini\'s condition u(1) <= g)'
+        )
     if scene["solver.method"] == "picard" and scene["obstacle.kind"] == "rigid":
         raise SceneError(
             'solver.method: "picard" cannot solve obstacle.kind = "rigid" (its iteration is the '

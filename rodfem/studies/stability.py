@@ -6,7 +6,7 @@ its iterations, its energy behaviour (Remark 4.4) and its cost, next to the two 
 Picard's iteration (3.3)–(3.4):
 
 * the paper's sufficient condition, Δt < εζ and a < 1 (never true for ζ = 0);
-* the compliance condition w/ε < 1, w = :attr:`rodfem.solver.methods.direct.DirectScheme.compliance` the
+* the compliance condition w/ε < 1, w = :attr:`rodfem.solver.methods.direct.DirectMethod.compliance` the
   response of Uⁿ(1) to a unit contact force over one step: while the contact is active, Picard
   maps the contact force p ↦ (1/ε)[s − w p − g]_+ (exactly so for a = 0), which contracts iff
   w < ε and otherwise ends in a 2-cycle.
@@ -17,7 +17,6 @@ gathered in grid order, so they do not depend on the number of ranks (except the
 
 from __future__ import annotations
 
-import copy
 import csv
 import dataclasses
 import math
@@ -117,7 +116,7 @@ def parse_methods(text: str | None) -> tuple[str, ...]:
 
 def _with(base: Scene, point: dict, end: float) -> Scene:
     """The base scene at one point of the grid (validated)."""
-    data = copy.deepcopy(base.values)
+    data = base.data()
     data["time"].update(dt=point["dt"], end=end)
     data["obstacle"]["epsilon"] = point["epsilon"]
     data["model"].update(zeta=point["zeta"], a=point["a"])
@@ -172,12 +171,12 @@ class Compliance:
         if key not in self._cache:
             from mpi4py import MPI
 
-            from rodfem.solver.methods.direct import DirectScheme
+            from rodfem.solver.methods.direct import DirectMethod
             from rodfem.discrete.discretisation import Discretisation
 
             point = dict(method="direct", a=a, zeta=zeta, dt=dt, epsilon=1.0)
             scene = _with(self.base, point, self.end)
-            self._cache[key] = DirectScheme(Discretisation(scene, MPI.COMM_SELF)).compliance
+            self._cache[key] = DirectMethod(Discretisation(scene, MPI.COMM_SELF)).compliance
         return self._cache[key]
 
 

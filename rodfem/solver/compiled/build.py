@@ -1,6 +1,7 @@
 """Building rodfem's compiled loops (``direct.c``, ``picard.c``) with cffi.
 
-A C source is compiled (API mode, the system's C compiler, as dolfinx's JIT does) once per hash of
+Both include the shared headers beside them: ``contact.h`` (the contact laws) and ``record.h``
+(the raw history row). A C source is compiled (API mode, the system's C compiler, as dolfinx's JIT does) once per hash of
 its text, the compiler flags, the cffi version and the interpreter, into ``$XDG_CACHE_HOME/rodfem``
 (or ``~/.cache/rodfem``, else a per-user directory in the temporary directory): in a temporary
 directory beside the target, then moved into place with :func:`os.replace`, so that MPI ranks
@@ -18,6 +19,7 @@ import importlib.util
 import os
 import shutil
 import sys
+import re
 import tempfile
 from pathlib import Path
 
@@ -44,11 +46,19 @@ def declarations(source: str) -> str:
     return source[begin:source.index("/* cdef end */")]
 
 
+def headers(source: str, directory: Path) -> list[str]:
+    """The texts of the local headers (``#include "x.h"``) a source includes, in order."""
+    return [(directory / name).read_text()
+            for name in re.findall(r'^#include "([\w.]+)"', source, flags=re.M)]
+
+
 class CompiledSource:
     """One C source, built and loaded on first use: ``library()`` gives cffi's (ffi, lib)."""
 
-    def __init__(self, source: Path, prefix: str, what: str):
-        self.source, self.prefix, self.what = source, prefix, what
+    def __init__(self, source: Path, prefix: str, what: str, check=None):
+        """``check(lib)`` runs once the library is loaded: it raises if the C side disagrees
+        with the Python side (e.g. the raw row's slots or the laws' codes)."""
+        self.source, self.prefix, self.what, self.check = source, prefix, what, check
         self._loaded: list = []  # [(ffi, lib)] once built
         self._failure: list[str] = []  # why it could not be built
 
@@ -56,8 +66,10 @@ class CompiledSource:
         import cffi  # optional: available() is False without it
 
         source = self.source.read_text()
+        included = headers(source, self.source.parent)
         suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
-        key = "\n".join([source, repr(COMPILE_ARGS), cffi.__version__, sys.version, suffix])
+        key = "\n".join([*included, source, repr(COMPILE_ARGS), cffi.__version__, sys.version,
+                         suffix])
         name = self.prefix + hashlib.sha256(key.encode()).hexdigest()[:16]
         fallback = Path(tempfile.gettempdir()) / f"rodfem-{os.getuid()}"
         for directory in (cache_directory(), fallback):
@@ -75,8 +87,9 @@ class CompiledSource:
                     continue
                 try:
                     ffi = cffi.FFI()
-                    ffi.cdef(declarations(source))
-                    ffi.set_source(name, source, extra_compile_args=COMPILE_ARGS)
+                    ffi.cdef("".join(declarations(text) for text in [*included, source]))
+                    ffi.set_source(name, source, extra_compile_args=COMPILE_ARGS,
+                                   include_dirs=[str(self.source.parent)])
                     built = ffi.compile(tmpdir=work, verbose=False)
                     os.replace(built, target)
                 finally:
@@ -84,6 +97,8 @@ class CompiledSource:
             spec = importlib.util.spec_from_file_location(name, target)
             module = importlib.util.module_from_spec(spec)
             spec.loader.exec_module(module)
+            if self.check is not None:
+                self.check(module.lib)
             return module.ffi, module.lib
         raise OSError(f"no private writable directory for the {self.what}: {cache_directory()}, "
                       f"{fallback}")

@@ -44,6 +44,9 @@
 #include <math.h>
 #include <stddef.h>
 
+#include "contact.h"
+#include "record.h"
+
 /* The step's passes are instantiated with constant bands (rk_advance): force the inlining. */
 #if defined(__GNUC__)
 #define RK_INLINE static inline __attribute__((always_inline))
@@ -84,9 +87,9 @@ typedef struct {
     const int *e_offset;
     const double *e_value; /* e classes x (e_slots[0] + e_slots[1] + e_slots[2]) */
     const double *two_w;   /* e classes x 3 */
-    /* the contact */
-    double w, gap, epsilon;
-    int rule;              /* 0 penalty, 1 discrete gradient, 2 rigid (Signorini) */
+    /* the contact: the compliance w and the obstacle (contact.h) */
+    double w;
+    rc_obstacle obstacle;
     int midpoint_inertia;  /* D = 2 dU - D (Crank-Nicolson with inertia), else D = dU */
     /* positions in the packed state (ghosts not counted) of U(1), D(1) and around x = 0.5 */
     int u_1, du_1, half_i, half_j;
@@ -99,35 +102,6 @@ typedef struct {
 int rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, long steps,
                double *rows, double *pressure);
 /* cdef end */
-
-/* rodfem.model.contact._positive_root: the root q >= 0 of A q^2 + B q + C = 0, A > 0, C <= 0. */
-static double positive_root(double A, double B, double C)
-{
-    double disc = sqrt(B * B - 4.0 * A * C);
-    return B >= 0.0 ? -2.0 * C / (B + disc) : (-B + disc) / (2.0 * A);
-}
-
-/* rodfem.model.contact.solve: the contact force p with y + w p(y) = s, y = U^n(1), c = U^{n-1}(1). */
-static double contact_solve(double s, double w, double gap, double epsilon, int rule, double c)
-{
-    if (rule != 1) {
-        if (s <= gap)
-            return 0.0;
-        return (s - gap) / (rule == 2 ? w : epsilon + w);
-    }
-    double sigma = s - gap, e = c - gap, two_eps = 2.0 * epsilon;
-    if (e <= 0.0) {
-        if (sigma <= 0.0)
-            return 0.0;
-        double d = positive_root(two_eps + w, -two_eps * (e + sigma), two_eps * sigma * e);
-        return d * d / (2.0 * epsilon * (d - e));
-    }
-    if (sigma > w * e / (2.0 * epsilon)) {
-        return (sigma + e) / (two_eps + w);  /* p = (y - g + e)/(2 eps), y + w p = s */
-    }
-    double q = positive_root(two_eps, two_eps * (e + sigma), e * (two_eps * sigma - w * e));
-    return e * e / (2.0 * epsilon * (e + q));
-}
 
 #define KMAX 8
 
@@ -222,8 +196,8 @@ RK_INLINE void accept_node(const rk_problem *P, double *sp, double *u_prev, int 
 RK_INLINE double contact(const rk_problem *P, const double *sp, double z_u_1)
 {
     const double c = sp[P->u_1], s1 = c + z_u_1;
-    if (s1 > P->gap || (P->rule == 1 && c > P->gap))
-        return contact_solve(s1, P->w, P->gap, P->epsilon, P->rule, c);
+    if (rc_contact_needed(&P->obstacle, s1, c))
+        return rc_solve(&P->obstacle, s1, P->w, c);
     return 0.0;
 }
 
@@ -338,14 +312,14 @@ RK_INLINE void steps_loop(const rk_problem *P, double *u_prev, long n0, long ste
             forward(P, sp, z, S);
             p = backward(P, sp, z, last, &energy, S);
         }
-        double *row = rows + 7 * k;
-        row[0] = (double)(n0 + k + 1);
-        row[1] = 1.0;
-        row[2] = sp[P->u_1];
-        row[3] = sp[P->du_1];
-        row[4] = P->half_wi * sp[P->half_i] + P->half_wj * sp[P->half_j];
-        row[5] = 0.5 * energy;
-        row[6] = p;
+        double *row = rows + RAW_SLOTS * k;
+        row[RAW_N] = (double)(n0 + k + 1);
+        row[RAW_ITERATIONS] = 1.0;
+        row[RAW_U_1] = sp[P->u_1];
+        row[RAW_D_1] = sp[P->du_1];
+        row[RAW_U_HALF] = P->half_wi * sp[P->half_i] + P->half_wj * sp[P->half_j];
+        row[RAW_BULK_ENERGY] = 0.5 * energy;
+        row[RAW_PRESSURE] = p;
     }
     *pressure = p;
 }

@@ -1,22 +1,22 @@
 """The `direct` method's time loop in compiled code: many steps in one C call.
 
-A step of :class:`rodfem.solver.methods.direct.DirectScheme` is linear algebra with constant operators and one
+A step of :class:`rodfem.solver.methods.direct.DirectMethod` is linear algebra with constant operators and one
 scalar equation (the contact force); in Python each of its PETSc calls costs about a microsecond,
 which at a few hundred cells is most of the step. :class:`DirectKernel` reads the operators off a
-scheme and its history once and runs ``steps`` steps in ``rodfem/solver/compiled/direct.c``:
+method and its history once and runs ``steps`` steps in ``rodfem/solver/compiled/direct.c``:
 
-    [h; m] = R s + b                  (s = [Θⁿ⁻¹; Dⁿ⁻¹; Uⁿ⁻¹], R: 2n × 3n, ``scheme.R``)
-    z = C⁻¹ [h; m]                    (C = ``scheme.coupled_operator()``, 2n × 2n)
+    [h; m] = R s + b                  (s = [Θⁿ⁻¹; Dⁿ⁻¹; Uⁿ⁻¹], R: 2n × 3n, ``method.R``)
+    z = C⁻¹ [h; m]                    (C = ``method.coupled_operator()``, 2n × 2n)
     c = Uⁿ⁻¹(1), s₁ = c + z_U(1)
     p = contact.solve(s₁, w, g, ε, rule, c) if s₁ > g (or c > g, discrete gradient), else 0
-    [ΔΘⁿ; ΔUⁿ] = z + p q              (q = ``scheme.response``, w = ``scheme.compliance``)
+    [ΔΘⁿ; ΔUⁿ] = z + p q              (q = ``method.response``, w = ``method.compliance``)
     Θⁿ = Θⁿ⁻¹ + ΔΘⁿ, Uⁿ = Uⁿ⁻¹ + ΔUⁿ, Dⁿ = ΔUⁿ (Crank–Nicolson with inertia: 2ΔUⁿ − Dⁿ⁻¹)
 
 and for each new state the 7 numbers :meth:`rodfem.output.history.History.record` stores (n, 1, Uⁿ(1),
 ΔUⁿ(1), Uⁿ(0.5), the bulk energy ½ (E s + 2w)·s, p), so that :meth:`History.take` turns them
 into rows of ``history.csv`` as it does the PETSc loop's.
 
-**Node-interleaved order.** In the scheme's block order [Θ; D; U] the operators couple index i
+**Node-interleaved order.** In the method's block order [Θ; D; U] the operators couple index i
 with n + i; interleaved by node, [Θ₀, D₀, U₀, Θ₁, …] for the state and [ΔΘ₀, ΔU₀, ΔΘ₁, …] for
 the unknowns, every operator couples only neighbouring nodes: C is banded, with kl = ku = 3 for P1
 (a = 0: 1), and a row of R or E reads the state of nodes i − 1 .. i + 1. C is permuted so and
@@ -49,7 +49,7 @@ step). A step whose s₁ lies within round-off of g could take the other branch 
 in the two; it has not happened on any scene tested.
 
 **What it does not do.** The paper scheme's first step with inertia (n = 0 → 1,
-:meth:`Scheme._first_step`: a heat solve with U¹ given) is left to ``scheme.advance()``:
+:meth:`Method._first_step`: a heat solve with U¹ given) is left to ``method.advance()``:
 :meth:`DirectKernel.advance` refuses to start from n = 0 there. Scenes with source terms (the
 manufactured solution) are refused at construction. The kernel is rank-local, as the state is
 (every rank holds all of it and computes the same rows).
@@ -66,36 +66,15 @@ from pathlib import Path
 import numpy as np
 
 from rodfem.solver.compiled.build import CompiledSource
+from rodfem.solver.compiled.loop import CompiledLoop, check_library, classes
 
 SOURCE = Path(__file__).with_name("direct.c")
-RULES = {"penalty": 0, "gradient": 1, "rigid": 2}
 KMAX = 8  # the widest band of the blocked substitutions (direct.c)
 
-_source = CompiledSource(SOURCE, "_rodfem_kernel_", "kernel")
+_source = CompiledSource(SOURCE, "_rodfem_kernel_", "kernel", check_library)
 _library = _source.library
 available = _source.available
 unavailable_reason = _source.unavailable_reason
-
-
-def checked_steps(scheme, steps: int, rows: np.ndarray, first_step_special: bool,
-                  n: int) -> int:
-    """The arguments of a compiled loop's ``advance``, checked: ``steps`` ≥ 0 as an int, not from
-    the paper scheme's special first step, ``rows`` a writable C-contiguous float64 array of at
-    least ``steps`` rows of 7, the state contiguous with 3n values. ValueError otherwise."""
-    steps = int(steps)
-    if steps < 0:
-        raise ValueError(f"steps = {steps} < 0")
-    if steps and scheme.n == 0 and first_step_special:
-        raise ValueError("the paper scheme's first step (n = 0 -> 1, with inertia) is "
-                         "Scheme._first_step: take it with scheme.advance()")
-    if steps and not (rows.dtype == np.float64 and rows.ndim == 2 and rows.shape[1] == 7
-                      and rows.shape[0] >= steps and rows.flags.c_contiguous
-                      and rows.flags.writeable):
-        raise ValueError("rows must be a writable C-contiguous float64 array of shape "
-                         f"(>= {steps}, 7), not {rows.dtype} {rows.shape}")
-    values = scheme.values
-    assert values.flags.c_contiguous and values.size == 3 * n
-    return steps
 
 
 def _csr(A) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -168,54 +147,27 @@ def _blocked(lu: np.ndarray, kl: int, ku: int, kl_kept: int, ku_kept: int, n: in
     return fwd, bwd
 
 
-def _classes(columns: dict[str, np.ndarray], compress: bool = True):
-    """Nodes classed by their coefficient rows: ``columns`` are n-row arrays (a row per node);
-    two nodes share a class if their rows are the same bit for bit in every array (compared as
-    int64 words: -0.0 and 0.0 differ, as they may in a product's sign). Returns the class of
-    each node (n, int) and the arrays reduced to a row per class, in order of first occurrence.
-    ``compress=False``: a class per node, the arrays as they are."""
-    columns = {k: np.ascontiguousarray(v, dtype=float) for k, v in columns.items()}
-    n = next(iter(columns.values())).shape[0]
-    assert all(v.ndim == 2 and v.shape[0] == n for v in columns.values())
-    if not compress:
-        return np.arange(n, dtype=np.intc), columns
-    bits = np.concatenate([v.view(np.int64) for v in columns.values()], axis=1)
-    _, first, inverse = np.unique(bits, axis=0, return_index=True, return_inverse=True)
-    order = np.argsort(first)  # classes numbered by first occurrence
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
-    cls = np.ascontiguousarray(rank[inverse.reshape(-1)], dtype=np.intc)
-    tables = {k: np.ascontiguousarray(v[first[order]]) for k, v in columns.items()}
-    assert all(np.array_equal(t[cls].view(np.int64), columns[k].view(np.int64))
-               for k, t in tables.items())
-    return cls, tables
+class DirectKernel(CompiledLoop):
+    """Steps of a :class:`rodfem.solver.methods.direct.DirectMethod` in compiled code (the module's docstring).
 
+    ``DirectKernel(method, history)`` reads the operators once; :meth:`advance` then does steps
+    exactly as ``method.advance()`` from any n ≥ 1 (n ≥ 0 where the first step is not special:
+    Crank–Nicolson, or no inertia), updating the method in place and writing history rows."""
 
-class DirectKernel:
-    """Steps of a :class:`rodfem.solver.methods.direct.DirectScheme` in compiled code (the module's docstring).
+    what = "compiled direct loop"
 
-    ``DirectKernel(scheme, history)`` reads the operators once; :meth:`advance` then does steps
-    exactly as ``scheme.advance()`` from any n ≥ 1 (n ≥ 0 where the first step is not special:
-    Crank–Nicolson, or no inertia), updating the scheme in place and writing history rows."""
-
-    def __init__(self, scheme, history, blocked: bool = True, compress: bool = True):
+    def __init__(self, method, history, blocked: bool = True, compress: bool = True):
         from scipy.linalg import lapack
 
+        super().__init__(method, history)
         self._ffi, self._lib = _library()
-        if any(f is not None for f in scheme.sources.values()):
-            raise ValueError("the compiled kernel does not do source terms")
-        values = scheme.values
-        n = values.size // 3
+        n = self.n
         N = 2 * n
-        if scheme._index != N - 1 or scheme._u_1 != 3 * n - 1 or history.u_1 != 3 * n - 1:
-            raise ValueError("the kernel needs x = 1 at the last node")
-        self.scheme, self.n = scheme, n
-        self._first_step_special = scheme.inertia and not scheme.midpoint
         block = np.arange(N)  # interleaved position 2i + c holds block index c n + i
         to_block = (block % 2) * n + block // 2
 
         # C, interleaved and banded; its band from the pattern; LAPACK's band LU.
-        rows, cols, vals = _csr(scheme.coupled_operator())
+        rows, cols, vals = _csr(method.coupled_operator())
         to_interleaved = np.empty(N, dtype=np.int64)
         to_interleaved[to_block] = block
         r, c = to_interleaved[rows], to_interleaved[cols]
@@ -246,15 +198,15 @@ class DirectKernel:
             arrays["fwd"], arrays["bwd"] = _blocked(lu, kl, ku, kl_kept, ku_kept, n)
         rows_r, rows_e = {}, {}
         # R and E by slots, b, q and 2w interleaved.
-        r_counts, arrays["r_offset"], rows_r["r_value"], r_width = _slots(scheme.R, 2, n)
+        r_counts, arrays["r_offset"], rows_r["r_value"], r_width = _slots(method.R, 2, n)
         e_counts, arrays["e_offset"], rows_e["e_value"], e_width = _slots(history.energy.E, 3, n)
-        rows_r["b"] = scheme.b.array_r[to_block].reshape(n, 2)
-        arrays["q"] = np.ascontiguousarray(scheme.response.array_r[to_block])
+        rows_r["b"] = method.b.array_r[to_block].reshape(n, 2)
+        arrays["q"] = np.ascontiguousarray(method.response.array_r[to_block])
         rows_e["two_w"] = history.energy.two_w.array_r.reshape(3, n).T
         # R and b (read by the forward pass), E and 2w (the backward pass): tables of their
         # distinct rows and each node's row in them (the module's docstring).
-        arrays["r_class"], tables_r = _classes(rows_r, compress)
-        arrays["e_class"], tables_e = _classes(rows_e, compress)
+        arrays["r_class"], tables_r = classes(rows_r, compress)
+        arrays["e_class"], tables_e = classes(rows_e, compress)
         arrays.update(tables_r)
         arrays.update(tables_e)
         self.compress = compress
@@ -280,32 +232,17 @@ class DirectKernel:
         P.r_slots = r_counts
         P.e_slots = e_counts
         P.e_ghost = e_width
-        P.w, P.gap, P.epsilon = scheme.compliance, scheme.gap, scheme.epsilon
-        P.rule = RULES[scheme.rule]
-        P.midpoint_inertia = int(scheme.midpoint and scheme.inertia)
+        P.w = method.compliance
+        self.set_obstacle(P.obstacle, method)
+        P.midpoint_inertia = self.velocity_update
         P.u_1, P.du_1 = pack(history.u_1), pack(history.du_1)
         P.half_i, P.half_j, P.half_wi, P.half_wj = pack(i), pack(j), wi, wj
         self._problem = P
         self._pressure = ffi.new("double *")
 
-    def advance(self, steps: int, rows: np.ndarray) -> None:
-        """``steps`` steps of the scheme, from its step n to n + steps, in place (its state
-        ``values``, ``u_prev``, ``n``, ``pressure``, ``iterations``); ``rows[k]`` receives
-        History.record's raw row of step n + 1 + k. ``rows``: C-contiguous float64, at least
-        ``steps`` rows of 7 (e.g. a slice of ``History._rows``)."""
-        scheme = self.scheme
-        steps = checked_steps(scheme, steps, rows, self._first_step_special, self.n)
-        if steps == 0:
-            return
-        values = scheme.values
-        u_prev = scheme.u_prev.array
-        ffi = self._ffi
-        self._lib.rk_advance(self._problem, ffi.cast("double *", ffi.from_buffer(values)),
-                             ffi.cast("double *", ffi.from_buffer(u_prev)), scheme.n, steps,
-                             ffi.cast("double *", ffi.from_buffer(rows)), self._pressure)
-        del u_prev
-        for vector in (scheme.state, scheme.theta, scheme.du, scheme.u, scheme.u_prev):
-            vector.stateIncrease()  # written behind PETSc's back: no cached norms
-        scheme.n += steps
-        scheme.pressure = float(self._pressure[0])
-        scheme.iterations = 1
+    def _run(self, steps: int, rows: np.ndarray):
+        method = self.method
+        self._lib.rk_advance(self._problem, self.pointer(method.values),
+                             self.pointer(method.u_prev.array), method.n, steps,
+                             self.pointer(rows), self._pressure)
+        return steps, float(self._pressure[0]), 1, None

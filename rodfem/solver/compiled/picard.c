@@ -40,12 +40,15 @@
 #include <math.h>
 #include <stddef.h>
 
-/* cdef begin: the declarations cffi reads (rodfem/picard_kernel.py) */
+#include "contact.h"
+#include "record.h"
+
+/* cdef begin: the declarations cffi reads (rodfem/solver/compiled/picard.py) */
 typedef struct {
     int n;                 /* nodes */
     int max_iterations;
-    double tol, gap, epsilon;
-    int gradient;          /* 1: the discrete gradient (Crank-Nicolson), 0: the penalty */
+    double tol;
+    rc_obstacle obstacle;  /* the law and the time scheme's rule (contact.h) */
     int midpoint_inertia;  /* D = 2 dU - D (Crank-Nicolson with inertia), else D = dU */
     /* Tables of distinct rows, with each node's row number (its class) in *_class: */
     /* rows of 20: the heat row of R (blocks Theta, D, U; each (i-1, i, i+1)), b_h, then the
@@ -75,7 +78,8 @@ typedef struct {
 int pk_factor(int n, const double *lo, const double *diag, const double *up, int ul,
               double *out, int stride);
 long pk_advance(const pk_problem *P, double *values, double *u_prev, long n0, long steps,
-                double *rows, double *pressure, int *iterations, double *increment);
+                double *rows, double *pressure, int *iterations, double *increment,
+                double *last_u_1);
 /* cdef end */
 
 /* The tridiagonal factor of (lo, diag, up), normalised: ul = 0, L U, eliminating ascending:
@@ -100,26 +104,6 @@ int pk_factor(int n, const double *lo, const double *diag, const double *up, int
         cp = o[2];
     }
     return 0;
-}
-
-/* rodfem.model.contact.penalty_force and discrete_gradient, with Python's max(x, 0.0) (x unless
- * 0.0 > x: NaN stays NaN). */
-static double pmax0(double x) { return 0.0 > x ? 0.0 : x; }
-
-static double force(const pk_problem *P, double y, double c)
-{
-    const double gap = P->gap, epsilon = P->epsilon;
-    if (!P->gradient)
-        return pmax0(y - gap) / epsilon;
-    const double dy = y - gap, dc = c - gap;
-    if (dy <= 0.0 && dc <= 0.0)
-        return 0.0;
-    if (dy > 0.0 && dc > 0.0)
-        return (dy + dc) / (2.0 * epsilon);
-    if (y == c)
-        return pmax0(dy) / epsilon;
-    const double py = pmax0(dy), pc = pmax0(dc);
-    return (py * py - pc * pc) / (2.0 * epsilon * (y - c));
 }
 
 /* One 3-term row (i-1, i, i+1) added to sum in that order. */
@@ -164,7 +148,8 @@ static inline void energy_row(const pk_problem *P, int i, const double *th, cons
 }
 
 long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0, long steps,
-                double *rows, double *pressure, int *iterations, double *increment)
+                double *rows, double *pressure, int *iterations, double *increment,
+                double *last_u_1)
 {
     const int n = P->n, max_it = P->max_iterations;
     const size_t stride = (size_t)n + 2;
@@ -206,7 +191,7 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
             V[i] = 0.0;
         }
         for (l = 1; l <= max_it; l++) {
-            const double q = -force(P, c + V[n - 1], c);
+            const double q = -rc_contact_force(&P->obstacle, c + V[n - 1], c);
             double ct, cu, bad, e;
             /* sweep B, descending: T' by A_h's substitution; momentum rhs and elimination one
              * node behind (x1 = T'(i + 1), x2 = T'(i + 2)) */
@@ -280,9 +265,10 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
         }
         if (failed) {
             its = l;
+            *last_u_1 = c + V[n - 1];
             break;
         }
-        p = force(P, c + V[n - 1], c);
+        p = rc_contact_force(&P->obstacle, c + V[n - 1], c);
         /* accept node i; then, one node behind (they read node i), the energy row of node
          * i - 1 and the next step's fixed parts there */
         double energy[3] = {0.0, 0.0, 0.0}, gh = 0.0;
@@ -298,14 +284,14 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
         }
         energy_row(P, n - 1, th, D, U, energy);
         fixed_row(P, n - 1, th, D, U, h, m, gH, &gh);
-        double *row = rows + 7 * k;
-        row[0] = (double)(n0 + k + 1);
-        row[1] = (double)l;
-        row[2] = U[n - 1];
-        row[3] = D[n - 1];
-        row[4] = P->half_wi * U[P->half_i] + P->half_wj * U[P->half_j];
-        row[5] = 0.5 * ((energy[0] + energy[1]) + energy[2]);
-        row[6] = p;
+        double *row = rows + RAW_SLOTS * k;
+        row[RAW_N] = (double)(n0 + k + 1);
+        row[RAW_ITERATIONS] = (double)l;
+        row[RAW_U_1] = U[n - 1];
+        row[RAW_D_1] = D[n - 1];
+        row[RAW_U_HALF] = P->half_wi * U[P->half_i] + P->half_wj * U[P->half_j];
+        row[RAW_BULK_ENERGY] = 0.5 * ((energy[0] + energy[1]) + energy[2]);
+        row[RAW_PRESSURE] = p;
         its = l;
         done = k + 1;
     }

@@ -1,21 +1,21 @@
 """The `picard` method's time loop in compiled code: many steps in one C call.
 
-An iteration of :class:`rodfem.solver.methods.picard.PicardScheme` is two mat-vecs, two triangular solves, two
+An iteration of :class:`rodfem.solver.methods.picard.PicardMethod` is two mat-vecs, two triangular solves, two
 norms and a few vector updates: about eight PETSc calls of a microsecond each, which at a few
-hundred cells is nearly all of it. :class:`PicardKernel` reads the operators off a scheme and its
+hundred cells is nearly all of it. :class:`PicardKernel` reads the operators off a method and its
 history once and runs ``steps`` steps of exactly that algebra in ``rodfem/solver/compiled/picard.c``:
 
-    [h; m] = R s + b                  (s = [Θⁿ⁻¹; Dⁿ⁻¹; Uⁿ⁻¹], ``scheme.R``, ``scheme.b``), once
+    [h; m] = R s + b                  (s = [Θⁿ⁻¹; Dⁿ⁻¹; Uⁿ⁻¹], ``method.R``, ``method.b``), once
     ΔΘ⁰ = 0, ΔU⁰ = 0, c = Uⁿ⁻¹(1)
     for l = 1, 2, …, max_iterations:
         p   = contact force of c + ΔU^{l−1}(1)  (penalty (1/ε)[y − g]₊, or Crank–Nicolson's
-                                                 discrete gradient from c: ``scheme.rule``)
-        ΔΘˡ = A_h⁻¹ (h + N_ΔU ΔU^{l−1})          (``scheme.heat.A``, ``heat.N["du"]``)
-        ΔUˡ = A_m⁻¹ (m + N_ΔΘ ΔΘˡ − p e)         (``scheme.momentum.A``, ``N["dtheta"]``,
-                                                 ``scheme.contact_load``)
-        change = max(‖ΔΘˡ − ΔΘ^{l−1}‖∞, ‖ΔUˡ − ΔU^{l−1}‖∞); stop if change < tol (``scheme.tol``)
+                                                 discrete gradient from c: the time scheme)
+        ΔΘˡ = A_h⁻¹ (h + N_ΔU ΔU^{l−1})          (``method.heat.A``, ``heat.N["du"]``)
+        ΔUˡ = A_m⁻¹ (m + N_ΔΘ ΔΘˡ − p e)         (``method.momentum.A``, ``N["dtheta"]``,
+                                                 ``method.contact_load``)
+        change = max(‖ΔΘˡ − ΔΘ^{l−1}‖∞, ‖ΔUˡ − ΔU^{l−1}‖∞); stop if change < tol (``method.tol``)
         non-finite values: stop at once (failed)
-    p = contact force of c + ΔU(1) (``scheme.pressure``)
+    p = contact force of c + ΔU(1) (``method.pressure``)
     Θⁿ = Θⁿ⁻¹ + ΔΘ, Uⁿ⁻¹ → u_prev, Uⁿ = Uⁿ⁻¹ + ΔU, Dⁿ = ΔU (Crank–Nicolson with inertia:
     2ΔU − Dⁿ⁻¹, as (ΔU − Dⁿ⁻¹) + ΔU)
 
@@ -58,14 +58,14 @@ less in the two; it has not happened on any scene tested.
 
 **What it does not do.** Sources (the manufactured solution), a = 0 (``picard.py`` iterates only
 the contact force there) and the rigid obstacle are refused at construction (ValueError). The
-paper scheme's first step with inertia (n = 0 → 1, :meth:`Scheme._first_step`) is the caller's
-``scheme.advance()``: :meth:`PicardKernel.advance` refuses to start from n = 0 there.
+paper scheme's first step with inertia (n = 0 → 1, :meth:`Method._first_step`) is the caller's
+``method.advance()``: :meth:`PicardKernel.advance` refuses to start from n = 0 there.
 
-**Failure.** If a step does not converge, :meth:`PicardKernel.advance` leaves the scheme at the
+**Failure.** If a step does not converge, :meth:`PicardKernel.advance` leaves the method at the
 last step that did (state, ``u_prev``, ``n``, ``pressure``, ``iterations``), with the rows of
 the steps done written to ``rows[:done]``, sets ``kernel.done`` (and ``error.done``) to that
 count, and raises :class:`rodfem.solver.methods.picard.PicardNotConverged` with the step, time, increment and
-iterations that ``PicardScheme._step`` gives. On success ``kernel.done`` = ``steps``.
+iterations that ``PicardMethod._step`` gives. On success ``kernel.done`` = ``steps``.
 
 **Building.** As :mod:`rodfem.solver.compiled.direct`'s, by :mod:`rodfem.solver.compiled.build`, under its own module name.
 """
@@ -76,13 +76,14 @@ from pathlib import Path
 
 import numpy as np
 
+from rodfem.output.columns import RAW_INDEX
 from rodfem.solver.compiled.build import CompiledSource
-from rodfem.solver.compiled.direct import _classes, checked_steps
-from rodfem.solver.methods.picard import PicardNotConverged
+from rodfem.solver.compiled.loop import CompiledLoop, check_library, classes
+from rodfem.solver.errors import PicardNotConverged
 
 SOURCE = Path(__file__).with_name("picard.c")
 
-_source = CompiledSource(SOURCE, "_rodfem_picard_kernel_", "Picard kernel")
+_source = CompiledSource(SOURCE, "_rodfem_picard_kernel_", "Picard kernel", check_library)
 _library = _source.library
 available = _source.available
 unavailable_reason = _source.unavailable_reason
@@ -106,42 +107,37 @@ def _tridiagonal(A, n: int, row_block: int = 0, col_block: int = 0) -> np.ndarra
     return out
 
 
-class PicardKernel:
-    """Steps of a :class:`rodfem.solver.methods.picard.PicardScheme` in compiled code (the module's docstring).
+class PicardKernel(CompiledLoop):
+    """Steps of a :class:`rodfem.solver.methods.picard.PicardMethod` in compiled code (the module's docstring).
 
-    ``PicardKernel(scheme, history)`` reads the operators once; :meth:`advance` then does steps
-    exactly as ``scheme.advance()`` followed by ``history.record(scheme)``, from any n ≥ 1 (n ≥ 0
-    where the first step is not special: Crank–Nicolson, or no inertia), updating the scheme in
+    ``PicardKernel(method, history)`` reads the operators once; :meth:`advance` then does steps
+    exactly as ``method.advance()`` followed by ``history.record(method)``, from any n ≥ 1 (n ≥ 0
+    where the first step is not special: Crank–Nicolson, or no inertia), updating the method in
     place and writing history rows. ``compress=False``: a coefficient row per node instead of
     tables of the distinct rows (the same results bit for bit); ``self.classes`` gives the
     tables' sizes."""
 
-    def __init__(self, scheme, history, compress: bool = True):
-        if scheme.method != "picard":
-            raise ValueError(f"the Picard kernel runs a PicardScheme, not {scheme.method!r}")
-        if any(f is not None for f in scheme.sources.values()):
-            raise ValueError("the compiled Picard kernel does not do source terms")
-        if not scheme.coupled:
+    what = "compiled Picard loop"
+
+    def __init__(self, method, history, compress: bool = True):
+        if method.name != "picard":
+            raise ValueError(f"the Picard kernel runs a PicardMethod, not {method.name!r}")
+        if not method.coupled:
             raise ValueError("the compiled Picard kernel does not do a = 0 (picard.py's "
                              "uncoupled iteration)")
-        if scheme.rigid or scheme.rule not in ("penalty", "gradient"):
+        if method.law.rigid:
             raise ValueError("the compiled Picard kernel does only the elastic obstacle")
+        super().__init__(method, history)
         self._ffi, self._lib = ffi, lib = _library()
-        values = scheme.values
-        n = values.size // 3
-        if scheme.last != n - 1 or history.u_1 != 3 * n - 1 or history.du_1 != 2 * n - 1:
-            raise ValueError("the Picard kernel needs x = 1 at the last node")
-        self.scheme, self.n = scheme, n
-        self._first_step_special = scheme.inertia and not scheme.midpoint
-        self.done = 0
+        n = self.n
 
         fixed = np.zeros((n, 20))  # a row per node; tabled by _classes below
         for c in range(2):
             for k in range(3):
-                fixed[:, 10 * c + 3 * k:10 * c + 3 * k + 3] = _tridiagonal(scheme.R, n, c, k)
-            fixed[:, 10 * c + 9] = scheme.b.array_r[c * n:(c + 1) * n]
+                fixed[:, 10 * c + 3 * k:10 * c + 3 * k + 3] = _tridiagonal(method.R, n, c, k)
+            fixed[:, 10 * c + 9] = method.b.array_r[c * n:(c + 1) * n]
         heat, momentum = np.zeros((n, 3)), np.zeros((n, 3))  # (p, q, cp) per node
-        for A, out, ul in ((scheme.heat.A, heat, 0), (scheme.momentum.A, momentum, 1)):
+        for A, out, ul in ((method.heat.A, heat, 0), (method.momentum.A, momentum, 1)):
             tri = np.ascontiguousarray(_tridiagonal(A, n).T)
             info = lib.pk_factor(n, *(ffi.cast("double *", ffi.from_buffer(tri[t]))
                                       for t in range(3)), ul,
@@ -149,9 +145,9 @@ class PicardKernel:
             if info:
                 raise ValueError(f"zero pivot at node {info - 1} factoring without pivoting")
         coupling = np.zeros((n, 8))
-        coupling[:, 0:3] = _tridiagonal(scheme.heat.N["du"], n)
-        coupling[:, 3:6] = _tridiagonal(scheme.momentum.N["dtheta"], n)
-        coupling[:, 6] = scheme.contact_load.array_r
+        coupling[:, 0:3] = _tridiagonal(method.heat.N["du"], n)
+        coupling[:, 3:6] = _tridiagonal(method.momentum.N["dtheta"], n)
+        coupling[:, 6] = method.contact_load.array_r
         energy = np.zeros((n, 12))
         for k in range(3):
             energy[:, 3 * k:3 * k + 3] = _tridiagonal(history.energy.E, n, k, k)
@@ -164,7 +160,7 @@ class PicardKernel:
                   for c in range(2) for k in range(3)]
         self._arrays, self.classes = {}, {}
         for name, table in (("fixed", fixed), ("coupling", coupling), ("energy", energy)):
-            cls, tables = _classes({name: table}, compress)
+            cls, tables = classes({name: table}, compress)
             self._arrays[name + "_class"], self._arrays[name] = cls, tables[name]
             self.classes[name] = tables[name].shape[0]
         self._arrays["descending"] = np.ascontiguousarray(
@@ -174,11 +170,11 @@ class PicardKernel:
         self._arrays["work"] = np.zeros(10 * (n + 2))
 
         P = ffi.new("pk_problem *")
-        P.n, P.max_iterations = n, int(scheme.max_iterations)
-        P.tol, P.gap, P.epsilon = float(scheme.tol), float(scheme.gap), float(scheme.epsilon)
-        P.gradient = int(scheme.rule == "gradient")
+        P.n, P.max_iterations = n, int(method.max_iterations)
+        P.tol = float(method.tol)
+        self.set_obstacle(P.obstacle, method)
         P.blocks = blocks
-        P.midpoint_inertia = int(scheme.midpoint and scheme.inertia)
+        P.midpoint_inertia = self.velocity_update
         for field, array in self._arrays.items():
             kind = "int" if field.endswith("_class") else "double"
             assert array.flags.c_contiguous and array.dtype == (np.intc if kind == "int"
@@ -192,42 +188,21 @@ class PicardKernel:
         self._pressure = ffi.new("double *")
         self._iterations = ffi.new("int *")
         self._increment = ffi.new("double *")
+        self._last_u_1 = ffi.new("double *")
 
-    def advance(self, steps: int, rows: np.ndarray) -> None:
-        """``steps`` steps of the scheme, from its step n to n + steps, in place (its state
-        ``values``, ``u_prev``, ``n``, ``pressure``, ``iterations``); ``rows[k]`` receives
-        History.record's raw row of step n + 1 + k. ``rows``: C-contiguous float64, at least
-        ``steps`` rows of 7 (e.g. ``History.reserve(steps)``).
-
-        Sets ``self.done`` to the steps done. If a step does not converge, the scheme stays at
-        the last step that did, ``rows[:self.done]`` hold their rows (commit those), and
-        PicardNotConverged is raised (with ``done`` set on it too)."""
-        scheme = self.scheme
-        self.done = 0
-        steps = checked_steps(scheme, steps, rows, self._first_step_special, self.n)
-        if steps == 0:
-            return
-        values = scheme.values
-        u_prev = scheme.u_prev.array
-        ffi = self._ffi
-        self._pressure[0] = scheme.pressure
-        self._iterations[0] = scheme.iterations
+    def _run(self, steps: int, rows: np.ndarray):
+        method = self.method
+        self._pressure[0] = method.pressure
+        self._iterations[0] = method.iterations
         done = int(self._lib.pk_advance(
-            self._problem, ffi.cast("double *", ffi.from_buffer(values)),
-            ffi.cast("double *", ffi.from_buffer(u_prev)), scheme.n, steps,
-            ffi.cast("double *", ffi.from_buffer(rows)), self._pressure, self._iterations,
-            self._increment))
-        del u_prev
-        for vector in (scheme.state, scheme.theta, scheme.du, scheme.u, scheme.u_prev):
-            vector.stateIncrease()  # written behind PETSc's back: no cached norms
-        self.done = done
-        scheme.n += done
-        scheme.pressure = float(self._pressure[0])
-        if done:
-            scheme.iterations = int(rows[done - 1, 1])
+            self._problem, self.pointer(method.values), self.pointer(method.u_prev.array),
+            method.n, steps, self.pointer(rows), self._pressure, self._iterations,
+            self._increment, self._last_u_1))
+        iterations = (int(rows[done - 1, RAW_INDEX["iterations"]]) if done
+                      else method.iterations)
+        error = None
         if done < steps:
-            step = scheme.n + 1
-            error = PicardNotConverged(step, step * scheme.dt, float(self._increment[0]),
-                                       int(self._iterations[0]))
-            error.done = done
-            raise error
+            step = method.n + done + 1
+            error = PicardNotConverged(step, step * method.dt, float(self._increment[0]),
+                                       int(self._iterations[0]), float(self._last_u_1[0]))
+        return done, float(self._pressure[0]), iterations, error

@@ -1,21 +1,23 @@
-"""What every method shares: the scheme (3.1)–(3.2), its state, and its first step.
+"""What every method shares: the scheme's state, its operators, its first step.
 
-A method (``solver.method``) is a way of solving one step of the scheme: :mod:`rodfem.solver.methods.picard` (the
-paper's iteration), :mod:`rodfem.solver.methods.direct` (exact, one solve) and :mod:`rodfem.solver.methods.newton` (PETSc SNES).
-All of them advance the same state, through the increments over a step, ΔΘⁿ = Θⁿ − Θⁿ⁻¹ and
-ΔUⁿ = Uⁿ − Uⁿ⁻¹, with (3.1)–(3.2) written for them (``forms.copetti.heat_increment`` and
-``momentum_increment``): solved for Uⁿ itself, (3.2) loses |U| ε_mach/Δt² of the acceleration
-every step (2e-10 at Δt = 1e-3).
+A method (``solver.method``, :mod:`rodfem.solver.methods`) is a way of solving one step of the
+time scheme (:mod:`rodfem.solver.time_schemes`): :mod:`.picard` (the paper's iteration),
+:mod:`.direct` (exact, one solve) and :mod:`.newton` (PETSc SNES). All of them advance the same
+state through the increments over a step, ΔΘⁿ = Θⁿ − Θⁿ⁻¹ and ΔUⁿ = Uⁿ − Uⁿ⁻¹, with (3.1)–(3.2)
+written for them (``forms.copetti.heat_increment`` and ``momentum_increment``, at the time
+scheme's weight): solved for Uⁿ itself, (3.2) loses |U| ε_mach/Δt² of the acceleration every step
+(2e-10 at Δt = 1e-3).
 
 Each equation is affine in its unknown once the other unknown and the contact force are known, so
 its operators are read off its form once per run (:meth:`Discretisation.affine_operator`):
 
     heat      A_h ΔΘ − N_U ΔU = h,      h = N_Θ' Θⁿ⁻¹ + b_h
-    momentum  A_m ΔU − N_Θ ΔΘ = m − p e, m = N_U' Uⁿ⁻¹ + N_ΔU' ΔUⁿ⁻¹ + N_Θ Θⁿ⁻¹ + b_m
+    momentum  A_m ΔU − N_Θ ΔΘ = m − p e, m = N_U' Uⁿ⁻¹ + N_D' Dⁿ⁻¹ + N_Θ Θⁿ⁻¹ + b_m
 
-with e the load of a unit force at x = 1 and p the contact force there: p = (1/ε)[Uⁿ(1) − g]_+
-for the elastic obstacle, the multiplier of Signorini's condition Uⁿ(1) ≤ g for the rigid one.
-σ(1) = −p. Vectors are sequential, in node order (:mod:`rodfem.discrete.nodes`); x = 1 is the last node.
+with e the load of a unit force at x = 1 and p the contact force there: the obstacle's law
+(:mod:`rodfem.model.contact`) at the time scheme's rule, or the multiplier of Signorini's
+condition Uⁿ(1) ≤ g for the rigid obstacle. σ(1) = −p. Vectors are sequential, in node order
+(:mod:`rodfem.discrete.nodes`); x = 1 is the last node.
 """
 
 from __future__ import annotations
@@ -25,72 +27,15 @@ import ufl
 from petsc4py import PETSc
 
 import forms.copetti as copetti
-from rodfem.model import contact
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.discrete.nodes import block_diagonal, block_matrix
+from rodfem.model import contact
+from rodfem.model.robin import robin_shift
+from rodfem.solver.errors import SourceNotFinite
+from rodfem.solver.linalg import lu_factor, stacked
+from rodfem.solver.time_schemes import TIME_SCHEMES
 
-# Default options of every LU factorisation, merged under the user's (PETSC_OPTIONS can override).
-# In node order the operators are tridiagonal, so LU in the natural ordering has no fill; the
-# coupled operator [[A_h, −N_U], [−N_Θ, A_m]] is banded after reverse Cuthill–McKee.
-LU_OPTIONS = {
-    "ksp_type": "preonly",
-    "pc_type": "lu",
-    "pc_factor_mat_solver_type": "petsc",
-    "pc_factor_mat_ordering_type": "natural",
-}
-
-
-def set_default_options(prefix: str, defaults: dict[str, str]) -> None:
-    """Set PETSc options under ``prefix`` unless the user has set them."""
-    options = PETSc.Options()
-    for key, value in defaults.items():
-        if not options.hasName(prefix + key):
-            options[prefix + key] = value
-
-
-def lu_factor(A: PETSc.Mat, prefix: str, ordering: str = "natural"):
-    """Factor A once (KSP preonly + LU, options under ``prefix``). Returns the KSP, which owns the
-    factorisation, and the factor, whose ``solve`` is a plain forward/back substitution."""
-    set_default_options(prefix, {**LU_OPTIONS, "pc_factor_mat_ordering_type": ordering})
-    ksp = PETSc.KSP().create(A.getComm())
-    ksp.setOptionsPrefix(prefix)
-    ksp.setOperators(A)
-    ksp.setFromOptions()
-    ksp.setUp()
-    return ksp, ksp.getPC().getFactorMatrix()
-
-
-def stacked(parts: int, n: int) -> tuple[PETSc.Vec, list[PETSc.Vec]]:
-    """A sequential vector of ``parts`` blocks of length n, and a vector for each block that
-    shares its memory."""
-    array = np.zeros(parts * n)
-    wrap = lambda a: PETSc.Vec().createWithArray(a, comm=PETSc.COMM_SELF)  # noqa: E731
-    return wrap(array), [wrap(array[i * n:(i + 1) * n]) for i in range(parts)]
-
-
-class NotConverged(RuntimeError):
-    """A step that a method could not solve; the state stays at the last step solved."""
-
-    def __init__(self, method: str, step: int, time: float, detail: str, iterations: int):
-        self.method, self.step, self.time = method, step, time
-        self.detail, self.iterations = detail, iterations
-        super().__init__(f"{self.title} did not converge at step {step} (t = {time:g}): {detail}")
-
-    @property
-    def title(self) -> str:
-        return {"picard": "Picard iteration", "newton": "Newton's method (SNES)"}.get(
-            self.method, self.method)
-
-
-class SourceNotFinite(NotConverged):
-    """A source that is not finite at a step's time: the step cannot be taken."""
-
-    def __init__(self, method: str, step: int, time: float, name: str, t: float):
-        super().__init__(method, step, time, f"source.{name} is not finite at t = {t:g}", 0)
-        RuntimeError.__init__(self, f"step {step} (t = {time:g}) cannot be taken: {self.detail}")
-
-
-class Scheme:
+class Method:
     """Θⁿ, Uⁿ of (3.1)–(3.2), from n = 0 on, one step per call of :meth:`advance`.
 
     After each call, ``theta`` holds Θⁿ, ``u`` holds Uⁿ, ``du`` the increment Uⁿ − Uⁿ⁻¹,
@@ -100,18 +45,14 @@ class Scheme:
     Subclasses solve a step in :meth:`_step`.
     """
 
-    method = ""
+    name = ""
 
     def __init__(self, disc: Discretisation):
         scene = disc.scene
         self.disc = disc
         self.dt = scene["time.dt"]
-        self.epsilon, self.gap = scene["obstacle.epsilon"], scene["obstacle.gap"]
-        self.rigid = scene["obstacle.kind"] == "rigid"
-        # Crank–Nicolson (the midpoint rule) or the paper's scheme; the contact force of each
-        # (rodfem.model.contact): Signorini's multiplier, the penalty at tⁿ, or its discrete gradient.
-        self.midpoint = scene["time.scheme"] == "crank-nicolson"
-        self.rule = "rigid" if self.rigid else "gradient" if self.midpoint else "penalty"
+        self.law = contact.of_scene(scene)  # the obstacle's law, or the rigid obstacle
+        self.time_scheme = TIME_SCHEMES[scene["time.scheme"]]
         self.coupled = scene["model.a"] != 0.0  # a = 0: heat does not see motion, nor motion heat
         self.inertia = scene["model.b"] != 0.0
         self.tol, self.max_iterations = scene["solver.tol"], scene["solver.max_iterations"]
@@ -123,19 +64,15 @@ class Scheme:
         w = ufl.TestFunction(disc.V)
         dx_m, dx, ds_1 = disc.dx_m, disc.dx, disc.ds_1
 
+        weight = self.time_scheme.weight
         # (3.1) for ΔΘⁿ, given the displacement increment (ΔU_other: ΔUⁿ, or in Picard's (3.3)
         # the previous iterate's).
-        heat = copetti.heat_midpoint if self.midpoint else copetti.heat_increment
-        F_heat = heat(ΔΘ, Θ_prev, ΔU_other, w, dt, a, k, dx_m, dx, ds_1)
+        F_heat = copetti.heat_increment(ΔΘ, Θ_prev, ΔU_other, w, dt, a, k, dx_m, dx, ds_1, weight)
         # (3.2) for ΔUⁿ, given the temperature increment ΔΘⁿ, less its contact term (a load,
         # below). Dⁿ⁻¹ is the velocity's displacement over a step: ΔUⁿ⁻¹ in the paper's scheme
         # (δⁿ⁻¹ = ΔUⁿ⁻¹/Δt), Δt Vⁿ⁻¹ in Crank–Nicolson's.
-        if self.midpoint:
-            F_momentum = copetti.momentum_midpoint(ΔU, D_prev, U_prev, Θ_prev + 0.5 * ΔΘ_other, w,
-                                                   dt, b, zeta, a, theta_A, disc.r, dx_m, dx)
-        else:
-            F_momentum = copetti.momentum_increment(ΔU, D_prev, U_prev, Θ_prev + ΔΘ_other, w, dt,
-                                                    b, zeta, a, theta_A, disc.r, dx_m, dx)
+        F_momentum = copetti.momentum_increment(ΔU, D_prev, U_prev, Θ_prev + weight * ΔΘ_other, w,
+                                                dt, b, zeta, a, theta_A, disc.r, dx_m, dx, weight)
         # Sources only where the scene has them (a manufactured solution): their loads are
         # N_f f with f interpolated at the nodes at the scheme's time of the step.
         self.sources = {name: scene.source_term(name) for name in ("heat", "momentum")}
@@ -198,8 +135,7 @@ class Scheme:
         x = self.disc.nodes.x
         clamped = x == 0.0
         params = scene.parameters
-        r = k / (k + 1.0) * x - 1.0
-        theta0 = scene.initial("theta0")(x, params) + theta_A * r
+        theta0 = scene.initial("theta0")(x, params) + theta_A * robin_shift(x, k)
         u0 = scene.initial("u0")(x, params)
         u1 = scene.initial("u1")(x, params) if self.inertia else np.zeros_like(x)
         for values in (theta0, u0, u1):
@@ -209,9 +145,24 @@ class Scheme:
         self.du.array[:] = self.dt * u1
         self.u_prev.waxpy(-1.0, self.du, self.u)
 
+    @property
+    def first_step_special(self) -> bool:
+        """Whether the next step is the paper scheme's first, U¹ = U⁰ + Δt P u₁."""
+        return self.n == 0 and self.time_scheme.special_first_step(self.inertia)
+
+    @property
+    def velocity_back(self) -> PETSc.Vec:
+        """The U at which σ's u_t ≈ (Uⁿ − back)/Δt is taken: Uⁿ⁻¹ in the paper's scheme; in
+        Crank–Nicolson's, Uⁿ − Dⁿ, so that u_t is the velocity Vⁿ, not the half step's δⁿ."""
+        if not self.time_scheme.midpoint_velocity:
+            return self.u_prev
+        back = self.u.copy()
+        back.axpy(-1.0, self.du)
+        return back
+
     def advance(self) -> int:
         """Go from step n to n + 1; return the iterations it took (the method's count)."""
-        if self.n == 0 and self.inertia and not self.midpoint:
+        if self.first_step_special:
             self._first_step()
         else:
             self._step()
@@ -236,10 +187,10 @@ class Scheme:
 
     def _fixed_parts(self, rhs: PETSc.Vec) -> None:
         """The right-hand sides [h; m] of a step: what Θⁿ⁻¹, Dⁿ⁻¹ and Uⁿ⁻¹ contribute, and the
-        sources (at tⁿ in the paper's scheme, at t^{n−½} in Crank–Nicolson's)."""
+        sources at the time scheme's time of the step."""
         self.R.multAdd(self.state, self.b, rhs)
         if self.sources["heat"] is not None or self.sources["momentum"] is not None:
-            self._source_load(None, rhs, (self.n + (0.5 if self.midpoint else 1.0)) * self.dt)
+            self._source_load(None, rhs, self.time_scheme.source_time(self.n, self.dt))
 
     def _source_load(self, heat_rhs: PETSc.Vec | None, rhs: PETSc.Vec | None, t: float) -> None:
         """Add the sources' loads at time t: to the heat right-hand side alone, or to [h; m]."""
@@ -251,7 +202,7 @@ class Scheme:
             values[i * n:(i + 1) * n] = f(x, parameters) if f is not None else 0.0
         if not np.isfinite(values).all():
             name = "heat" if not np.isfinite(values[:n]).all() else "momentum"
-            raise SourceNotFinite(self.method, self.n + 1, (self.n + 1) * self.dt, name, t)
+            raise SourceNotFinite(self.name, self.n + 1, (self.n + 1) * self.dt, name, t)
         if rhs is not None:
             self._source_matrix.multAdd(self._source_values, rhs, rhs)
         else:
@@ -263,26 +214,13 @@ class Scheme:
         self.theta.axpy(1.0, dtheta)
         self.u.copy(self.u_prev)
         self.u.axpy(1.0, du)
-        if self.midpoint and self.inertia:
+        if self.time_scheme.velocity_update(self.inertia):
             self.du.aypx(-1.0, du)
             self.du.axpy(1.0, du)
         elif du is not self.du:
             du.copy(self.du)
 
     def contact_force(self, y: float, c: float) -> float:
-        """The elastic obstacle's force for Uⁿ(1) = y and Uⁿ⁻¹(1) = c (:mod:`rodfem.model.contact`)."""
-        if self.rule == "gradient":
-            return contact.discrete_gradient(y, c, self.gap, self.epsilon)
-        return contact.penalty_force(y, self.gap, self.epsilon)
-
-
-def make_scheme(disc: Discretisation) -> Scheme:
-    """The scheme of the scene's ``solver.method``."""
-    method = disc.scene["solver.method"]
-    if method == "picard":
-        from rodfem.solver.methods.picard import PicardScheme as cls
-    elif method == "newton":
-        from rodfem.solver.methods.newton import NewtonScheme as cls
-    else:
-        from rodfem.solver.methods.direct import DirectScheme as cls
-    return cls(disc)
+        """The elastic obstacle's force for Uⁿ(1) = y and Uⁿ⁻¹(1) = c, at the time scheme's
+        rule (:mod:`rodfem.solver.time_schemes`)."""
+        return self.time_scheme.contact_force(self.law, y, c)

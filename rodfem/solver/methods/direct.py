@@ -1,7 +1,7 @@
 """The exact method: each step of (3.1)–(3.2) in one solve and a scalar equation.
 
 Without its contact term the step is linear, with a constant operator: the coupled operator
-C = [[A_h, −N_U], [−N_Θ, A_m]] acting on [ΔΘⁿ; ΔUⁿ] (:meth:`Scheme.coupled_operator`), factored
+C = [[A_h, −N_U], [−N_Θ, A_m]] acting on [ΔΘⁿ; ΔUⁿ] (:meth:`Method.coupled_operator`), factored
 once per run. Its response to a unit force at x = 1, q = C⁻¹[0; −e], is computed once too, and
 w = −q_U(1) > 0 is the rod's compliance at x = 1 over one step. A step then solves
 
@@ -10,28 +10,27 @@ w = −q_U(1) > 0 is the rod's compliance at x = 1 over one step. A step then so
 
 where the contact force p is the one scalar unknown left:
 
-* elastic obstacle, p = (1/ε)[s − p w − g]_+: p = 0 if s ≤ g, else p = (s − g)/(ε + w);
-* rigid obstacle (Signorini: Uⁿ(1) ≤ g, p ≥ 0, p (Uⁿ(1) − g) = 0): p = 0 if s ≤ g, else
-  p = (s − g)/w, so that Uⁿ(1) = g;
-* Crank–Nicolson's elastic obstacle, p the discrete gradient of the obstacle's energy between
-  Uⁿ⁻¹(1) and Uⁿ(1): a quadratic or a linear equation, in closed form
-  (:func:`rodfem.model.contact.solve`).
+y + w p(y) = s for y = Uⁿ(1), with p the obstacle's force at the time scheme's rule (the law at
+the new step, or Crank–Nicolson's discrete gradient from Uⁿ⁻¹(1)), or Signorini's multiplier of
+the rigid obstacle, p = (s − g)/w where s > g. Each law solves it (:mod:`rodfem.model.contact`):
+the paper's linear law in closed form (p = (s − g)/(ε + w) for s > g; a linear or quadratic
+equation for Crank–Nicolson), any other to round-off.
 
 Each is the unique solution, since y ↦ y + w p(y) is strictly increasing: this is the exact
-solution of the step, with no iteration and no tolerance. Steps without contact (s ≤ g, and for
+solution of the step, with no tolerance to choose. Steps without contact (s ≤ g, and for
 Crank–Nicolson Uⁿ⁻¹(1) ≤ g too) cost one comparison. With a = 0, C is block diagonal and the heat
 and momentum operators are factored and solved apart.
 """
 
 from __future__ import annotations
 
-from rodfem.model import contact
 from rodfem.discrete.discretisation import Discretisation
-from rodfem.solver.methods.base import Scheme, lu_factor, stacked
+from rodfem.solver.linalg import lu_factor, stacked
+from rodfem.solver.methods.base import Method
 
 
-class DirectScheme(Scheme):
-    method = "direct"
+class DirectMethod(Method):
+    name = "direct"
 
     def __init__(self, disc: Discretisation):
         super().__init__(disc)
@@ -70,8 +69,8 @@ class DirectScheme(Scheme):
         c = self.values[self._u_1]
         s = c + self._x_values[self._index]
         pressure = 0.0
-        if s > self.gap or (self.rule == "gradient" and c > self.gap):
-            pressure = contact.solve(s, self.compliance, self.gap, self.epsilon, self.rule, c)
+        if self.time_scheme.contact_needed(self.law, s, c):
+            pressure = self.time_scheme.contact_solve(self.law, s, self.compliance, c)
             self.x.axpy(pressure, self.response)
         self.pressure = pressure
         self._accept(self.x_heat, self.x_momentum)
@@ -83,7 +82,7 @@ def compliance(scene, comm) -> float:
     iteration contracts by about w/ε while the rod touches the obstacle (``rodfem stability``)."""
     from rodfem.scene import validate
 
-    values = {section: dict(keys) for section, keys in scene.values.items()}
+    values = scene.data()
     values["solver"]["method"] = "direct"
     values["obstacle"]["kind"] = "elastic"
-    return DirectScheme(Discretisation(validate(values, scene.source), comm)).compliance
+    return DirectMethod(Discretisation(validate(values, scene.source), comm)).compliance

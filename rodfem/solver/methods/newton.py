@@ -2,12 +2,14 @@
 
 The unknown is [ΔΘⁿ; ΔUⁿ] and the residual is the coupled scheme with its contact term,
 
-    F(x) = C x − [h; m] + p(x) [0; e],   p(x) = (1/ε)[Uⁿ⁻¹(1) + x_U(1) − g]_+,
+    F(x) = C x − [h; m] + p(x) [0; e],   p(x) the contact force at Uⁿ(1) = Uⁿ⁻¹(1) + x_U(1),
 
-with C the coupled operator (:meth:`Scheme.coupled_operator`). The Jacobian is C plus the
-generalized derivative of [·]_+ (1 where the rod penetrates, 0 elsewhere) in the one diagonal
-entry of x = 1: a semismooth Newton method, which ends in finitely many iterations with the exact
-solution of the step. The rigid obstacle is a variational inequality, solved by PETSc's
+with C the coupled operator (:meth:`Method.coupled_operator`) and p the obstacle's law at the time
+scheme's rule, e.g. (1/ε)[Uⁿ(1) − g]_+. The Jacobian is C plus the law's generalized derivative
+(:meth:`rodfem.solver.time_schemes.TimeScheme.contact_slope`: 1/ε where the rod penetrates and 0
+elsewhere for the paper's law, m[·]₊^{m−1}/ε for the power law) in the one diagonal entry of
+x = 1: a semismooth Newton method, which for the paper's law ends in finitely many iterations with
+the exact solution of the step. The rigid obstacle is a variational inequality, solved by PETSc's
 reduced-space active-set method ``vinewtonrsls`` with the bound ΔUⁿ(1) ≤ g − Uⁿ⁻¹(1); the
 contact force is the multiplier −F_U(1).
 
@@ -23,9 +25,10 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from rodfem.model import contact
 from rodfem.discrete.discretisation import Discretisation
-from rodfem.solver.methods.base import LU_OPTIONS, NotConverged, Scheme, set_default_options, stacked
+from rodfem.solver.errors import NotConverged
+from rodfem.solver.linalg import LU_OPTIONS, set_default_options, stacked
+from rodfem.solver.methods.base import Method
 
 REASONS = {getattr(PETSc.SNES.ConvergedReason, name): name
            for name in dir(PETSc.SNES.ConvergedReason) if name.isupper()}
@@ -33,8 +36,8 @@ ROUNDOFF = 64 * np.finfo(float).eps
 PREFIX = "rodfem_newton_"
 
 
-class NewtonScheme(Scheme):
-    method = "newton"
+class NewtonMethod(Method):
+    name = "newton"
 
     def __init__(self, disc: Discretisation):
         super().__init__(disc)
@@ -56,13 +59,13 @@ class NewtonScheme(Scheme):
                                      "pc_factor_mat_ordering_type": "rcm"})
         snes = PETSc.SNES().create(PETSc.COMM_SELF)
         snes.setOptionsPrefix(PREFIX)
-        snes.setType("vinewtonrsls" if self.rigid else "newtonls")
+        snes.setType("vinewtonrsls" if self.law.rigid else "newtonls")
         snes.setTolerances(max_it=self.max_iterations)
         self.F = self.x.duplicate()
         snes.setFunction(self._residual, self.F)
         snes.setJacobian(self._jacobian, self.J)
         snes.setConvergenceTest(self._converged)
-        if self.rigid:
+        if self.law.rigid:
             self.lower, self.upper = self.x.duplicate(), self.x.duplicate()
             self.lower.set(PETSc.NINFINITY)
             self.upper.set(PETSc.INFINITY)
@@ -71,13 +74,10 @@ class NewtonScheme(Scheme):
         self.snes = snes
         self._floor = 0.0
 
-    def _penetration(self, x: PETSc.Vec) -> float:
-        return self.u.getValue(self.last) + x.getValue(self._index) - self.gap
-
     def _residual(self, snes, x: PETSc.Vec, F: PETSc.Vec) -> None:
         self.C.mult(x, F)
         F.axpy(-1.0, self.rhs)
-        if not self.rigid:
+        if not self.law.rigid:
             pressure = self._force(x)
             if pressure:
                 F.setValue(self._index, F.getValue(self._index) + pressure)
@@ -90,12 +90,9 @@ class NewtonScheme(Scheme):
     def _jacobian(self, snes, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         """C plus the generalized derivative of the contact force in the entry of x = 1."""
         slope = 0.0
-        if self.rule == "penalty":
-            slope = 1.0 / self.epsilon if self._penetration(x) > 0.0 else 0.0
-        elif self.rule == "gradient":
+        if not self.law.rigid:
             c = self.u.getValue(self.last)
-            slope = contact.discrete_gradient_slope(c + x.getValue(self._index), c, self.gap,
-                                                    self.epsilon)
+            slope = self.time_scheme.contact_slope(self.law, c + x.getValue(self._index), c)
         J.setValue(self._index, self._index, self.C_last + slope)
         J.assemble()
 
@@ -117,8 +114,8 @@ class NewtonScheme(Scheme):
         self._fixed_parts(self.rhs)
         self.rhs.copy(self._abs_rhs)
         self._abs_rhs.abs()
-        if self.rigid:
-            self.upper.setValue(self._index, self.gap - self.u.getValue(self.last))
+        if self.law.rigid:
+            self.upper.setValue(self._index, self.law.gap - self.u.getValue(self.last))
             self.upper.assemble()
         # The first guess: the last step's increments, which x still holds.
         self.snes.solve(None, self.x)
@@ -128,7 +125,7 @@ class NewtonScheme(Scheme):
             raise NotConverged("newton", self.n + 1, (self.n + 1) * self.dt,
                                f"{REASONS.get(reason, reason)} after {iterations} iterations",
                                iterations)
-        if self.rigid:  # the multiplier, where the bound holds; off it, the rod is free
+        if self.law.rigid:  # the multiplier, where the bound holds; off it, the rod is free
             bound = self.upper.getValue(self._index)
             self._residual(self.snes, self.x, self.F)
             touching = self.x.getValue(self._index) >= bound

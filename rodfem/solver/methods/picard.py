@@ -6,8 +6,9 @@ LU-factored once per run, so an iteration is two mat-vecs and two triangular sol
 
 The paper proves convergence for a < 1 and Δt < εζ. Where the contact is active, the iteration
 maps the contact force through the compliance w of the momentum operator at x = 1 (the U(1)
-response to a unit force, :attr:`rodfem.solver.methods.direct.DirectScheme.compliance`): it contracts by about
-w/ε per iteration and cannot converge when w > ε (see ``rodfem stability``).
+response to a unit force, :attr:`rodfem.solver.methods.direct.DirectMethod.compliance`): it
+contracts by about w φ''(U(1)) per iteration, w/ε for the paper's law, and cannot converge where
+that exceeds 1 (:meth:`rodfem.model.contact.ContactLaw.contraction`, ``rodfem stability``).
 
 With a = 0 the heat equation does not see the motion: it is solved once per step, and the
 iteration only updates the contact force; as soon as that force repeats, the next iterate would
@@ -20,29 +21,18 @@ import numpy as np
 from petsc4py import PETSc
 
 from rodfem.discrete.discretisation import Discretisation
-from rodfem.solver.methods.base import NotConverged, Scheme, lu_factor, stacked
+from rodfem.solver.errors import PicardNotConverged
+from rodfem.solver.linalg import lu_factor, stacked
+from rodfem.solver.methods.base import Method
 
 INF = PETSc.NormType.INFINITY
 
 
-class PicardNotConverged(NotConverged):
-    """The iteration (3.3)–(3.4) did not reach the tolerance within max_iterations, or produced
-    values that are not finite."""
-
-    def __init__(self, step: int, time: float, increment: float, iterations: int):
-        self.increment = increment
-        if np.isfinite(increment):
-            what = f"increment {increment:.3e} after {iterations} iterations"
-        else:
-            what = f"it diverged to non-finite values at iteration {iterations}"
-        super().__init__("picard", step, time, what, iterations)
-
-
-class PicardScheme(Scheme):
+class PicardMethod(Method):
     """(3.3)–(3.4) from Θ^{n,0} = Θⁿ⁻¹, U^{n,0} = Uⁿ⁻¹ until the max-norm of the change of
     (Θ, U) between two iterations is below tol."""
 
-    method = "picard"
+    name = "picard"
 
     def __init__(self, disc: Discretisation):
         super().__init__(disc)
@@ -104,7 +94,8 @@ class PicardScheme(Scheme):
                 break
         if not increment < tol:
             self._work = [dtheta_it, dtheta_new, du_it, du_new]
-            raise PicardNotConverged(self.n + 1, (self.n + 1) * self.dt, increment, iteration)
+            raise PicardNotConverged(self.n + 1, (self.n + 1) * self.dt, increment, iteration,
+                                     u_last + du_it.getValue(last))
         self.pressure = self.contact_force(u_last + du_it.getValue(last), u_last)
         self._accept(dtheta_it, du_it)
         self._work = [dtheta_it, dtheta_new, du_it, du_new]

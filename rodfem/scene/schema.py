@@ -1,0 +1,102 @@
+"""The scene schema: every key a scene may set, its kind, default, range and meaning.
+
+Every key has a default (the paper's common data and its first experiment), so a scene names only
+what differs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+
+class SceneError(ValueError):
+    """A scene value that is wrong: the message names the key and what is allowed."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Key:
+    """One scene key: its kind ("real", "integer", "choice", "expression"), default and range."""
+
+    kind: str
+    default: Any
+    minimum: float | None = None  # inclusive
+    above: float | None = None  # exclusive lower bound
+    maximum: float | None = None  # inclusive
+    choices: tuple[str, ...] = ()
+    help: str = ""
+    # ("section.key", value): the key applies only where that key has that value; setting it
+    # elsewhere is a mistake, and a resolved scene leaves it out.
+    only_with: tuple[str, str] | None = None
+
+
+# Bounds that keep every derived quantity (1/ε, Δt², b/Δt², the energy) far from overflow and
+# the run within memory; far beyond anything physical in the model's units.
+BIG, SMALL = 1e12, 1e-12
+MAX_CELLS, MAX_STEPS = 10_000_000, 100_000_000
+# The methods that solve each step of (3.1)–(3.2): the fastest exact one is the default.
+METHODS = ("direct", "newton", "picard")
+TIME_SCHEMES = ("paper", "crank-nicolson")
+
+
+SCHEMA: dict[str, dict[str, Key]] = {
+    "model": {
+        "a": Key("real", 0.017, minimum=0.0, maximum=BIG, help="thermal coupling"),
+        "b": Key("real", 1.0, minimum=0.0, maximum=BIG, help="inertia"),
+        "zeta": Key("real", 0.2, minimum=0.0, maximum=BIG, help="Kelvin-Voigt viscosity"),
+        "k": Key("real", 1.0, minimum=0.0, maximum=BIG, help="heat exchange at x = 1"),
+        "theta_A": Key("real", 10.0, minimum=-BIG, maximum=BIG, help="temperature at x = 0"),
+    },
+    "obstacle": {
+        "epsilon": Key("real", 0.01, minimum=SMALL, maximum=BIG,
+                       help="compliance: stiffness is 1/epsilon"),
+        "gap": Key("real", 0.1, minimum=-BIG, maximum=BIG,
+                   help="distance g of the obstacle from x = 1"),
+        "kind": Key("choice", "elastic", choices=("elastic", "rigid"),
+                    help="elastic: a penalty law (obstacle.law); rigid: Signorini, "
+                    "u(1) <= g (epsilon unused)"),
+        "law": Key("choice", "linear", choices=("linear", "power"),
+                   help="the elastic obstacle's reaction: linear, the paper's "
+                   "(1/epsilon)[u(1) - g]_+; power, normal compliance "
+                   "(1/epsilon)[u(1) - g]_+^exponent"),
+        "exponent": Key("real", 1.0, minimum=1.0, maximum=100.0, only_with=("obstacle.law", "power"),
+                        help="m >= 1 of the power law"),
+    },
+    "initial": {
+        "theta0": Key("expression", "theta_A*(cos(2*pi*x) - sin(pi*x/2))"),
+        "u0": Key("expression", "0"),
+        "u1": Key("expression", "20*x*(x - 1)**2",
+                  help="initial velocity; not used when b = 0 (quasi-static)"),
+    },
+    "mesh": {"cells": Key("integer", 250, minimum=2, maximum=MAX_CELLS)},
+    "time": {
+        "dt": Key("real", 0.001, minimum=SMALL, maximum=BIG),
+        "end": Key("real", 8.0, minimum=SMALL, maximum=BIG),
+        "scheme": Key("choice", "paper", choices=TIME_SCHEMES,
+                      help="paper: the scheme (3.1)-(3.2), first order; crank-nicolson: the "
+                      "midpoint rule, second order (docs/time-schemes.md)"),
+    },
+    "discretisation": {"mass": Key("choice", "lumped", choices=("lumped", "consistent"))},
+    "solver": {
+        "method": Key("choice", "direct", choices=METHODS,
+                      help="direct: one solve per step, exact; newton: SNES semismooth Newton; "
+                      "picard: the paper's iteration (3.3)-(3.4)"),
+        "tol": Key("real", 1e-10, minimum=1e-300, maximum=BIG,
+                   help="picard: max-norm of the change between two iterations"),
+        "max_iterations": Key("integer", 100, minimum=1, maximum=1_000_000),
+    },
+    # Body sources f of θ_t − θ_xx + a u_xt = f and b u_tt − σ_x = f, in x, t and the model's
+    # names: for manufactured solutions (rodfem.model.manufactured). "0" costs nothing.
+    "source": {
+        "heat": Key("expression", "0", help="source of the heat equation, in x and t"),
+        "momentum": Key("expression", "0", help="source of the momentum equation, in x and t"),
+    },
+    "output": {"every": Key("integer", 50, minimum=1, maximum=MAX_STEPS,
+                            help="save fields every n steps")},
+}
+TOP_LEVEL = {"description": ""}
+MODEL_NAMES = tuple(SCHEMA["model"])
+SOURCE_NAMES = (*MODEL_NAMES, "t")
+BUILTIN = tuple(f"paper{i}" for i in range(1, 6))  # the paper's experiments
+# Other built-in scenes: a manufactured solution without contact, with sources (rodfem.model.manufactured)
+EXTRA = ("manufactured",)

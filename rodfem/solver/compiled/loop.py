@@ -1,0 +1,132 @@
+"""What both compiled time loops share: the base class that a method's loop derives from, the
+checks of the C side against the Python tables, and the tables of distinct coefficient rows.
+
+A loop is built on a :class:`~rodfem.solver.methods.base.Method` and the run's
+:class:`~rodfem.output.history.History`, reading only their public attributes: the state
+``values`` = [Θ; D; U] (3n), ``u_prev``, ``n``, ``pressure``, ``iterations``, ``last`` (the node
+x = 1), ``law``, ``time_scheme``, ``inertia``, ``sources``; and the history's positions ``u_1``,
+``du_1``, ``half`` in the state and its ``energy``. :meth:`CompiledLoop.advance` does ``steps``
+steps as ``method.advance()`` followed by ``history.record(method)`` would, writing raw rows
+(:data:`rodfem.output.columns.RAW`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rodfem.model.contact import LinearLaw, PowerLaw, RigidObstacle
+from rodfem.output.columns import RAW
+
+
+def check_library(lib) -> None:
+    """The C side agrees with the Python tables: the raw row's slots (record.h against
+    rodfem.output.columns.RAW) and the contact laws' codes (contact.h against
+    rodfem.model.contact). RuntimeError otherwise."""
+    expected = {f"RAW_{slot.name.upper()}": i for i, slot in enumerate(RAW)}
+    expected["RAW_SLOTS"] = len(RAW)
+    expected.update(RC_LINEAR=LinearLaw.code, RC_POWER=PowerLaw.code, RC_RIGID=RigidObstacle.code)
+    wrong = {name: (getattr(lib, name, None), value) for name, value in expected.items()
+             if getattr(lib, name, None) != value}
+    if wrong:
+        raise RuntimeError(f"the compiled loop disagrees with rodfem's tables: {wrong}")
+
+
+def classes(columns: dict[str, np.ndarray], compress: bool = True):
+    """Nodes classed by their coefficient rows: ``columns`` are n-row arrays (a row per node);
+    two nodes share a class if their rows are the same bit for bit in every array (compared as
+    int64 words: -0.0 and 0.0 differ, as they may in a product's sign). Returns the class of
+    each node (n, int) and the arrays reduced to a row per class, in order of first occurrence.
+    ``compress=False``: a class per node, the arrays as they are."""
+    columns = {k: np.ascontiguousarray(v, dtype=float) for k, v in columns.items()}
+    n = next(iter(columns.values())).shape[0]
+    assert all(v.ndim == 2 and v.shape[0] == n for v in columns.values())
+    if not compress:
+        return np.arange(n, dtype=np.intc), columns
+    bits = np.concatenate([v.view(np.int64) for v in columns.values()], axis=1)
+    _, first, inverse = np.unique(bits, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)  # classes numbered by first occurrence
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    cls = np.ascontiguousarray(rank[inverse.reshape(-1)], dtype=np.intc)
+    tables = {k: np.ascontiguousarray(v[first[order]]) for k, v in columns.items()}
+    assert all(np.array_equal(t[cls].view(np.int64), columns[k].view(np.int64))
+               for k, t in tables.items())
+    return cls, tables
+
+
+class CompiledLoop:
+    """Steps of a method in compiled code. Subclasses build their C problem in ``__init__``
+    (after this one) and do the steps in :meth:`_run`."""
+
+    what = "compiled loop"
+
+    def __init__(self, method, history):
+        if any(f is not None for f in method.sources.values()):
+            raise ValueError(f"the {self.what} does not do source terms")
+        n = method.values.size // 3
+        if method.last != n - 1 or history.u_1 != 3 * n - 1 or history.du_1 != 2 * n - 1:
+            raise ValueError(f"the {self.what} needs x = 1 at the last node")
+        self.method, self.n = method, n
+        self.first_step_special = method.time_scheme.special_first_step(method.inertia)
+        self.velocity_update = int(method.time_scheme.velocity_update(method.inertia))
+        self.done = 0
+
+    @staticmethod
+    def set_obstacle(target, method) -> None:
+        """Fill contact.h's rc_obstacle from the method's law and time scheme."""
+        law = method.law
+        target.law = law.code
+        target.gradient = int(method.time_scheme.gradient_contact and not law.rigid)
+        target.gap, target.epsilon, target.exponent = law.gap, law.epsilon, law.exponent
+
+    def checked_steps(self, steps: int, rows: np.ndarray) -> int:
+        """The arguments of :meth:`advance`, checked: ``steps`` ≥ 0 as an int, not from the paper
+        scheme's special first step, ``rows`` a writable C-contiguous float64 array of at least
+        ``steps`` raw rows. ValueError otherwise."""
+        steps = int(steps)
+        if steps < 0:
+            raise ValueError(f"steps = {steps} < 0")
+        if steps and self.method.n == 0 and self.first_step_special:
+            raise ValueError("the paper scheme's first step (n = 0 -> 1, with inertia) is "
+                             "Method._first_step: take it with method.advance()")
+        width = len(RAW)
+        if steps and not (rows.dtype == np.float64 and rows.ndim == 2 and rows.shape[1] == width
+                          and rows.shape[0] >= steps and rows.flags.c_contiguous
+                          and rows.flags.writeable):
+            raise ValueError("rows must be a writable C-contiguous float64 array of shape "
+                             f"(>= {steps}, {width}), not {rows.dtype} {rows.shape}")
+        values = self.method.values
+        assert values.flags.c_contiguous and values.size == 3 * self.n
+        return steps
+
+    def advance(self, steps: int, rows: np.ndarray) -> None:
+        """``steps`` steps of the method, from its step n to n + steps, in place (its state
+        ``values``, ``u_prev``, ``n``, ``pressure``, ``iterations``); ``rows[k]`` receives the raw
+        row of step n + 1 + k (e.g. ``History.reserve(steps)``).
+
+        Sets ``self.done`` to the steps done. If a step fails, the method stays at the last step
+        that did not, ``rows[:self.done]`` hold their rows (commit those), and the subclass's
+        error is raised (with ``done`` set on it too)."""
+        method = self.method
+        self.done = 0
+        steps = self.checked_steps(steps, rows)
+        if steps == 0:
+            return
+        done, pressure, iterations, error = self._run(steps, rows)
+        for vector in (method.state, method.theta, method.du, method.u, method.u_prev):
+            vector.stateIncrease()  # written behind PETSc's back: no cached norms
+        self.done = done
+        method.n += done
+        method.pressure = pressure
+        method.iterations = iterations
+        if error is not None:
+            error.done = done
+            raise error
+
+    def _run(self, steps: int, rows: np.ndarray):
+        """Do the steps; return (steps done, the last p, the last iterations, an error or
+        None)."""
+        raise NotImplementedError
+
+    def pointer(self, array: np.ndarray, kind: str = "double *"):
+        return self._ffi.cast(kind, self._ffi.from_buffer(array))

@@ -1,0 +1,43 @@
+"""What a step raises when it cannot be taken. The run records the steps before it and stops with
+exit code 3; the state stays at the last step solved."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class NotConverged(RuntimeError):
+    """A step that a method could not solve; the state stays at the last step solved."""
+
+    def __init__(self, method: str, step: int, time: float, detail: str, iterations: int):
+        self.method, self.step, self.time = method, step, time
+        self.detail, self.iterations = detail, iterations
+        super().__init__(f"{self.title} did not converge at step {step} (t = {time:g}): {detail}")
+
+    @property
+    def title(self) -> str:
+        return {"picard": "Picard iteration", "newton": "Newton's method (SNES)"}.get(
+            self.method, self.method)
+
+
+class SourceNotFinite(NotConverged):
+    """A source that is not finite at a step's time: the step cannot be taken."""
+
+    def __init__(self, method: str, step: int, time: float, name: str, t: float):
+        super().__init__(method, step, time, f"source.{name} is not finite at t = {t:g}", 0)
+        RuntimeError.__init__(self, f"step {step} (t = {time:g}) cannot be taken: {self.detail}")
+
+
+class PicardNotConverged(NotConverged):
+    """The iteration (3.3)–(3.4) did not reach the tolerance within max_iterations, or produced
+    values that are not finite. ``u_1`` is U(1) of its last iterate, where the contact law's
+    contraction is judged."""
+
+    def __init__(self, step: int, time: float, increment: float, iterations: int,
+                 u_1: float = np.nan):
+        self.increment, self.u_1 = increment, u_1
+        if np.isfinite(increment):
+            what = f"increment {increment:.3e} after {iterations} iterations"
+        else:
+            what = f"it diverged to non-finite values at iteration {iterations}"
+        super().__init__("picard", step, time, what, iterations)
