@@ -27,7 +27,7 @@ from mpi4py import MPI
 
 import rodfem.scene
 from rodfem.solver.compiled import direct as kernel
-from rodfem.solver.methods.direct import DirectScheme
+from rodfem.solver.methods.direct import DirectMethod
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.history import History
 
@@ -40,7 +40,7 @@ def kernel_loop(cells: int, end: float, repeats: int) -> dict:
                                          f"time.end={end}"])
     started = time.perf_counter()
     disc = Discretisation(scene, MPI.COMM_SELF)
-    scheme, history = DirectScheme(disc), History(disc)
+    scheme, history = DirectMethod(disc), History(disc)
     k = kernel.DirectKernel(scheme, history)
     setup = time.perf_counter() - started
     scheme.advance()

@@ -35,7 +35,7 @@ from mpi4py import MPI
 import rodfem.scene
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.history import History
-from rodfem.solver.methods.picard import PicardScheme
+from rodfem.solver.methods.picard import PicardMethod
 from rodfem.solver.compiled.picard import PicardKernel
 
 HERE = Path(__file__).resolve().parent
@@ -62,7 +62,7 @@ def rodfem_loop(mass: str, repeats: int, compiled: bool, extra=(), disc=None,
         disc = Discretisation(scene, MPI.COMM_SELF)
     steps, best = disc.scene.steps, np.inf
     for _ in range(repeats):
-        scheme, history = PicardScheme(disc), History(disc, steps + 1)
+        scheme, history = PicardMethod(disc), History(disc, steps + 1)
         kernel = PicardKernel(scheme, history, compress=compress) if compiled else None
         history.record(scheme)
         started = time.perf_counter()

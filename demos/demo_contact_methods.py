@@ -35,7 +35,7 @@ import numpy as np
 from mpi4py import MPI
 
 import rodfem.scene
-from rodfem.solver.methods.direct import DirectScheme
+from rodfem.solver.methods.direct import DirectMethod
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.run import simulate
 
@@ -85,7 +85,7 @@ def agree(end: float) -> None:
 def beyond(end: float) -> None:
     overrides = ["time.dt=0.01", "obstacle.epsilon=0.001", f"time.end={end}"]
     scene = rodfem.scene.load("paper1", [*overrides, "solver.method=direct"])
-    w = DirectScheme(Discretisation(scene, COMM)).compliance
+    w = DirectMethod(Discretisation(scene, COMM)).compliance
     say(f"Δt/(εζ) = {0.01 / (0.001 * 0.2):g}; compliance w = {w:.3e}, w/ε = {w / 0.001:.2f}")
     for method in ("picard", "direct", "newton"):
         result = run(*overrides, f"solver.method={method}")

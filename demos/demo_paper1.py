@@ -35,7 +35,7 @@ from mpi4py import MPI
 import rodfem.scene
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.history import History
-from rodfem.solver.methods.picard import PicardScheme
+from rodfem.solver.methods.picard import PicardMethod
 
 # -
 
@@ -62,7 +62,7 @@ from rodfem.solver.methods.picard import PicardScheme
 #   + \tfrac{\zeta}{\Delta t}(U^{n,l}_x - U^{n-1}_x, v_x)
 #   + \tfrac1\varepsilon[U^{n,l-1}(1) - g]_+ v(1) = 0 .$$
 #
-# These are `forms.copetti.heat` and `forms.copetti.momentum` (+ `contact`). `PicardScheme` solves
+# These are `forms.copetti.heat` and `forms.copetti.momentum` (+ `contact`). `PicardMethod` solves
 # the same equations for the increments $\Delta\Theta^n = \Theta^n - \Theta^{n-1}$ and
 # $\Delta U^n = U^n - U^{n-1}$ (`heat_increment`, `momentum_increment`): written for $U^n$, the
 # second difference $U^n - 2U^{n-1} + U^{n-2}$ subtracts numbers of size $|U|/\Delta t^2$ and
@@ -82,7 +82,7 @@ def run(end: float = 8.0, zeta: float = 0.2) -> np.ndarray:
     sigma_1, energy, iterations)."""
     scene = rodfem.scene.load("paper1", [f"time.end={end}", f"model.zeta={zeta}"])
     disc = Discretisation(scene, MPI.COMM_WORLD)
-    scheme = PicardScheme(disc)
+    scheme = PicardMethod(disc)
     history = History(disc, block=scene.steps + 1)
     history.record(scheme)
     for _ in range(scene.steps):
