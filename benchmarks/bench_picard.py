@@ -28,7 +28,7 @@ from mpi4py import MPI
 
 import rodfem
 import rodfem.scene
-from rodfem.output.files import prepare_directory
+from rodfem.output.directories import prepare_directory
 from rodfem.run import simulate
 
 HERE = Path(__file__).resolve().parent

@@ -35,8 +35,8 @@ from mpi4py import MPI
 import rodfem.scene
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.history import History
-from rodfem.solver.methods.picard import PicardMethod
 from rodfem.solver.compiled.picard import PicardKernel
+from rodfem.solver.methods.picard import PicardMethod
 
 HERE = Path(__file__).resolve().parent
 CHUNK = 256

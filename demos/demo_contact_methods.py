@@ -35,9 +35,10 @@ import numpy as np
 from mpi4py import MPI
 
 import rodfem.scene
-from rodfem.solver.methods.direct import DirectMethod
 from rodfem.discrete.discretisation import Discretisation
+from rodfem.output.columns import INDEX
 from rodfem.run import simulate
+from rodfem.solver.methods.direct import DirectMethod
 
 COMM = MPI.COMM_WORLD
 
@@ -77,9 +78,9 @@ def agree(end: float) -> None:
 # The paper proves that Picard converges when $\Delta t < \varepsilon\zeta$. What really governs
 # it is the compliance $w$: while the rod presses on the obstacle, an iteration maps the contact
 # force $p$ to $\frac1\varepsilon[s - w p - g]_+$, which contracts by $w/\varepsilon$. With
-# $\Delta t = 0.01$ and $\varepsilon = 0.001$ ($\Delta t = 50\,\varepsilon\zeta$), $w > \varepsilon$:
-# Picard cannot converge once the rod touches, while the exact methods go on, and the energy
-# $\hat E^n$ still never increases.
+# $\Delta t = 0.01$ and $\varepsilon = 0.001$ ($\Delta t = 50\,\varepsilon\zeta$),
+# $w > \varepsilon$: Picard cannot converge once the rod touches, while the exact methods go on,
+# and the energy $\hat E^n$ still never increases.
 
 
 def beyond(end: float) -> None:
@@ -94,7 +95,8 @@ def beyond(end: float) -> None:
         else:
             s = result.summary
             say(f"{method:7s} {s['steps']} steps, energy non-increasing: "
-                f"{s['energy_non_increasing']} (largest step change {s['energy_max_increase']:.1e})")
+                f"{s['energy_non_increasing']} "
+                f"(largest step change {s['energy_max_increase']:.1e})")
 
 
 # ## The rigid obstacle
@@ -109,7 +111,7 @@ def beyond(end: float) -> None:
 
 def rigid(end: float) -> None:
     rigid = run(f"time.end={end}", "obstacle.kind=rigid", "solver.method=direct").history
-    u_1, sigma_1 = rigid[:, 1], rigid[:, 4]
+    u_1, sigma_1 = rigid[:, INDEX["u_1"]], rigid[:, INDEX["sigma_1"]]
     say(f"rigid: max u(1) - g = {u_1.max() - 0.1:.1e}, max σ(1) = {sigma_1.max():.1e}, "
         f"max |σ(1)(u(1) - g)| = {np.abs(sigma_1 * (u_1 - 0.1)).max():.1e}, "
         f"min σ(1) = {sigma_1.min():.2f}")
@@ -117,7 +119,7 @@ def rigid(end: float) -> None:
     errors = []
     for eps in epsilons:
         elastic = run(f"time.end={end}", f"obstacle.epsilon={eps}", "solver.method=direct")
-        errors.append(np.abs(elastic.history[:, 1] - u_1).max())
+        errors.append(np.abs(elastic.history[:, INDEX["u_1"]] - u_1).max())
         rate = f", rate {np.log10(errors[-2] / errors[-1]):.3f}" if len(errors) > 1 else ""
         say(f"ε = {eps:.0e}: max_t |u_ε(1, t) - u_rigid(1, t)| = {errors[-1]:.3e}{rate}")
     small = epsilons <= 1e-5

@@ -34,6 +34,7 @@ from mpi4py import MPI
 
 import rodfem.scene
 from rodfem.discrete.discretisation import Discretisation
+from rodfem.output.columns import INDEX
 from rodfem.output.history import History
 from rodfem.solver.methods.picard import PicardMethod
 
@@ -99,7 +100,7 @@ def run(end: float = 8.0, zeta: float = 0.2) -> np.ndarray:
 
 
 def report(rows: np.ndarray, gap: float = 0.1) -> None:
-    t, u_1, sigma_1, energy = rows[:, 0], rows[:, 1], rows[:, 4], rows[:, 5]
+    t, u_1, sigma_1, energy = (rows[:, INDEX[c]] for c in ("t", "u_1", "sigma_1", "energy"))
     touching = u_1 > gap
     starts = np.flatnonzero(np.diff(touching.astype(int)) == 1) + 1
     print(f"{len(starts)} intervals of contact; first at t = {t[starts[0]]:.3f}"
@@ -108,7 +109,8 @@ def report(rows: np.ndarray, gap: float = 0.1) -> None:
           f"in contact: {bool(touching[-1])}")
     print(f"energy {energy[0]:.3f} -> {energy[-1]:.5f}; "
           f"max increase over n >= 2: {np.diff(energy)[1:].max():.2e}")
-    print(f"Picard iterations per step: {rows[2:, 6].mean():.2f} (max {int(rows[:, 6].max())})")
+    iterations = rows[:, INDEX["iterations"]]
+    print(f"Picard iterations per step: {iterations[2:].mean():.2f} (max {int(iterations.max())})")
 
 
 if __name__ == "__main__":

@@ -28,7 +28,7 @@ def shared_dir():
 @pytest.fixture
 def simulate(shared_dir):
     """Run a scene in-process: ``simulate("paper1", "time.end=0.5", ...)`` → (RunResult, dir)."""
-    from rodfem.output.files import prepare_directory
+    from rodfem.output.directories import prepare_directory
     from rodfem.run import simulate as run
 
     count = [0]

@@ -1,5 +1,5 @@
-"""The verification harness: the error measures and rate fits of ``rodfem.studies.convergence``, and the
-``rodfem verify`` and ``rodfem work-precision`` commands at their quick sizes."""
+"""The verification harness: the error measures and rate fits of ``rodfem.studies.convergence``, and
+the ``rodfem verify`` and ``rodfem work-precision`` commands at their quick sizes."""
 
 import csv
 import json
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from conftest import COMM
-from rodfem.studies import convergence as cv
 from rodfem.cli import main
+from rodfem.studies import convergence as cv
 from rodfem.studies.verify import schemes
 
 EPS = np.finfo(float).eps

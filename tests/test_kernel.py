@@ -1,4 +1,5 @@
-"""rodfem.solver.compiled.direct: the compiled time loop of the `direct` method against the PETSc loop.
+"""rodfem.solver.compiled.direct: the compiled time loop of the `direct` method against the PETSc
+loop.
 
 Two DirectSchemes of the same discretisation take the same steps, one through
 ``scheme.advance()`` and ``History.record`` (the PETSc path), one through
@@ -21,10 +22,10 @@ import pytest
 
 import rodfem.scene
 from conftest import COMM
-from rodfem.solver.compiled import direct as kernel
-from rodfem.solver.methods.direct import DirectMethod
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.history import History
+from rodfem.solver.compiled import direct as kernel
+from rodfem.solver.methods.direct import DirectMethod
 
 EPS = np.finfo(float).eps
 PER_STEP = 64 * EPS  # accumulated over a run

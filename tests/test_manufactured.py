@@ -1,5 +1,5 @@
-"""The manufactured solution (rodfem.model.manufactured): its sources are right, and every method with
-each time scheme converges to it at the scheme's order: 2 in space (L2, P1), 1 in time for the
+"""The manufactured solution (rodfem.model.manufactured): its sources are right, and every method
+with each time scheme converges to it at the scheme's order: 2 in space (L2, P1), 1 in time for the
 paper's scheme and 2 for Crank–Nicolson's. Rates are least-squares slopes, within ±0.1, with an
 absolute cap on the finest error."""
 

@@ -26,6 +26,7 @@ from rodfem.cli import main
 
 EPS = np.finfo(float).eps
 from rodfem.output.columns import NAMES as COLUMNS  # noqa: E402
+
 QUIET = "output.every=100000"
 EXACT = 1e-10  # direct, newton against each other and the oracle's exact step
 PICARD = 1e-9  # Picard (tol 1e-10) against an exact step

@@ -14,6 +14,7 @@ from reference import assemble, simulate
 
 EPS = np.finfo(float).eps
 from rodfem.output.columns import NAMES as COLUMNS  # noqa: E402
+
 THETA_A = 10.0
 PAPER1 = dict(
     a=0.017, b=1.0, zeta=0.2, k=1.0, theta_A=THETA_A, epsilon=0.01, gap=0.1, cells=250, dt=1e-3,

@@ -23,11 +23,11 @@ import pytest
 
 import rodfem.scene
 from conftest import COMM
-from rodfem.solver.compiled import picard as picard_kernel
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.model.contact import RigidObstacle
 from rodfem.output.history import History
-from rodfem.solver.methods.picard import PicardNotConverged, PicardMethod
+from rodfem.solver.compiled import picard as picard_kernel
+from rodfem.solver.methods.picard import PicardMethod, PicardNotConverged
 
 EPS = np.finfo(float).eps
 PER_STEP = 64 * EPS

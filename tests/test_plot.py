@@ -25,7 +25,7 @@ STILLS = ("contact", "energy", "spacetime_u", "spacetime_theta", "spacetime_sigm
 @pytest.fixture(scope="module")
 def runs():
     """paper1 (ζ = 0.2) and paper2 (ζ = 1) to t = 0.5: the rod reaches the obstacle at t ≈ 0.2."""
-    from rodfem.output.files import prepare_directory
+    from rodfem.output.directories import prepare_directory
     from rodfem.run import simulate
 
     root = Path(tempfile.mkdtemp(prefix="rodfem-plot-")) if COMM.rank == 0 else None

@@ -22,8 +22,8 @@ from mpi4py import MPI
 
 import rodfem.scene
 from conftest import COMM, serial_only
-from rodfem.studies import stability as st
 from rodfem.cli import main
+from rodfem.studies import stability as st
 
 # Far from every boundary: w/ε is 0.011-0.25 or 1.96-50 at these points (w = 2.2e-3, 9.8e-3,
 # 2.2e-2, 5.0e-2 for (ζ, Δt) = (0.2, 0.01), (0, 0.01), (0.2, 0.05), (0, 0.05)).
@@ -85,7 +85,7 @@ def test_csv_and_json(tiny, shared_dir):
     records, _ = tiny
     base = st.check("paper1", [], TINY)
     out = shared_dir / "map"
-    st.prepare(out, False, COMM)
+    st.prepare(out, False, COMM, st.FILES)
     st.write(out, records, TINY, base, [], 1.0, COMM)
     COMM.barrier()
     with open(out / "stability.csv", newline="", encoding="utf-8") as f:
@@ -152,8 +152,8 @@ def test_picard_step_agrees_with_the_exact_step(a):
     """From the same state, a Picard step and the exact (direct) step differ by at most the
     a-posteriori bound of a contraction by ρ = w/ε stopped at an increment below tol:
     |x_l − x*| ≤ ρ/(1 − ρ) tol (here ρ = 0.8: 4 tol)."""
-    from rodfem.solver.methods.direct import DirectMethod
     from rodfem.discrete.discretisation import Discretisation
+    from rodfem.solver.methods.direct import DirectMethod
     from rodfem.solver.methods.picard import PicardMethod
 
     scene = rodfem.scene.load("paper1", _edge_scene(a, 1.25, "picard", 400))

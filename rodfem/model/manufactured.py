@@ -1,6 +1,6 @@
 """A manufactured solution of the coupled heat–momentum system without contact.
 
-The built-in scene ``manufactured`` (``rodfem/scenes/manufactured.toml``) holds the body sources
+The built-in scene ``manufactured`` (``rodfem/scene/builtin/manufactured.toml``) holds the body sources
 that keep
 
     u(x, t) = (cos t + sin t) sin(πx/2),    θ(x, t) = e^{−t} x (1 − x)²
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rodfem.model.robin import temperature
 from rodfem.scene.expressions import Expression
 from rodfem.scene.loading import SOURCE_NAMES, Scene, load
 
@@ -54,8 +55,7 @@ def errors(result, scene: Scene) -> dict[str, float]:
     :class:`rodfem.run.RunResult`): of U against u and of the temperature θ = Θ − θ_A r against
     θ."""
     t = scene["time.end"]
-    k, theta_A = scene["model.k"], scene["model.theta_A"]
-    theta = result.theta - theta_A * (k / (k + 1.0) * result.x - 1.0)
+    theta = temperature(result.theta, result.x, scene["model.k"], scene["model.theta_A"])
     return {
         "u": l2_error(result.x, result.u, lambda p: exact("u", p, t, scene)),
         "theta": l2_error(result.x, theta, lambda p: exact("theta", p, t, scene)),

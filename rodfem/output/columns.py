@@ -1,10 +1,8 @@
-"""The recorded quantities: one table of what a run stores per step and of the history.csv
-columns made from it. Importing this module needs NumPy only (the figures read it).
+"""The recorded quantities: the table of history.csv's columns, each made from the raw rows a
+time loop stores (:data:`rodfem.solver.record.RAW`). Importing this module needs NumPy only
+(the figures read it).
 
-A time loop, in Python (:class:`rodfem.output.history.History`) or compiled, stores one *raw
-row* per step, the slots of ``RAW`` in that order; the compiled loops name the same slots in
-``rodfem/solver/compiled/record.h``, checked against ``RAW`` when they are built. Each column of
-``history.csv`` is computed from a block of raw rows by its ``compute``, given the run's Δt and
+Each column of ``history.csv`` is computed from a block of raw rows by its ``compute``, given the run's Δt and
 its obstacle (:mod:`rodfem.model.contact`). No other module writes a column index.
 """
 
@@ -15,13 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-
-@dataclasses.dataclass(frozen=True)
-class Slot:
-    """One number a time loop stores per step."""
-
-    name: str
-    meaning: str
+from rodfem.solver.record import RAW, RAW_INDEX  # noqa: F401 (re-exported)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -35,17 +27,6 @@ class Column:
     integer: bool = False
 
 
-RAW = (
-    Slot("n", "the step n"),
-    Slot("iterations", "the method's iterations of the step"),
-    Slot("u_1", "Uⁿ(1)"),
-    Slot("d_1", "Dⁿ(1), the displacement the velocity makes over a step at x = 1"),
-    Slot("u_half", "Uⁿ(0.5), interpolated"),
-    Slot("bulk_energy", "Êⁿ without its contact term: ½ (‖Θⁿ‖² + b‖Dⁿ/Δt‖² + ‖Uⁿ_x‖²) "
-         "+ a θ_A (r, Uⁿ_x)"),
-    Slot("pressure", "the contact force p of the step (the multiplier, for the rigid obstacle)"),
-)
-RAW_INDEX = {slot.name: i for i, slot in enumerate(RAW)}
 
 
 def _sigma_1(raw, dt, obstacle):

@@ -1,9 +1,9 @@
 """What a run records at every step: the rows of ``history.csv``.
 
-The state is held whole, in node order, on every rank (:mod:`rodfem.discrete.nodes`), so every rank computes
-the same rows; rank 0 writes them. A scheme keeps Θⁿ, ΔUⁿ = Uⁿ − Uⁿ⁻¹ and Uⁿ in one stacked
-vector s, whose energy is a single product with a block-diagonal matrix, and whose point values
-are read off its array.
+The state is held whole, in node order, on every rank (:mod:`rodfem.discrete.nodes`), so every
+rank computes the same rows; rank 0 writes them. A method keeps Θⁿ, ΔUⁿ = Uⁿ − Uⁿ⁻¹ and Uⁿ in one
+stacked vector s, whose energy is a single product with a block-diagonal matrix, and whose point
+values are read off its array.
 """
 
 from __future__ import annotations
@@ -74,9 +74,9 @@ class History:
         return self._count == len(self._rows)
 
     def record(self, state) -> None:
-        """Record the step ``state.n`` of a scheme (:class:`rodfem.solver.methods.base.Method`): its state
-        [Θⁿ; ΔUⁿ; Uⁿ] (``state``, its array ``values``), its count of ``iterations`` and its
-        contact force ``pressure``."""
+        """Record the step ``state.n`` of a method (:class:`rodfem.solver.methods.base.Method`):
+        its state [Θⁿ; ΔUⁿ; Uⁿ] (``state``, its array ``values``), its count of ``iterations`` and
+        its contact force ``pressure``."""
         bulk = self.energy(state.state)
         s = state.values
         i, w, j, v = self.half

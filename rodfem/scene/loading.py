@@ -20,11 +20,21 @@ from typing import Any
 import numpy as np
 
 from rodfem.scene.expressions import Expression, ExpressionError, shorten
-
-
 from rodfem.scene.schema import (  # noqa: F401 (re-exported)
-    BIG, BUILTIN, EXTRA, MAX_CELLS, MAX_STEPS, METHODS, MODEL_NAMES, SCHEMA, SMALL, SOURCE_NAMES,
-    TIME_SCHEMES, TOP_LEVEL, Key, SceneError,
+    BIG,
+    BUILTIN,
+    EXTRA,
+    MAX_CELLS,
+    MAX_STEPS,
+    METHODS,
+    MODEL_NAMES,
+    SCHEMA,
+    SMALL,
+    SOURCE_NAMES,
+    TIME_SCHEMES,
+    TOP_LEVEL,
+    Key,
+    SceneError,
 )
 
 

@@ -59,8 +59,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
                    help="the elastic obstacle's reaction: linear, the paper's "
                    "(1/epsilon)[u(1) - g]_+; power, normal compliance "
                    "(1/epsilon)[u(1) - g]_+^exponent"),
-        "exponent": Key("real", 1.0, minimum=1.0, maximum=100.0, only_with=("obstacle.law", "power"),
-                        help="m >= 1 of the power law"),
+        "exponent": Key("real", 1.0, minimum=1.0, maximum=100.0,
+                        only_with=("obstacle.law", "power"), help="m >= 1 of the power law"),
     },
     "initial": {
         "theta0": Key("expression", "theta_A*(cos(2*pi*x) - sin(pi*x/2))"),
@@ -98,5 +98,6 @@ TOP_LEVEL = {"description": ""}
 MODEL_NAMES = tuple(SCHEMA["model"])
 SOURCE_NAMES = (*MODEL_NAMES, "t")
 BUILTIN = tuple(f"paper{i}" for i in range(1, 6))  # the paper's experiments
-# Other built-in scenes: a manufactured solution without contact, with sources (rodfem.model.manufactured)
+# Other built-in scenes: a manufactured solution without contact, with sources
+# (rodfem.model.manufactured)
 EXTRA = ("manufactured",)

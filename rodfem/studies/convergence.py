@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from rodfem.output.columns import INDEX
+
 if TYPE_CHECKING:
     from rodfem.run import RunResult
     from rodfem.scene import Scene
@@ -106,8 +108,9 @@ def rate(steps: Sequence[float], errors: Sequence[float]) -> float:
 
 def errors_against(run: RunResult, reference: RunResult) -> dict[str, float]:
     """The four measures (:data:`MEASURES`) of a run against a finer reference run."""
-    u1_max, u1_l2 = time_errors(run.history[:, 0], run.history[:, 1], reference.history[:, 0],
-                                reference.history[:, 1])
+    t, u_1 = INDEX["t"], INDEX["u_1"]
+    u1_max, u1_l2 = time_errors(run.history[:, t], run.history[:, u_1], reference.history[:, t],
+                                reference.history[:, u_1])
     return {"u1_max": u1_max, "u1_l2": u1_l2,
             "u_T": l2_difference(run.x, run.u, reference.x, reference.u),
             # Θ differs from θ by θ_A r, the same function for both runs (equal k)

@@ -13,9 +13,10 @@ from mpi4py import MPI
 
 import rodfem
 import rodfem.scene
-from rodfem.output.files import prepare_directory
-from rodfem.run import simulate
 from rodfem.model.stationary import stationary
+from rodfem.output.columns import INDEX
+from rodfem.output.directories import prepare_directory
+from rodfem.run import simulate
 
 
 @dataclasses.dataclass(frozen=True)
@@ -53,7 +54,7 @@ FIGURES = (("contact.png", "u(1, t), u(0.5, t), u_t(1, t) and σ(1, t); contact 
 def measured(scene: rodfem.scene.Scene, run: Path, result) -> str:
     """One paragraph of what the run shows, set against the stationary state."""
     history = np.loadtxt(run / "history.csv", delimiter=",", skiprows=1)
-    t, u_1, sigma_1 = history[:, 0], history[:, 1], history[:, 4]
+    t, u_1, sigma_1 = (history[:, INDEX[name]] for name in ("t", "u_1", "sigma_1"))
     gap, epsilon = scene["obstacle.gap"], scene["obstacle.epsilon"]
     touching = u_1 > gap
     starts = np.flatnonzero(np.diff(touching.astype(int)) == 1) + 1

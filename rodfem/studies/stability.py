@@ -6,10 +6,12 @@ its iterations, its energy behaviour (Remark 4.4) and its cost, next to the two 
 Picard's iteration (3.3)–(3.4):
 
 * the paper's sufficient condition, Δt < εζ and a < 1 (never true for ζ = 0);
-* the compliance condition w/ε < 1, w = :attr:`rodfem.solver.methods.direct.DirectMethod.compliance` the
-  response of Uⁿ(1) to a unit contact force over one step: while the contact is active, Picard
-  maps the contact force p ↦ (1/ε)[s − w p − g]_+ (exactly so for a = 0), which contracts iff
-  w < ε and otherwise ends in a 2-cycle.
+* the compliance condition w/ε < 1 (for another law, its contraction w φ''(u(1)) < 1 at the
+  largest u(1) of the run: :meth:`rodfem.model.contact.ContactLaw.contraction`),
+  w = :attr:`rodfem.solver.methods.direct.DirectMethod.compliance` the response of Uⁿ(1) to a unit
+  contact force over one step: while the contact is active, Picard maps the contact force p ↦
+  (1/ε)[s − w p − g]_+ (exactly so for a = 0), which contracts iff w < ε and otherwise ends in a
+  2-cycle.
 
 Points are dealt round-robin to the MPI ranks, each run on ``MPI.COMM_SELF``; the records are
 gathered in grid order, so they do not depend on the number of ranks (except the timings).
@@ -17,11 +19,8 @@ gathered in grid order, so they do not depend on the number of ranks (except the
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import math
-import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -29,8 +28,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-import rodfem
+from rodfem.model import contact
+from rodfem.output.columns import INDEX
 from rodfem.scene import METHODS, Scene, SceneError, load, validate
+from rodfem.studies.common import machine, parse_choices, prepare, write_csv
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -107,11 +108,7 @@ def parse_number(text: str | None, option: str, default: float) -> float:
 def parse_methods(text: str | None) -> tuple[str, ...]:
     if text is None:
         return METHODS
-    methods = [item.strip() for item in text.split(",")]
-    for method in methods:
-        if method not in METHODS:
-            raise GridError(f"--methods: unknown method {method!r}; allowed: {', '.join(METHODS)}")
-    return tuple(m for m in METHODS if m in methods)
+    return parse_choices(text, "--methods", METHODS, "method", GridError)
 
 
 def _with(base: Scene, point: dict, end: float) -> Scene:
@@ -171,8 +168,8 @@ class Compliance:
         if key not in self._cache:
             from mpi4py import MPI
 
-            from rodfem.solver.methods.direct import DirectMethod
             from rodfem.discrete.discretisation import Discretisation
+            from rodfem.solver.methods.direct import DirectMethod
 
             point = dict(method="direct", a=a, zeta=zeta, dt=dt, epsilon=1.0)
             scene = _with(self.base, point, self.end)
@@ -188,8 +185,11 @@ def run_point(scene: Scene, w: float) -> dict:
 
     result = simulate(scene, None, MPI.COMM_SELF, progress=False)
     s, error = result.summary, result.error
-    sigma = result.history[:, 4]
+    sigma = result.history[:, INDEX["sigma_1"]]
     touching = np.flatnonzero(sigma < 0.0)
+    # Picard's contraction where the rod presses hardest (w/ε for the paper's law, wherever)
+    u_1 = result.history[:, INDEX["u_1"]]
+    rate = contact.of_scene(scene).contraction(w, float(u_1.max()))
     dt, eps, zeta, a = (scene[k] for k in ("time.dt", "obstacle.epsilon", "model.zeta",
                                            "model.a"))
     paper_ratio = dt / (eps * zeta) if zeta > 0 else math.inf
@@ -203,10 +203,11 @@ def run_point(scene: Scene, w: float) -> dict:
         "energy_non_increasing": s["energy_non_increasing"],
         "energy_max_increase": increase,
         "contact_steps": int(touching.size),
-        "first_contact": float(result.history[touching[0], 0]) if touching.size else None,
+        "first_contact": (float(result.history[touching[0], INDEX["t"]]) if touching.size
+                          else None),
         "min_sigma_1": float(sigma.min()),
         "w": w, "paper_ratio": paper_ratio, "paper_predicts": bool(paper_ratio < 1 and a < 1),
-        "w_ratio": w / eps, "w_predicts": bool(w / eps < 1),
+        "w_ratio": rate, "w_predicts": bool(rate < 1),
         "error": str(error) if error else "",
         "us_per_step": s["us_per_step"], "loop_seconds": s["loop_seconds"],
     }
@@ -328,64 +329,6 @@ def summarise(records: list[dict], grid: Grid) -> dict:
     return summary
 
 
-def machine(comm: MPI.Comm) -> dict:
-    import dolfinx
-    from petsc4py import PETSc
-
-    model = ""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as info:
-            model = next((line.split(":", 1)[1].strip() for line in info
-                          if line.startswith("model name")), "")
-    except OSError:
-        pass
-    return {"node": platform.node(), "platform": platform.platform(), "cpu": model,
-            "cpus": os.cpu_count(), "mpi_ranks": comm.size, "python": sys.version.split()[0],
-            "rodfem": rodfem.__version__, "dolfinx": dolfinx.__version__,
-            "petsc": ".".join(map(str, PETSc.Sys.getVersion())), "numpy": np.__version__}
-
-
-def _finite(value):
-    """Strict JSON: non-finite numbers become null, in lists too."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    return value
-
-
-def _csv_value(value) -> str:
-    if value is None:
-        return ""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return repr(value) if math.isfinite(value) else ("inf" if value > 0 else "nan")
-    return str(value)
-
-
-def write_csv(path: Path, records: list[dict]) -> None:
-    with open(path, "w", encoding="utf-8", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(COLUMNS)
-        for r in records:
-            writer.writerow([_csv_value(r[c]) for c in COLUMNS])
-
-
-def prepare(out: Path, force: bool, comm: MPI.Comm) -> None:
-    """Create ``out``; with ``force``, replace an earlier stability map (its CSV and JSON and its
-    figures/) but nothing else.
-
-    Raises:
-        OutputError: it exists (without ``force``), or holds something else.
-    """
-    from rodfem.output.files import prepare_result_directory
-
-    prepare_result_directory(out, force, comm, FILES)
-
-
 def write(out: Path, records: list[dict], grid: Grid, base: Scene, overrides: list[str],
           seconds: float, comm: MPI.Comm) -> None:
     """stability.csv and stability.json into ``out`` (rank 0)."""
@@ -400,8 +343,8 @@ def write(out: Path, records: list[dict], grid: Grid, base: Scene, overrides: li
         "summary": summarise(records, grid),
     }
     if comm.rank == 0:
-        write_csv(out / FILES[0], records)
-    write_json(out / FILES[1], _finite(data), comm)
+        write_csv(out / FILES[0], COLUMNS, records)
+    write_json(out / FILES[1], data, comm)
 
 
 def progress_line(index: int, total: int, r: dict) -> str:
@@ -417,7 +360,7 @@ def run_map(out: Path, scene: str, overrides: list[str], grid: Grid, force: bool
     """Check, prepare ``out``, sweep and write; returns the records (None if interrupted) and
     the wall time. Raises SceneError or OutputError (nothing written) on bad input."""
     base = check(scene, overrides, grid)
-    prepare(out, force, comm)
+    prepare(out, force, comm, FILES)
 
     def report(index, total, record):
         print(progress_line(index, total, record), file=sys.stderr, flush=True)

@@ -9,9 +9,9 @@ with the obstacle out of reach), each time scheme and each method, two ladders o
 Each reference is solved by the direct method with the ladder's time scheme. Sharing the other
 step with its ladder, it has the same error in that step to first order, so the differences
 measure the refined step's error alone, and the orders are those of the refined step.
-The errors are those of :mod:`rodfem.studies.convergence`: u(1, ·) over [0, T] (max and L² in time), u and
-θ at T (L² in space). With :mod:`rodfem.model.manufactured` (a scene with a known exact solution), its
-ladders are measured against the exact solution.
+The errors are those of :mod:`rodfem.studies.convergence`: u(1, ·) over [0, T] (max and L² in
+time), u and θ at T (L² in space). With :mod:`rodfem.model.manufactured` (a scene with a known exact
+solution), its ladders are measured against the exact solution.
 
 Ladders (a scene, a direction, a time scheme: the reference and every method's runs) are dealt
 to the MPI ranks, the costliest first, each run on ``MPI.COMM_SELF``; the records do not depend
@@ -20,7 +20,6 @@ on the number of ranks, except the timings.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import importlib.util
 import math
@@ -30,8 +29,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rodfem.studies import convergence as cv
 from rodfem.scene import METHODS, SCHEMA, Scene, SceneError, load
+from rodfem.studies import convergence as cv
+from rodfem.studies.common import deal, machine, parse_choices, prepare, write_csv
+from rodfem.studies.orders import markdown, summary_lines  # noqa: F401 (summary_lines: the command prints it)
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -142,11 +143,7 @@ def parse_scenes(text: str | None) -> tuple[str, ...]:
     allowed = available_scenes()
     if text is None:
         return allowed
-    names = [item.strip() for item in text.split(",")]
-    for name in names:
-        if name not in allowed:
-            raise VerifyError(f"--scenes: unknown scene {name!r}; allowed: {', '.join(allowed)}")
-    return tuple(s for s in allowed if s in names)
+    return parse_choices(text, "--scenes", allowed, "scene", VerifyError)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -160,17 +157,6 @@ class Group:
 
 def groups(scenes: tuple[str, ...]) -> list[Group]:
     return [Group(k, d, s) for k in scenes for s in schemes() for d in DIRECTIONS]
-
-
-def deal(costs: list[float], ranks: int) -> list[list[int]]:
-    """Indices of the tasks for each rank: the costliest first, each to the least loaded rank
-    (ties to the lowest); the same on every rank."""
-    load, share = [0.0] * ranks, [[] for _ in range(ranks)]
-    for i in sorted(range(len(costs)), key=lambda i: (-costs[i], i)):
-        rank = min(range(ranks), key=lambda r: (load[r], r))
-        load[rank] += costs[i]
-        share[rank].append(i)
-    return share
 
 
 def cost(group: Group, plan: Plan) -> float:
@@ -312,108 +298,13 @@ def sweep(plan: Plan, scenes: tuple[str, ...], comm: MPI.Comm,
     return records, rejected, references
 
 
-def _csv_value(value) -> str:
-    if isinstance(value, float):
-        return repr(value) if math.isfinite(value) else ""
-    return str(value)
-
-
-def write_csv(path: Path, columns: tuple[str, ...], rows: list[dict]) -> None:
-    with open(path, "w", encoding="utf-8", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(columns)
-        for row in rows:
-            writer.writerow([_csv_value(row[c]) for c in columns])
-
-
-def _g(value: float, digits: int = 3) -> str:
-    return f"{value:.{digits}g}" if isinstance(value, float) and math.isfinite(value) else "—"
-
-
-LABELS = {"u1_max": "u(1,·) max", "u1_l2": "u(1,·) L²(0,T)", "u_T": "u(·,T) L²",
-          "theta_T": "θ(·,T) L²"}
-
-
-def markdown(data: dict) -> str:
-    """orders.md: per scene, the observed orders of each (method, scheme) in h and Δt, then each
-    ladder's errors."""
-    plan = data["plan"]
-    lines = ["# Observed orders of convergence (`rodfem verify`)", "",
-             f"T = {plan['end']:g}. h ladder: cells {', '.join(map(str, plan['h_cells']))} at "
-             f"Δt = {plan['h_dt']:g}, against {plan['h_reference']} cells at the same Δt. Δt "
-             f"ladder: Δt = T/{', T/'.join(map(str, plan['dt_steps']))} on {plan['dt_cells']} "
-             f"cells, against Δt = T/{plan['dt_reference']} on the same cells. References: "
-             "direct method, the ladder's time scheme. Orders: least-squares slopes of log "
-             "error against log h or log Δt, over the runs that completed.", ""]
-    if data["manufactured"]:
-        lines += [f"Manufactured solution (against its exact solution, T = {plan['mms_end']:g}): "
-                  f"h ladder cells {', '.join(map(str, plan['mms_h_cells']))} at Δt = "
-                  f"{plan['mms_h_dt']:g}; Δt ladder Δt = T/"
-                  f"{', T/'.join(map(str, plan['mms_dt_steps']))} on {plan['mms_dt_cells']} "
-                  "cells.", ""]
-    header = "| method | scheme | " + " | ".join(f"h: {LABELS[m]}" for m in cv.MEASURES) \
-        + " | " + " | ".join(f"Δt: {LABELS[m]}" for m in cv.MEASURES) + " | runs completed |"
-    for scene in dict.fromkeys(r["scene"] for r in data["orders"]):
-        lines += [f"## {scene}", "", "Observed orders:", "", header,
-                  "|---|---|" + "---|" * (2 * len(cv.MEASURES) + 1)]
-        rows = [r for r in data["orders"] if r["scene"] == scene]
-        for method, scheme in dict.fromkeys((r["method"], r["scheme"]) for r in rows):
-            by = {r["refined"]: r for r in rows if (r["method"], r["scheme"]) == (method, scheme)}
-            cells = [_g(by[d][f"rate_{m}"], 3) if d in by else "" for d in DIRECTIONS
-                     for m in cv.MEASURES]
-            runs = ", ".join(f"{by[d]['points']} ({'h' if d == 'h' else 'Δt'})" for d in DIRECTIONS
-                             if d in by)
-            lines.append(f"| {method} | {scheme} | " + " | ".join(cells) + f" | {runs} |")
-        for refined in DIRECTIONS:
-            points = [r for r in data["points"] if r["scene"] == scene and r["refined"] == refined]
-            if not points:
-                continue
-            lines += ["", f"Errors, {'h' if refined == 'h' else 'Δt'} ladder:", "",
-                      "| method | scheme | cells | Δt | status | "
-                      + " | ".join(LABELS[m] for m in cv.MEASURES) + " | seconds |",
-                      "|---|---|---|---|---|" + "---|" * (len(cv.MEASURES) + 1)]
-            for r in points:
-                lines.append(f"| {r['method']} | {r['scheme']} | {r['cells']} | {r['dt']:.4g} | "
-                             f"{r['status']} | " + " | ".join(_g(r[m]) for m in cv.MEASURES)
-                             + f" | {r['seconds']:.3f} |")
-            failed = [r for r in points if r["status"] != "complete"]
-            if failed:
-                lines.append("")
-            lines += [f"- {r['method']}, {r['scheme']}, {r['cells']} cells, Δt = {r['dt']:.4g}: "
-                      f"{r['status']}: {r['message']}" for r in failed]
-        lines.append("")
-    if data["rejected"]:
-        lines += ["Choices the scene rejects:", ""]
-        lines += [f"- {r['method']}, {r['scheme']}: {r['message']}" for r in data["rejected"]]
-        lines.append("")
-    spread = data["method_spread"]
-    lines += ["Largest relative difference of a method's error from the direct method's at the "
-              "same point: " + ", ".join(f"{LABELS[m]} {spread[m]:.2g}" for m in cv.MEASURES)
-              + ".", ""]
-    return "\n".join(lines)
-
-
-def prepare(out: Path, force: bool, comm: MPI.Comm, files: tuple[str, ...] = FILES) -> None:
-    """Create ``out``; with ``force``, replace an earlier result of this command (``files`` and a
-    figures/ of PNGs) but nothing else.
-
-    Raises:
-        OutputError: it exists (without ``force``), or holds something else.
-    """
-    from rodfem.output.files import prepare_result_directory
-
-    prepare_result_directory(out, force, comm, files)
-
-
 def run_verify(out: Path, plan: Plan, scenes: tuple[str, ...], force: bool, progress: bool,
                comm: MPI.Comm) -> dict | None:
     """Prepare ``out``, run every ladder, write the tables (rank 0); return the data (None if
     interrupted: then nothing is written). Raises OutputError (nothing written) on a bad
     ``out``."""
     from rodfem.output.files import write_json, write_text
-    from rodfem.studies.stability import machine
-
-    prepare(out, force, comm)
+    prepare(out, force, comm, FILES)
 
     def report(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
@@ -440,14 +331,3 @@ def run_verify(out: Path, plan: Plan, scenes: tuple[str, ...], force: bool, prog
     write_json(out / "orders.json", data, comm)
     comm.barrier()
     return data
-
-
-def summary_lines(data: dict, out: Path) -> list[str]:
-    """What ``rodfem verify`` prints: the observed orders of u(1, ·) max, per scene and choice."""
-    lines = [f"verify: {len(data['points'])} runs in {data['seconds']:.0f} s -> {out}"]
-    for r in data["orders"]:
-        rates = ", ".join(f"{m} {_g(r[f'rate_{m}'], 3)}" for m in cv.MEASURES
-                          if math.isfinite(r[f"rate_{m}"]))
-        lines.append(f"{r['scene']:<12} {'h ' if r['refined'] == 'h' else 'Δt'} "
-                     f"{r['method']:<6} {r['scheme']:<14} orders: {rates}")
-    return lines

@@ -18,9 +18,10 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rodfem.studies import convergence as cv
 from rodfem.scene import METHODS, SceneError
-from rodfem.studies.verify import ERROR_COLUMNS, deal, prepare, scene_at, schemes, write_csv
+from rodfem.studies import convergence as cv
+from rodfem.studies.common import deal, machine, prepare, write_csv
+from rodfem.studies.verify import ERROR_COLUMNS, scene_at, schemes
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -161,8 +162,6 @@ def run_work_precision(out: Path, plan: Plan, force: bool, progress: bool, comm:
     """Prepare ``out``, run the ladders, write workprecision.csv/json (rank 0); the data, or None
     if interrupted (nothing written). Raises OutputError on a bad ``out``."""
     from rodfem.output.files import write_json
-    from rodfem.studies.stability import machine
-
     prepare(out, force, comm, FILES)
 
     def report(line: str) -> None:

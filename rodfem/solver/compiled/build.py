@@ -1,14 +1,15 @@
 """Building rodfem's compiled loops (``direct.c``, ``picard.c``) with cffi.
 
 Both include the shared headers beside them: ``contact.h`` (the contact laws) and ``record.h``
-(the raw history row). A C source is compiled (API mode, the system's C compiler, as dolfinx's JIT does) once per hash of
-its text, the compiler flags, the cffi version and the interpreter, into ``$XDG_CACHE_HOME/rodfem``
-(or ``~/.cache/rodfem``, else a per-user directory in the temporary directory): in a temporary
-directory beside the target, then moved into place with :func:`os.replace`, so that MPI ranks
-compiling at once never see each other's half-written file. A module found in the cache is loaded
-and run, so a directory is used only if it is private: owned by this user and writable by nobody
-else. Nothing is compiled at import; :meth:`CompiledSource.available` is False (and says why)
-without cffi, a compiler or a usable directory, and the caller keeps the PETSc loop.
+(the raw history row). A C source is compiled (API mode, the system's C compiler, as dolfinx's
+JIT does) once per hash of its text and its headers' texts, the compiler flags, the cffi version and
+the interpreter, into ``$XDG_CACHE_HOME/rodfem`` (or ``~/.cache/rodfem``, else a per-user directory
+in the temporary directory): in a temporary directory beside the target, then moved into place with
+:func:`os.replace`, so that MPI ranks compiling at once never see each other's half-written file. A
+module found in the cache is loaded and run, so a directory is used only if it is private: owned by
+this user and writable by nobody else. Nothing is compiled at import;
+:meth:`CompiledSource.available` is False (and says why) without cffi, a compiler or a usable
+directory, and the caller keeps the PETSc loop.
 """
 
 from __future__ import annotations
@@ -17,9 +18,9 @@ import hashlib
 import importlib.machinery
 import importlib.util
 import os
+import re
 import shutil
 import sys
-import re
 import tempfile
 from pathlib import Path
 

@@ -1,62 +1,46 @@
 """The `direct` method's time loop in compiled code: many steps in one C call.
 
-A step of :class:`rodfem.solver.methods.direct.DirectMethod` is linear algebra with constant operators and one
-scalar equation (the contact force); in Python each of its PETSc calls costs about a microsecond,
-which at a few hundred cells is most of the step. :class:`DirectKernel` reads the operators off a
-method and its history once and runs ``steps`` steps in ``rodfem/solver/compiled/direct.c``:
+A step of :class:`rodfem.solver.methods.direct.DirectMethod` is linear algebra with constant
+operators and one scalar equation (the contact force); in Python each of its PETSc calls costs
+about a microsecond, which at a few hundred cells is most of the step. :class:`DirectKernel` reads
+the operators off a method and its history once and runs ``steps`` steps in ``direct.c``:
 
     [h; m] = R s + b                  (s = [Θⁿ⁻¹; Dⁿ⁻¹; Uⁿ⁻¹], R: 2n × 3n, ``method.R``)
     z = C⁻¹ [h; m]                    (C = ``method.coupled_operator()``, 2n × 2n)
     c = Uⁿ⁻¹(1), s₁ = c + z_U(1)
-    p = contact.solve(s₁, w, g, ε, rule, c) if s₁ > g (or c > g, discrete gradient), else 0
+    p = the law's solve of y + w p(y) = s₁ where contact is possible (contact.h), else 0
     [ΔΘⁿ; ΔUⁿ] = z + p q              (q = ``method.response``, w = ``method.compliance``)
     Θⁿ = Θⁿ⁻¹ + ΔΘⁿ, Uⁿ = Uⁿ⁻¹ + ΔUⁿ, Dⁿ = ΔUⁿ (Crank–Nicolson with inertia: 2ΔUⁿ − Dⁿ⁻¹)
 
-and for each new state the 7 numbers :meth:`rodfem.output.history.History.record` stores (n, 1, Uⁿ(1),
-ΔUⁿ(1), Uⁿ(0.5), the bulk energy ½ (E s + 2w)·s, p), so that :meth:`History.take` turns them
-into rows of ``history.csv`` as it does the PETSc loop's.
+and for each new state the raw row of :data:`rodfem.output.columns.RAW` (record.h), which
+:meth:`rodfem.output.history.History.take` turns into rows of ``history.csv`` as it does the
+PETSc loop's.
 
-**Node-interleaved order.** In the method's block order [Θ; D; U] the operators couple index i
-with n + i; interleaved by node, [Θ₀, D₀, U₀, Θ₁, …] for the state and [ΔΘ₀, ΔU₀, ΔΘ₁, …] for
-the unknowns, every operator couples only neighbouring nodes: C is banded, with kl = ku = 3 for P1
-(a = 0: 1), and a row of R or E reads the state of nodes i − 1 .. i + 1. C is permuted so and
-factored here once, by LAPACK's dgbtrf (partial pivoting); direct.c does dgbtrs's substitutions.
-The superdiagonals of U that are zero in every column are dropped (without row interchanges U has
-only ku of the kl + ku that dgbtrf reserves for fill), as are the multipliers of L likewise, and
-U's diagonal is kept as reciprocals. R and E are stored per node as dense rows over "slots", the
-offsets into the packed state that some row of that component uses (10 to 12 values per node for
-R, 5 to 9 for E), without column indices; exact zeros are dropped.
+**Node-interleaved order.** Interleaved by node, [Θ₀, D₀, U₀, Θ₁, …] for the state and
+[ΔΘ₀, ΔU₀, ΔΘ₁, …] for the unknowns, every operator couples only neighbouring nodes: C is banded
+(kl = ku = 3 for P1; 1 for a = 0) and a row of R or E reads nodes i − 1 .. i + 1. C is permuted
+so and factored once, by LAPACK's dgbtrf; direct.c does dgbtrs's substitutions, node-blocked
+where there are no row interchanges, with U's diagonal as reciprocals. R and E are stored as
+dense rows over "slots" (the offsets into the packed state some row uses), and each of
+[R | b] and [E | 2w] as a table of its distinct rows with a class number per node
+(:func:`rodfem.solver.compiled.loop.classes`): the same numbers, so the same results bit for bit
+(``compress=False`` keeps a row per node, for the tests). Why each choice, with the bytes it
+saves: docs/performance.md.
 
-**What is streamed.** A step is memory-bound from about 10⁵ cells: it reads every node's
-coefficients twice per step. On a uniform mesh most nodes' rows of R and b, and of E and 2w, are
-bit for bit those of other nodes (paper1 at 10⁵ cells: 163 distinct rows of [R | b], 127 of
-[E | 2w]), so each pair is stored as a table of its distinct rows, compared as int64 words, plus
-the row's number per node (``r_class``, ``e_class``; :func:`_classes`): the C loop reads 8 bytes
-per node where it read 21 doubles, and the same numbers, so the results are the same bit for bit
-(``compress=False``, a row per node, is kept for ``tests/test_kernel.py`` to check that). The
-blocked substitution coefficients (fwd, bwd: 16 per node) stay per node: the LU recurrences do
-not settle on a fixed point but wander in their last bits (paper1, 10⁵ cells: 52 535 distinct
-rows of fwd in 10⁵), so no row can be shared. q is read only in contact and z and the state are
-the step's own, so per node and step the loop streams fwd, bwd, the two class numbers, z (written,
-then read), the state (read, then written) and in contact q: about 250 bytes, from about 390.
-
-The arithmetic is the PETSc loop's but for the order of summation and for the factorisation
-(LAPACK's band LU, blocked by nodes, against PETSc's LU in reverse Cuthill–McKee order): from the
-same state a step agrees to about 30 eps (each is as close as the other to a refined solution),
-and over a run the difference adds up about linearly in the steps: up to 21 eps per step on the
-paper scenes, 9e-12 relative after 2000 steps of paper1 (``tests/test_kernel.py`` asks 64 eps per
-step). A step whose s₁ lies within round-off of g could take the other branch of the contact test
-in the two; it has not happened on any scene tested.
+**Round-off.** The arithmetic is the PETSc loop's but for the order of summation and the
+factorisation (LAPACK's band LU against PETSc's LU in reverse Cuthill–McKee order): over a run the
+difference adds up about linearly in the steps, and ``tests/test_kernel.py`` bounds it by 64 eps
+per step. A step whose s₁ lies within round-off of g could take the other branch of the contact
+test in the two.
 
 **What it does not do.** The paper scheme's first step with inertia (n = 0 → 1,
-:meth:`Method._first_step`: a heat solve with U¹ given) is left to ``method.advance()``:
-:meth:`DirectKernel.advance` refuses to start from n = 0 there. Scenes with source terms (the
-manufactured solution) are refused at construction. The kernel is rank-local, as the state is
-(every rank holds all of it and computes the same rows).
+:meth:`Method._first_step`) is left to ``method.advance()``; sources are refused at
+construction. The loop is rank-local, as the state is (every rank holds all of it and computes
+the same rows).
 
-**Building.** direct.c is compiled with cffi on first use and cached (:mod:`rodfem.solver.compiled.build`).
-:func:`available` says whether it could be built and loaded (no compiler, no cffi: False, and the
-caller keeps the PETSc loop); importing this module compiles nothing and raises nothing.
+**Building.** direct.c is compiled with cffi on first use and cached (:mod:`.build`);
+:func:`available` says whether it could be built and loaded (else the caller keeps the PETSc
+loop); importing this module compiles nothing and raises nothing.
 """
 
 from __future__ import annotations
@@ -148,7 +132,8 @@ def _blocked(lu: np.ndarray, kl: int, ku: int, kl_kept: int, ku_kept: int, n: in
 
 
 class DirectKernel(CompiledLoop):
-    """Steps of a :class:`rodfem.solver.methods.direct.DirectMethod` in compiled code (the module's docstring).
+    """Steps of a :class:`~rodfem.solver.methods.direct.DirectMethod` in compiled code (the
+    module's docstring).
 
     ``DirectKernel(method, history)`` reads the operators once; :meth:`advance` then does steps
     exactly as ``method.advance()`` from any n ≥ 1 (n ≥ 0 where the first step is not special:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from rodfem.model.contact import LinearLaw, PowerLaw, RigidObstacle
-from rodfem.output.columns import RAW
+from rodfem.solver.record import RAW
 
 
 def check_library(lib) -> None:

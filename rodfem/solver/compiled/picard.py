@@ -1,15 +1,15 @@
 """The `picard` method's time loop in compiled code: many steps in one C call.
 
-An iteration of :class:`rodfem.solver.methods.picard.PicardMethod` is two mat-vecs, two triangular solves, two
-norms and a few vector updates: about eight PETSc calls of a microsecond each, which at a few
-hundred cells is nearly all of it. :class:`PicardKernel` reads the operators off a method and its
-history once and runs ``steps`` steps of exactly that algebra in ``rodfem/solver/compiled/picard.c``:
+An iteration of :class:`rodfem.solver.methods.picard.PicardMethod` is two mat-vecs, two
+triangular solves, two norms and a few vector updates: about eight PETSc calls of a microsecond
+each, which at a few hundred cells is nearly all of it. :class:`PicardKernel` reads the operators
+off a method and its history once and runs ``steps`` steps of exactly that algebra in
+``picard.c``:
 
     [h; m] = R s + b                  (s = [Θⁿ⁻¹; Dⁿ⁻¹; Uⁿ⁻¹], ``method.R``, ``method.b``), once
     ΔΘ⁰ = 0, ΔU⁰ = 0, c = Uⁿ⁻¹(1)
     for l = 1, 2, …, max_iterations:
-        p   = contact force of c + ΔU^{l−1}(1)  (penalty (1/ε)[y − g]₊, or Crank–Nicolson's
-                                                 discrete gradient from c: the time scheme)
+        p   = contact force of c + ΔU^{l−1}(1)  (the law at the time scheme's rule: contact.h)
         ΔΘˡ = A_h⁻¹ (h + N_ΔU ΔU^{l−1})          (``method.heat.A``, ``heat.N["du"]``)
         ΔUˡ = A_m⁻¹ (m + N_ΔΘ ΔΘˡ − p e)         (``method.momentum.A``, ``N["dtheta"]``,
                                                  ``method.contact_load``)
@@ -19,55 +19,35 @@ history once and runs ``steps`` steps of exactly that algebra in ``rodfem/solver
     Θⁿ = Θⁿ⁻¹ + ΔΘ, Uⁿ⁻¹ → u_prev, Uⁿ = Uⁿ⁻¹ + ΔU, Dⁿ = ΔU (Crank–Nicolson with inertia:
     2ΔU − Dⁿ⁻¹, as (ΔU − Dⁿ⁻¹) + ΔU)
 
-and for each new state the 7 numbers :meth:`rodfem.output.history.History.record` stores (n, the
-iterations, Uⁿ(1), Dⁿ(1), Uⁿ(0.5), the bulk energy ½ (E s + 2w)·s, p).
+and for each new state the raw row of :data:`rodfem.output.columns.RAW` (record.h).
 
-**Tridiagonal in node order.** Every operator couples only neighbouring nodes (checked at
-construction: anything wider is refused). A_h is factored L U and A_m U L, without pivoting (the
-operators are SPD up to the clamped row x = 0), once, in ``pk_factor``; the factors are
-normalised so that every recurrence is one multiplication and one subtraction per node. With A_m
-eliminated from x = 1 down, an iteration is two fused passes over the nodes (as
-``benchmarks/picard_loop.c``): descending, A_h's back substitution and, one node behind, the
-momentum right-hand side and A_m's elimination; ascending, A_m's substitution and, one node
-behind, the next iteration's heat right-hand side and A_h's elimination. The two recurrences of
-each pass are independent chains that the CPU runs side by side.
-
-**What is streamed.** From about 10⁵ cells an iteration is memory-bound. On a uniform mesh
-most nodes' coefficient rows are bit for bit those of other nodes (paper1 at 10⁵ cells: 163
-distinct rows of [R | b], 13 of [N_ΔU | N_ΔΘ | e], 127 of [E | 2w]), so, as in
-:mod:`rodfem.solver.compiled.direct`, each of [R | b] (``fixed``), [N_ΔU | N_ΔΘ | e] (``coupling``) and
-[E | 2w] (``energy``) is stored as a table of its distinct rows, compared as int64 words,
-plus each node's row number (``*_class``; :func:`rodfem.solver.compiled.direct._classes`): the loop reads the
-same numbers and does the same operations, so the results are the same bit for bit
-(``compress=False``, a class per node, is kept for ``tests/test_picard_kernel.py`` to check
-that). The normalised factors of A_h and A_m do not repeat (their recurrences wander in the last
-bits: about 50 000 and 27 000 distinct rows in 10⁵), so they stay per node, but regrouped as the
-sweeps read them: (cp of A_h, p and q of A_m) descending, (cp of A_m, p and q of A_h) ascending,
-3 doubles each where a sweep read the 13 of both operators' rows. Per node and iteration the two
-sweeps stream about 150 bytes (the factors, a class number, T, V, h, m and the eliminated
-right-hand sides) where they streamed about 300; the step's own pass reads two class numbers
-instead of 32 doubles.
+**Tridiagonal in node order.** Every operator couples only neighbouring nodes (anything wider is
+refused). A_h is factored L U and A_m U L, without pivoting (the operators are SPD up to the
+clamped row x = 0), once, in ``pk_factor``, normalised so that every recurrence is one
+multiplication and one subtraction per node. An iteration is then two fused passes over the
+nodes: descending, A_h's back substitution and, one node behind, the momentum right-hand side and
+A_m's elimination; ascending, A_m's substitution and, one node behind, the next iteration's heat
+right-hand side and A_h's elimination. The coefficient rows [R | b], [N_ΔU | N_ΔΘ | e] and
+[E | 2w] are tables of their distinct rows with a class per node
+(:func:`rodfem.solver.compiled.loop.classes`; bit for bit the same results, ``compress=False``
+keeps a row per node for the tests); the factors stay per node, grouped as the sweeps read them.
+What each choice saves is measured in docs/performance.md.
 
 **Round-off.** The mat-vecs sum in the CSR's column order, as PETSc's MatMultAdd does; the
-solves round differently from PETSc's LU (normalised factors; U L for A_m), and the energy's dot
-product is summed per block. The difference from PETSc's loop adds up about linearly in the
-steps: on the five paper scenes to t = 2 (2000 steps), both time schemes and both masses, at most
-8.2 eps per step relative to u (``tests/test_picard_kernel.py`` asks 64). Picard stops at
-``tol``: a step whose change lies within round-off of ``tol`` could take one iteration more or
-less in the two; it has not happened on any scene tested.
+solves round differently from PETSc's LU. The difference from PETSc's loop adds up about linearly
+in the steps (``tests/test_picard_kernel.py`` bounds it by 64 eps per step). A step whose change
+lies within round-off of ``tol`` could take one iteration more or less in the two.
 
-**What it does not do.** Sources (the manufactured solution), a = 0 (``picard.py`` iterates only
-the contact force there) and the rigid obstacle are refused at construction (ValueError). The
-paper scheme's first step with inertia (n = 0 → 1, :meth:`Method._first_step`) is the caller's
-``method.advance()``: :meth:`PicardKernel.advance` refuses to start from n = 0 there.
+**What it does not do.** Sources, a = 0 (``picard.py`` iterates only the contact force there)
+and the rigid obstacle are refused at construction (ValueError); the paper scheme's first step
+with inertia is the caller's ``method.advance()``.
 
 **Failure.** If a step does not converge, :meth:`PicardKernel.advance` leaves the method at the
-last step that did (state, ``u_prev``, ``n``, ``pressure``, ``iterations``), with the rows of
-the steps done written to ``rows[:done]``, sets ``kernel.done`` (and ``error.done``) to that
-count, and raises :class:`rodfem.solver.methods.picard.PicardNotConverged` with the step, time, increment and
-iterations that ``PicardMethod._step`` gives. On success ``kernel.done`` = ``steps``.
+last step that did, with the rows of the steps done in ``rows[:done]``, sets ``kernel.done`` (and
+``error.done``) to that count, and raises :class:`rodfem.solver.errors.PicardNotConverged` with
+the step, time, increment, iterations and last iterate's U(1) that ``PicardMethod._step`` gives.
 
-**Building.** As :mod:`rodfem.solver.compiled.direct`'s, by :mod:`rodfem.solver.compiled.build`, under its own module name.
+**Building.** As :mod:`.direct`'s, by :mod:`.build`, under its own module name.
 """
 
 from __future__ import annotations
@@ -76,10 +56,10 @@ from pathlib import Path
 
 import numpy as np
 
-from rodfem.output.columns import RAW_INDEX
 from rodfem.solver.compiled.build import CompiledSource
 from rodfem.solver.compiled.loop import CompiledLoop, check_library, classes
 from rodfem.solver.errors import PicardNotConverged
+from rodfem.solver.record import RAW_INDEX
 
 SOURCE = Path(__file__).with_name("picard.c")
 
@@ -108,7 +88,8 @@ def _tridiagonal(A, n: int, row_block: int = 0, col_block: int = 0) -> np.ndarra
 
 
 class PicardKernel(CompiledLoop):
-    """Steps of a :class:`rodfem.solver.methods.picard.PicardMethod` in compiled code (the module's docstring).
+    """Steps of a :class:`~rodfem.solver.methods.picard.PicardMethod` in compiled code (the
+    module's docstring).
 
     ``PicardKernel(method, history)`` reads the operators once; :meth:`advance` then does steps
     exactly as ``method.advance()`` followed by ``history.record(method)``, from any n ≥ 1 (n ≥ 0

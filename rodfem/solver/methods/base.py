@@ -35,6 +35,7 @@ from rodfem.solver.errors import SourceNotFinite
 from rodfem.solver.linalg import lu_factor, stacked
 from rodfem.solver.time_schemes import TIME_SCHEMES
 
+
 class Method:
     """Θⁿ, Uⁿ of (3.1)–(3.2), from n = 0 on, one step per call of :meth:`advance`.
 
@@ -91,6 +92,7 @@ class Method:
         # The contact term p v(1) for p = 1: the load e of a unit force at x = 1.
         self.contact_load = disc.vector(copetti.contact(1.0, w, ds_1))
         self.last = disc.nodes.size - 1  # the node x = 1
+        self._index = disc.nodes.size + self.last  # of ΔU(1) in the unknowns [ΔΘ; ΔU]
 
         self.heat_ksp, heat_factor = lu_factor(self.heat.A, "rodfem_heat_")
         self.solve_heat = heat_factor.solve

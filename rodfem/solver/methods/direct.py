@@ -35,7 +35,6 @@ class DirectMethod(Method):
     def __init__(self, disc: Discretisation):
         super().__init__(disc)
         n = disc.nodes.size
-        self._index = n + self.last  # of ΔU(1) in [ΔΘ; ΔU]
         self.x, (self.x_heat, self.x_momentum) = stacked(2, n)
         self.rhs, (self.rhs_heat, self.rhs_momentum) = stacked(2, n)
         self._x_values, self._u_1 = self.x.array, 3 * n - 1  # NumPy views; U(1) in the state

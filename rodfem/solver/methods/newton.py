@@ -42,7 +42,6 @@ class NewtonMethod(Method):
     def __init__(self, disc: Discretisation):
         super().__init__(disc)
         n = disc.nodes.size
-        self._index = n + self.last  # of ΔU(1) in [ΔΘ; ΔU]
         self.C = self.coupled_operator()
         self.C_last = self.C.getValue(self._index, self._index)
         self.J = self.C.duplicate(copy=True)
