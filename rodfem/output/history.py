@@ -65,8 +65,8 @@ class History:
                      rest_w[0] if rest else 0.0)
         # Per step, the raw row of rodfem.output.columns.RAW.
         self._rows = np.zeros((block, len(RAW)))
-        self._order = [RAW_INDEX[name] for name in ("n", "iterations", "u_1", "d_1", "u_half",
-                                                    "bulk_energy", "pressure")]
+        self._slots = tuple(RAW_INDEX[name] for name in ("n", "iterations", "u_1", "d_1",
+                                                         "u_half", "bulk_energy", "pressure"))
         self._count = 0
 
     @property
@@ -80,9 +80,11 @@ class History:
         bulk = self.energy(state.state)
         s = state.values
         i, w, j, v = self.half
-        self._rows[self._count, self._order] = (state.n, state.iterations, s[self.u_1],
-                                                s[self.du_1], w * s[i] + v * s[j], bulk,
-                                                state.pressure)
+        row = self._rows[self._count]
+        n, iterations, u_1, d_1, u_half, bulk_energy, pressure = self._slots
+        row[n], row[iterations], row[pressure] = state.n, state.iterations, state.pressure
+        row[u_1], row[d_1], row[u_half] = s[self.u_1], s[self.du_1], w * s[i] + v * s[j]
+        row[bulk_energy] = bulk
         self._count += 1
 
     @property
