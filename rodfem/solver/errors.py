@@ -30,8 +30,8 @@ class SourceNotFinite(NotConverged):
 
 class PicardNotConverged(NotConverged):
     """The iteration (3.3)–(3.4) did not reach the tolerance within max_iterations, or produced
-    values that are not finite. ``u_1`` is U(1) of its last iterate, where the contact law's
-    contraction is judged."""
+    values that are not finite. ``u_1`` is the largest U(1) of its iterates, where the contact
+    law's contraction is judged."""
 
     def __init__(self, step: int, time: float, increment: float, iterations: int,
                  u_1: float = np.nan):

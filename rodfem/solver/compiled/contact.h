@@ -64,7 +64,7 @@ static inline double rc_gradient(const rc_obstacle *O, double y, double c)
         const double py = rc_pmax0(dy), pc = rc_pmax0(dc);
         return (py * py - pc * pc) / (2.0 * O->epsilon * (y - c));
     }
-    if (dy > 0.0 && dc > 0.0 && y != c) {
+    if (dy > 0.0 && dc > 0.0 && y != c && fabs(y - c) <= 0.5 * dc) {  /* PowerLaw's CLOSE */
         const double m1 = O->exponent + 1.0, r = (y - c) / dc;
         return pow(dc, O->exponent) / O->epsilon * expm1(m1 * log1p(r)) / (m1 * r);
     }

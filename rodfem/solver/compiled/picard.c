@@ -190,7 +190,9 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
             T[i] = 0.0;
             V[i] = 0.0;
         }
+        double deepest = c;  /* the largest U(1) of the iterates, for the failure's message */
         for (l = 1; l <= max_it; l++) {
+            deepest = c + V[n - 1] > deepest ? c + V[n - 1] : deepest;
             const double q = -rc_contact_force(&P->obstacle, c + V[n - 1], c);
             double ct, cu, bad, e;
             /* sweep B, descending: T' by A_h's substitution; momentum rhs and elimination one
@@ -265,7 +267,7 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
         }
         if (failed) {
             its = l;
-            *last_u_1 = c + V[n - 1];
+            *last_u_1 = deepest;
             break;
         }
         p = rc_contact_force(&P->obstacle, c + V[n - 1], c);

@@ -45,7 +45,7 @@ with inertia is the caller's ``method.advance()``.
 **Failure.** If a step does not converge, :meth:`PicardKernel.advance` leaves the method at the
 last step that did, with the rows of the steps done in ``rows[:done]``, sets ``kernel.done`` (and
 ``error.done``) to that count, and raises :class:`rodfem.solver.errors.PicardNotConverged` with
-the step, time, increment, iterations and last iterate's U(1) that ``PicardMethod._step`` gives.
+the step, time, increment, iterations and deepest iterate's U(1) that ``PicardMethod._step`` gives.
 
 **Building.** As :mod:`.direct`'s, by :mod:`.build`, under its own module name.
 """

@@ -61,9 +61,12 @@ class PicardMethod(Method):
             N_theta.multAdd(dtheta_it, m_step, m_step)
             dtheta_new.zeroEntries()
         increment, pressure = np.inf, np.nan
+        deepest = u_last  # the largest U(1) of the iterates, for the failure's message
         for iteration in range(1, self.max_iterations + 1):  # noqa: B007 (used after the loop)
             last_pressure = pressure
-            pressure = self.contact_force(u_last + du_it.getValue(last), u_last)
+            y = u_last + du_it.getValue(last)
+            deepest = max(deepest, y)
+            pressure = self.contact_force(y, u_last)
             if not coupled and pressure == last_pressure:
                 # The same load as the last iteration: this iterate would equal the last one.
                 iteration, increment = iteration - 1, 0.0
@@ -95,7 +98,7 @@ class PicardMethod(Method):
         if not increment < tol:
             self._work = [dtheta_it, dtheta_new, du_it, du_new]
             raise PicardNotConverged(self.n + 1, (self.n + 1) * self.dt, increment, iteration,
-                                     u_last + du_it.getValue(last))
+                                     deepest)
         self.pressure = self.contact_force(u_last + du_it.getValue(last), u_last)
         self._accept(dtheta_it, du_it)
         self._work = [dtheta_it, dtheta_new, du_it, du_new]
