@@ -1,7 +1,7 @@
 """A manufactured solution of the coupled heat–momentum system without contact.
 
-The built-in scene ``manufactured`` (``rodfem/scene/builtin/manufactured.toml``) holds the body sources
-that keep
+The built-in scene ``manufactured`` (``rodfem/scene/builtin/manufactured.toml``) holds the body
+sources that keep
 
     u(x, t) = (cos t + sin t) sin(πx/2),    θ(x, t) = e^{−t} x (1 − x)²
 

@@ -2,8 +2,8 @@
 time loop stores (:data:`rodfem.solver.record.RAW`). Importing this module needs NumPy only
 (the figures read it).
 
-Each column of ``history.csv`` is computed from a block of raw rows by its ``compute``, given the run's Δt and
-its obstacle (:mod:`rodfem.model.contact`). No other module writes a column index.
+Each column of ``history.csv`` is computed from a block of raw rows by its ``compute``, given the
+run's Δt and its obstacle (:mod:`rodfem.model.contact`). No other module writes a column index.
 """
 
 from __future__ import annotations
