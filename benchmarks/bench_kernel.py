@@ -1,6 +1,5 @@
 """Benchmark: the compiled `direct` kernel (rodfem/solver/compiled/direct.py) against the compiled
-Picard loop
-(benchmarks/picard_loop.c, ``cc -O2``), in the same run, at 250 to 10⁶ cells.
+Picard loop (benchmarks/picard_loop.c, ``cc -O2``), in the same run, at 250 to 10⁶ cells.
 
 paper1 (lumped mass, Δt = 1e-3), the paper's scheme, solver.method = direct; the kernel runs the
 steps n = 1 .. N (the first step is the caller's) in one call, history rows included, no field
