@@ -133,7 +133,7 @@ def stability(args: argparse.Namespace) -> int:
     """The stability map into args.out, then its figures (rank 0)."""
     from mpi4py import MPI
 
-    from rodfem.output.directories import OutputError
+    from rodfem.output.directories import OutputError, finish
     from rodfem.studies import stability as st
 
     comm = MPI.COMM_WORLD
@@ -151,13 +151,15 @@ def stability(args: argparse.Namespace) -> int:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
     if records is None:
-        say(f"rodfem: interrupted; nothing written to {args.out}.")
+        finish(args.out, "interrupted", comm)
+        say(f"rodfem: interrupted; no results written to {args.out}.")
         return EXIT_INTERRUPTED
     written = []
     if comm.rank == 0:
         from rodfem.post.stability import plot_stability
 
         written = plot_stability(args.out)
+    finish(args.out, "complete", comm)
     for line in st.report_lines(records, grid, seconds, args.out, comm.size):
         say(line, sys.stdout)
     for path in written:
@@ -170,7 +172,7 @@ def verify(args: argparse.Namespace) -> int:
     """``rodfem verify`` or ``rodfem work-precision`` into args.out, then the figures (rank 0)."""
     from mpi4py import MPI
 
-    from rodfem.output.directories import OutputError
+    from rodfem.output.directories import OutputError, finish
 
     comm = MPI.COMM_WORLD
     if args.command == "verify":
@@ -198,9 +200,11 @@ def verify(args: argparse.Namespace) -> int:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
     if data is None:
-        say(f"rodfem: interrupted; nothing written to {args.out}.")
+        finish(args.out, "interrupted", comm)
+        say(f"rodfem: interrupted; no results written to {args.out}.")
         return EXIT_INTERRUPTED
     written = draw(args.out) if comm.rank == 0 else []
+    finish(args.out, "complete", comm)
     for line in task.summary_lines(data, args.out):
         say(line, sys.stdout)
     for path in written:

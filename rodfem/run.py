@@ -18,6 +18,7 @@ from petsc4py import PETSc
 import rodfem
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.columns import INDEX
+from rodfem.output.directories import finish
 from rodfem.output.files import FieldFile, HistoryFile, write_json, write_text
 from rodfem.output.history import History
 from rodfem.output.progress import Progress
@@ -224,6 +225,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
         summary["error"] = str(error)
     if out is not None:
         write_json(out / "summary.json", summary, comm)
+        finish(out, status, comm)
         comm.barrier()  # every rank returns once rank 0 has written the run's files
     return RunResult(status, summary, error, disc.nodes.x.copy(), method.theta.array_r.copy(),
                      method.u.array_r.copy(), getattr(history_file, "rows", None))

@@ -140,7 +140,7 @@ def test_force_never_deletes_a_foreign_directory(shared_dir, capsys):
                      capsys)
     assert code == 2
     if COMM.rank == 0:
-        assert "not a rodfem output directory (it holds thesis.tex)" in err
+        assert "not a rodfem output directory (it has no rodfem.json)" in err
     assert (out / "thesis.tex").read_text() == "precious\n"
 
 

@@ -16,6 +16,14 @@ from rodfem.studies.verify import schemes
 EPS = np.finfo(float).eps
 
 
+
+def earlier_result(out, command: str) -> None:
+    """An empty earlier result of ``command`` in ``out``: its marker, as the command leaves it."""
+    from rodfem.output.directories import finish, prepare_directory
+
+    prepare_directory(out, False, COMM, command=command, files=("orders.csv", "figures"))
+    finish(out, "complete", COMM)
+
 def test_l2_difference_closed_forms():
     # x on one cell against the hat at 1/2 on two: ∫₀^½ x² + ∫_½^1 (3x − 2)² = 1/24 + 1/8 = 1/6
     assert cv.l2_difference([0, 1], [0, 1], [0, 0.5, 1], [0, 1, 0]) \
@@ -95,6 +103,7 @@ def test_verify_quick_orders(shared_dir, capsys):
     (measured 0.96-1.05 over the four measures), 2 in h for every scheme, 2 in Δt for
     Crank–Nicolson (2.00-2.05). Written over an earlier result, which --force replaces."""
     out = shared_dir / "verify"
+    earlier_result(out, "verify")
     if COMM.rank == 0:
         (out / "figures").mkdir(parents=True)
         (out / "orders.csv").write_text("old")
@@ -167,8 +176,8 @@ def test_bad_input(args, message, shared_dir, capsys):
 def test_existing_directory(command, shared_dir, capsys):
     """Never overwritten without --force; with it, never if it holds a file of someone else's."""
     out = shared_dir / "out"
+    earlier_result(out, command)
     if COMM.rank == 0:
-        out.mkdir()
         (out / "notes.txt").write_text("mine")
     COMM.barrier()
     assert main([command, "--quick", "--out", str(out)]) == 2
@@ -178,5 +187,5 @@ def test_existing_directory(command, shared_dir, capsys):
     if COMM.rank == 0:
         assert "holds notes.txt" in err and err.count("\n") == 1
     assert (out / "notes.txt").read_text() == "mine"
-    assert sorted(p.name for p in out.iterdir()) == ["notes.txt"]
+    assert sorted(p.name for p in out.iterdir()) == ["notes.txt", "rodfem.json", "rodfem.lock"]
 

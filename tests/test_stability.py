@@ -23,6 +23,7 @@ from mpi4py import MPI
 import rodfem.scene
 from conftest import COMM, serial_only
 from rodfem.cli import main
+from rodfem.output.directories import finish
 from rodfem.studies import stability as st
 
 # Far from every boundary: w/ε is 0.011-0.25 or 1.96-50 at these points (w = 2.2e-3, 9.8e-3,
@@ -85,7 +86,7 @@ def test_csv_and_json(tiny, shared_dir):
     records, _ = tiny
     base = st.check("paper1", [], TINY)
     out = shared_dir / "map"
-    st.prepare(out, False, COMM, st.FILES)
+    st.prepare(out, False, COMM, st.FILES, "stability")
     st.write(out, records, TINY, base, [], 1.0, COMM)
     COMM.barrier()
     with open(out / "stability.csv", newline="", encoding="utf-8") as f:
@@ -214,6 +215,8 @@ def test_bad_input(args, message, shared_dir, capsys):
 def test_existing_directory(shared_dir, capsys):
     """Never overwritten without --force; with it, only an earlier map is replaced."""
     out = shared_dir / "map"
+    st.prepare(out, False, COMM, st.FILES, "stability")  # an earlier map's directory
+    finish(out, "complete", COMM)
     if COMM.rank == 0:
         (out / "figures").mkdir(parents=True)
         (out / "stability.csv").write_text("old")

@@ -1,65 +1,204 @@
-"""A run's directory, and the directories of the studies: created for a new result, replaced
-with ``--force`` only where everything in them is rodfem's."""
+"""Run directories: a directory knows it is rodfem's, is held by one command at a time, and is
+replaced with ``--force`` only where everything in it is rodfem's.
+
+Every command that writes a directory (``run``, ``paper``, ``stability``, ``verify``,
+``work-precision``) first creates it and writes its marker, ``rodfem.json`` (the command, status
+``running``, rodfem's version, pid, host, start time and the entries the command writes), by
+write-then-rename, so that it is whole or absent. :func:`finish` replaces it, the same way, with
+the final status. For the command's life the directory is locked: an exclusive ``flock`` on
+``rodfem.lock`` beside the marker, which the system releases when the process ends however it
+ends, so that the lock of a killed run is free again (a stale lock is taken over).
+
+``--force`` empties a directory of its entries and keeps the directory and its lock, and only
+where the marker proves it is rodfem's: every entry is one its marker lists (a subdirectory
+listed is itself a rodfem directory) or a ``figures/`` of images that ``rodfem plot`` drew; no
+entry is a link or a mount point, and the directory is neither the current directory nor an
+ancestor of it. Anything else is refused with a one-line :class:`OutputError` (exit code 2) and
+nothing is touched.
+"""
 
 from __future__ import annotations
 
+import fcntl
+import json
+import os
 import shutil
+import socket
+import time
 from pathlib import Path
 
 from mpi4py import MPI
 
+import rodfem
+
+MARKER, LOCK = "rodfem.json", "rodfem.lock"
 RUN_FILES = ("history.csv", "fields.xdmf", "fields.h5", "scene.toml", "summary.json")
 FIGURE_DIRS = ("figures", "figure5")
 FIGURE_SUFFIXES = (".png", ".gif", ".mp4")
-PAPER_ENTRIES = ("index.md", *(f"paper{i}" for i in range(1, 6)))
+
+_held: dict[Path, tuple[int, dict]] = {}  # the directories this process holds: lock fd, marker
 
 
 class OutputError(ValueError):
     """The output directory cannot be used (exit code 2)."""
 
 
-def _foreign(path: Path) -> str | None:
-    """The first entry below ``path`` that rodfem did not write (a run's files, its figures, the
-    paper's runs and index), or None: only then may ``--force`` remove the directory."""
-    for p in sorted(path.iterdir()):
-        if p.is_symlink():
-            return p.name
-        if p.is_file() and (p.name in RUN_FILES or p.name == "index.md"):
+def _write_marker(path: Path, marker: dict) -> None:
+    """rodfem.json by write-then-rename: whole or absent, never half-written."""
+    temporary = path / f".{MARKER}.{os.getpid()}"
+    with open(temporary, "w", encoding="utf-8") as file:
+        json.dump(marker, file, indent=2)
+        file.write("\n")
+        file.flush()
+        os.fsync(file.fileno())
+    os.replace(temporary, path / MARKER)
+
+
+def read_marker(path: Path) -> dict | None:
+    """The marker of ``path``, or None if it has none that rodfem wrote."""
+    try:
+        marker = json.loads((path / MARKER).read_text(encoding="utf-8"))
+    except (OSError, ValueError, UnicodeDecodeError):
+        return None
+    if not isinstance(marker, dict) or not isinstance(marker.get("files"), list):
+        return None
+    return marker
+
+
+def _images(path: Path) -> bool:
+    return all(f.is_file() and not f.is_symlink() and f.suffix in FIGURE_SUFFIXES
+               for f in path.iterdir())
+
+
+def mount_points() -> list[Path]:
+    """Every mount point of this process's namespace (/proc/self/mountinfo), bind mounts
+    included: a bind mount of a directory of the same file system has the same device, so
+    ``os.path.ismount`` does not see it."""
+    try:
+        lines = Path("/proc/self/mountinfo").read_text().splitlines()
+    except OSError:
+        return []
+    # the fifth field, with space, tab, newline and backslash escaped as octal
+    unescape = lambda text: text.encode().decode("unicode_escape").encode("latin-1").decode()  # noqa: E731
+    return [Path(unescape(line.split()[4])) for line in lines if len(line.split()) > 4]
+
+
+def _foreign(path: Path, mounts: list[Path] | None = None) -> str | None:
+    """Why ``path`` may not be emptied by ``--force`` (the first entry that is not rodfem's, or a
+    mount point in it), or None."""
+    marker = read_marker(path)
+    if marker is None:
+        return f"it has no {MARKER}"
+    if mounts is None:
+        real = path.resolve()
+        mounts = [m for m in mount_points() if m == real or real in m.parents]
+        if mounts:
+            inside = mounts[0]
+            return ("it is a mount point" if inside == real
+                    else f"{inside.relative_to(real)} is a mount point")
+    device = path.stat().st_dev
+    listed = {name for name in marker["files"] if isinstance(name, str)}
+    for entry in sorted(path.iterdir()):
+        name = entry.name
+        if entry.is_symlink():
+            return f"it holds {name}, a link"
+        if entry.is_dir() and (os.path.ismount(entry) or entry.stat().st_dev != device):
+            return f"{name} is a mount point"
+        if name in (MARKER, LOCK) and entry.is_file():
             continue
-        if p.is_dir() and p.name in FIGURE_DIRS:
-            if all(f.is_file() and not f.is_symlink() and f.suffix in FIGURE_SUFFIXES
-                   for f in p.iterdir()):
-                continue
-        elif p.is_dir() and p.name in PAPER_ENTRIES and _foreign(p) is None:
+        if entry.is_dir() and name in FIGURE_DIRS and _images(entry):
             continue
-        return p.name
+        if name in listed and entry.is_file():
+            continue
+        if name in listed and entry.is_dir() and _foreign(entry, mounts) is None:
+            continue
+        return f"it holds {name}"
     return None
 
 
-def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None = None) -> None:
-    """Create ``path`` for a new run. An existing one is replaced only with ``force``, and only if
-    it holds nothing but what rodfem writes (runs, figures, the paper's index); never if it holds
-    ``keep`` (the scene being run)."""
+def _lock(path: Path) -> int:
+    """Take the lock of ``path``; OutputError naming the holder if another process has it."""
+    fd = os.open(path / LOCK, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        marker = read_marker(path) or {}
+        holder = (f"rodfem {marker.get('command', '?')} (pid {marker.get('pid', '?')} on "
+                  f"{marker.get('host', '?')}, since {marker.get('started', '?')})")
+        raise OutputError(f"{path} is in use by {holder}; wait for it to end, or stop it") from None
+    return fd
+
+
+def _inside(path: Path) -> bool:
+    """Whether the current directory is ``path`` or inside it."""
+    here, there = Path.cwd().resolve(), path.resolve()
+    return here == there or there in here.parents
+
+
+def _claim(path: Path, force: bool, keep: Path | None) -> int:
+    """Create ``path``, or (with ``force``) empty the rodfem directory it is; return its lock."""
+    try:
+        path.mkdir(parents=True)
+        return _lock(path)
+    except FileExistsError:
+        pass
+    if not force:
+        raise OutputError(f"output directory {path} exists; use --force to replace it")
+    if not path.is_dir() or path.is_symlink():
+        raise OutputError(f"output path {path} exists and is not a directory")
+    if _inside(path):
+        raise OutputError(f"{path} is the current directory or holds it; not replacing it, even "
+                          "with --force")
+    if keep is not None and path.resolve() in keep.resolve().parents:
+        raise OutputError(f"the scene {keep} is inside the output directory {path}")
+    if read_marker(path) is None:  # taking its lock would write into a directory not ours
+        raise OutputError(f"{path} is not a rodfem output directory (it has no {MARKER}); not "
+                          "replacing it, even with --force")
+    fd = _lock(path)
+    try:
+        why = _foreign(path)
+        if why is not None:
+            raise OutputError(f"{path} is not a rodfem output directory ({why}); not replacing "
+                              "it, even with --force")
+        for entry in sorted(path.iterdir()):
+            if entry.name == LOCK:
+                continue
+            if entry.is_dir():
+                shutil.rmtree(entry)  # checked above: rodfem's, on this file system
+            else:
+                entry.unlink()
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None = None,
+                      command: str = "run", files: tuple[str, ...] = RUN_FILES) -> None:
+    """Create ``path`` for a command that writes ``files`` (rank 0), mark it and hold its lock
+    until :func:`finish`. An existing one is replaced only with ``force``, and only if it is a
+    rodfem directory that holds nothing but what rodfem writes; never if it holds ``keep`` (the
+    scene being run).
+
+    Raises:
+        OutputError: on every rank, with one line saying why, and nothing touched.
+    """
     error = None
     if comm.rank == 0:
         try:
-            if path.exists() or path.is_symlink():
-                if not force:
-                    raise OutputError(f"output directory {path} exists; use --force to replace it")
-                if not path.is_dir() or path.is_symlink():
-                    raise OutputError(f"output path {path} exists and is not a directory")
-                foreign = _foreign(path)
-                if foreign is not None:
-                    raise OutputError(
-                        f"{path} is not a rodfem output directory (it holds {foreign}); "
-                        "not replacing it, even with --force"
-                    )
-                if keep is not None and path.resolve() in keep.resolve().parents:
-                    raise OutputError(f"the scene {keep} is inside the output directory {path}")
-                shutil.rmtree(path)  # only what rodfem wrote, checked above
-            path.mkdir(parents=True)
+            fd = _claim(path, force, keep)
+            marker = {"rodfem": rodfem.__version__, "command": command, "status": "running",
+                      "pid": os.getpid(), "host": socket.gethostname(),
+                      "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": list(files)}
+            try:
+                _write_marker(path, marker)
+            except BaseException:
+                os.close(fd)
+                raise
+            _held[path.resolve()] = (fd, marker)
         except OSError as err:
-            error = f"cannot create output directory {path}: {err.strerror}"
+            error = f"cannot create output directory {path}: {err.strerror or err}"
         except OutputError as err:
             error = str(err)
     error = comm.bcast(error, root=0)
@@ -67,33 +206,17 @@ def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None
         raise OutputError(error)
 
 
-def prepare_result_directory(out: Path, force: bool, comm: MPI.Comm,
-                             files: tuple[str, ...]) -> None:
-    """Create ``out`` for a command's result (``rodfem stability``, ``verify``,
-    ``work-precision``); with ``force``, replace an earlier result of that command (its ``files``
-    and a figures/ of PNGs) but nothing else.
-
-    Raises:
-        OutputError: it exists (without ``force``), or holds something else.
-    """
-    error = None
-    if comm.rank == 0 and force and out.is_dir() and not out.is_symlink():
-        entries = sorted(out.iterdir())
-        ours = [p for p in entries if p.name in files and p.is_file() and not p.is_symlink()]
-        for p in entries:
-            if p in ours:
-                continue
-            if (p.name == "figures" and p.is_dir() and not p.is_symlink()
-                    and all(f.is_file() and not f.is_symlink() and f.suffix == ".png"
-                            for f in p.iterdir())):
-                continue
-            error = (f"{out} is not a rodfem output directory (it holds {p.name}); "
-                     "not replacing it, even with --force")
-            break
-        if error is None:
-            for p in ours:
-                p.unlink()
-    error = comm.bcast(error, root=0)
-    if error:
-        raise OutputError(error)
-    prepare_directory(out, force, comm)
+def finish(path: Path, status: str, comm: MPI.Comm) -> None:
+    """Record the command's final ``status`` in the marker (complete, failed, interrupted) and
+    release the directory's lock (rank 0; nothing if this process does not hold it)."""
+    if comm.rank != 0:
+        return
+    held = _held.pop(path.resolve(), None)
+    if held is None:
+        return
+    fd, marker = held
+    try:
+        _write_marker(path, {**marker, "status": status,
+                             "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
+    finally:
+        os.close(fd)

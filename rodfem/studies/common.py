@@ -79,13 +79,15 @@ def write_csv(path: Path, columns: tuple[str, ...], rows: list[dict]) -> None:
             writer.writerow([csv_value(row[c]) for c in columns])
 
 
-def prepare(out: Path, force: bool, comm: MPI.Comm, files: tuple[str, ...]) -> None:
-    """Create ``out``; with ``force``, replace an earlier result of the same study (its ``files``
-    and a figures/ of PNGs) but nothing else.
+def prepare(out: Path, force: bool, comm: MPI.Comm, files: tuple[str, ...],
+            command: str) -> None:
+    """Create ``out`` for a study's ``files`` and its figures/, marked and held
+    (:mod:`rodfem.output.directories`); with ``force``, replace an earlier rodfem result there but
+    nothing else.
 
     Raises:
-        OutputError: it exists (without ``force``), or holds something else.
+        OutputError: it exists (without ``force``), or is not rodfem's.
     """
-    from rodfem.output.directories import prepare_result_directory
+    from rodfem.output.directories import prepare_directory
 
-    prepare_result_directory(out, force, comm, files)
+    prepare_directory(out, force, comm, command=command, files=(*files, "figures"))

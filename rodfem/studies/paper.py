@@ -15,7 +15,7 @@ import rodfem
 import rodfem.scene
 from rodfem.model.stationary import stationary
 from rodfem.output.columns import INDEX
-from rodfem.output.directories import prepare_directory
+from rodfem.output.directories import finish, prepare_directory
 from rodfem.run import simulate
 
 
@@ -98,7 +98,8 @@ def reproduce(out: Path, force: bool = False, comm: MPI.Comm = MPI.COMM_WORLD,
     ``report`` receives a line as each experiment is done."""
     from rodfem.post import plot
 
-    prepare_directory(out, force, comm)
+    prepare_directory(out, force, comm, command="paper",
+                      files=("index.md", *(e.scene for e in EXPERIMENTS), "figure5"))
     sections = []
     for experiment in EXPERIMENTS:
         run = out / experiment.scene
@@ -109,6 +110,7 @@ def reproduce(out: Path, force: bool = False, comm: MPI.Comm = MPI.COMM_WORLD,
     if comm.rank == 0:
         plot([out / "paper1", out / "paper2"], out / "figure5")
         write_index(out, sections)
+    finish(out, "complete", comm)
     comm.barrier()
     return out / "index.md"
 

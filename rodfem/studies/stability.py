@@ -360,7 +360,7 @@ def run_map(out: Path, scene: str, overrides: list[str], grid: Grid, force: bool
     """Check, prepare ``out``, sweep and write; returns the records (None if interrupted) and
     the wall time. Raises SceneError or OutputError (nothing written) on bad input."""
     base = check(scene, overrides, grid)
-    prepare(out, force, comm, FILES)
+    prepare(out, force, comm, FILES, "stability")
 
     def report(index, total, record):
         print(progress_line(index, total, record), file=sys.stderr, flush=True)

@@ -304,7 +304,7 @@ def run_verify(out: Path, plan: Plan, scenes: tuple[str, ...], force: bool, prog
     interrupted: then nothing is written). Raises OutputError (nothing written) on a bad
     ``out``."""
     from rodfem.output.files import write_json, write_text
-    prepare(out, force, comm, FILES)
+    prepare(out, force, comm, FILES, "verify")
 
     def report(line: str) -> None:
         print(line, file=sys.stderr, flush=True)

@@ -162,7 +162,7 @@ def run_work_precision(out: Path, plan: Plan, force: bool, progress: bool, comm:
     """Prepare ``out``, run the ladders, write workprecision.csv/json (rank 0); the data, or None
     if interrupted (nothing written). Raises OutputError on a bad ``out``."""
     from rodfem.output.files import write_json
-    prepare(out, force, comm, FILES)
+    prepare(out, force, comm, FILES, "work-precision")
 
     def report(line: str) -> None:
         print(line, file=sys.stderr, flush=True)

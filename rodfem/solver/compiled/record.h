@@ -1,5 +1,5 @@
 /*
- * record.h -- the raw row a compiled loop stores per step: rodfem/output/columns.py's RAW, slot
+ * record.h -- the raw row a compiled loop stores per step: rodfem/solver/record.py's RAW, slot
  * for slot (rodfem/solver/compiled/build.py checks the numbers when the loops are built).
  */
 #ifndef RODFEM_RECORD_H

@@ -1,0 +1,198 @@
+"""Run directories: the marker, --force that replaces only what rodfem wrote, and the lock that
+keeps two commands out of one directory (decoys of a user's files, the current directory, links,
+mount points, a held lock, a stale one, two runs at once)."""
+
+import fcntl
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import COMM, serial_only
+from rodfem.cli import main
+from rodfem.output.directories import LOCK, MARKER
+
+RODFEM = str(Path(sys.executable).with_name("rodfem"))
+SHORT = ["--quiet", "--set", "time.end=0.01"]
+
+
+def run(out: Path, *extra: str, capsys=None) -> tuple[int, str]:
+    code = main(["run", "paper1", "--out", str(out), *SHORT, *extra])
+    err = capsys.readouterr().err if capsys is not None else ""
+    return code, COMM.bcast(err if COMM.rank == 0 else None, root=0)
+
+
+def test_a_run_is_marked(shared_dir):
+    out = shared_dir / "run"
+    assert run(out)[0] == 0
+    marker = json.loads((out / MARKER).read_text())
+    assert marker["command"] == "run" and marker["status"] == "complete"
+    assert marker["pid"] == os.getpid() if COMM.size == 1 else marker["pid"] > 0
+    assert {"rodfem", "host", "started", "finished", "files"} <= set(marker)
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        [MARKER, LOCK, *marker["files"]])  # no temporary file left behind
+
+
+def decoy(out: Path, make) -> None:
+    if COMM.rank == 0:
+        out.mkdir()
+        make(out)
+    COMM.barrier()
+
+
+@pytest.mark.parametrize("what", ["index.md", "summary.json", "figures/x.png"])
+def test_force_keeps_a_users_files_with_rodfems_names(shared_dir, capsys, what):
+    """The old check went by names: a user's index.md, summary.json or figures/x.png was taken
+    for rodfem's and deleted. Without a marker nothing is rodfem's."""
+    out = shared_dir / "mine"
+
+    def make(out):
+        (out / what).parent.mkdir(exist_ok=True)
+        (out / what).write_text("notes\n")
+
+    decoy(out, make)
+    code, err = run(out, "--force", capsys=capsys)
+    assert code == 2 and "not a rodfem output directory (it has no rodfem.json)" in err
+    assert (out / what).read_text() == "notes\n"
+    assert not (out / MARKER).exists() and not (out / LOCK).exists()
+
+
+def test_force_keeps_a_file_added_to_a_run(shared_dir, capsys):
+    out = shared_dir / "run"
+    assert run(out)[0] == 0
+    if COMM.rank == 0:
+        (out / "notes.txt").write_text("mine\n")
+    COMM.barrier()
+    code, err = run(out, "--force", capsys=capsys)
+    assert code == 2 and "(it holds notes.txt)" in err
+    assert (out / "notes.txt").read_text() == "mine\n" and (out / "history.csv").exists()
+
+
+def test_force_refuses_links(shared_dir, capsys):
+    out, elsewhere = shared_dir / "run", shared_dir / "elsewhere"
+    assert run(out)[0] == 0
+    if COMM.rank == 0:
+        elsewhere.mkdir()
+        (elsewhere / "data").write_text("mine\n")
+        (out / "figures").symlink_to(elsewhere)
+    COMM.barrier()
+    code, err = run(out, "--force", capsys=capsys)
+    assert code == 2 and "a link" in err
+    assert (elsewhere / "data").read_text() == "mine\n"
+
+
+def test_force_replaces_a_run_and_its_figures(shared_dir):
+    out = shared_dir / "run"
+    assert run(out)[0] == 0
+    if COMM.rank == 0:
+        (out / "figures").mkdir()
+        (out / "figures" / "contact.png").write_bytes(b"png")
+    COMM.barrier()
+    assert run(out, "--force", "--set", "time.end=0.02")[0] == 0
+    assert not (out / "figures").exists()
+    assert len((out / "history.csv").read_text().splitlines()) == 1 + 21
+
+
+@serial_only
+@pytest.mark.parametrize("where", [".", "figures"])
+def test_force_never_replaces_the_current_directory_or_its_parent(shared_dir, where):
+    out = shared_dir / "run"
+    assert run(out)[0] == 0
+    (out / "figures").mkdir()
+    done = subprocess.run([RODFEM, "run", "paper1", "--out", str(out), "--force", *SHORT],
+                          cwd=out / where, capture_output=True, text=True)
+    assert done.returncode == 2, done.stderr
+    assert "is the current directory or holds it" in done.stderr
+    assert (out / "history.csv").exists()
+
+
+@serial_only
+def test_a_held_directory_is_refused_naming_its_holder(shared_dir, capsys):
+    out = shared_dir / "run"
+    assert run(out)[0] == 0
+    fd = os.open(out / LOCK, os.O_RDWR)
+    fcntl.flock(fd, fcntl.LOCK_EX)  # as a run in progress holds it
+    try:
+        code, err = run(out, "--force", capsys=capsys)
+    finally:
+        os.close(fd)
+    assert code == 2 and f"is in use by rodfem run (pid {os.getpid()} on" in err
+    assert err.count("\n") == 1
+    assert run(out, "--force")[0] == 0  # released: replaced
+
+
+HOLD = """
+import fcntl, os, sys, time
+fd = os.open(sys.argv[1], os.O_RDWR)
+fcntl.flock(fd, fcntl.LOCK_EX)
+print("held", flush=True)
+time.sleep(60)
+"""
+
+
+@serial_only
+def test_the_lock_of_a_killed_process_is_taken_over(shared_dir):
+    out = shared_dir / "run"
+    assert run(out)[0] == 0
+    holder = subprocess.Popen([sys.executable, "-c", HOLD, str(out / LOCK)],
+                              stdout=subprocess.PIPE, text=True)
+    assert holder.stdout.readline().strip() == "held"
+    assert run(out, "--force")[0] == 2  # held
+    holder.kill()  # SIGKILL: no clean-up of any kind
+    holder.wait()
+    assert run(out, "--force")[0] == 0
+
+
+@serial_only
+def test_force_does_not_cross_a_mount_point(shared_dir):
+    """A bind mount over a run's figures/ (which --force would otherwise empty) is refused, and
+    the mounted directory keeps its files. In a private mount namespace (unshare), as root."""
+    if shutil.which("unshare") is None or os.geteuid() != 0:
+        pytest.skip("needs root and unshare(1) to bind-mount in a private namespace")
+    out, other = shared_dir / "run", shared_dir / "other"
+    assert run(out)[0] == 0
+    (out / "figures").mkdir()
+    other.mkdir()
+    (other / "kept.png").write_bytes(b"mine")
+    script = (f'mount --bind "{other}" "{out / "figures"}" && exec "{RODFEM}" run paper1 '
+              f'--out "{out}" --force --quiet --set time.end=0.01')
+    done = subprocess.run(["unshare", "--mount", "--propagation", "private", "sh", "-c", script],
+                          capture_output=True, text=True)
+    if done.returncode != 2 and "mount" in done.stderr and "rodfem" not in done.stderr:
+        pytest.skip(f"bind mount refused here: {done.stderr.strip()}")
+    assert done.returncode == 2, done.stderr
+    assert "figures is a mount point" in done.stderr
+    assert (other / "kept.png").read_bytes() == b"mine"
+
+
+@serial_only
+def test_two_runs_at_once_never_mix(shared_dir):
+    """Several --force runs on one directory at once: each either runs whole or is refused with
+    exit 2; the directory ends as one run's files, whole."""
+    out = shared_dir / "run"
+    assert run(out)[0] == 0
+    runs = [subprocess.Popen([RODFEM, "run", "paper1", "--out", str(out), "--force", "--quiet",
+                              "--set", f"time.end={0.5 + 0.1 * i}", "--set", "output.every=10"],
+                             stderr=subprocess.PIPE, text=True) for i in range(4)]
+    codes, errors = [], []
+    for process in runs:
+        _, err = process.communicate(timeout=300)
+        codes.append(process.returncode)
+        errors.append(err)
+    assert set(codes) <= {0, 2} and 0 in codes, errors
+    assert all("in use by rodfem run" in e or "no rodfem.json" in e
+               for c, e in zip(codes, errors, strict=True) if c == 2), errors
+    marker = json.loads((out / MARKER).read_text())
+    summary = json.loads((out / "summary.json").read_text())
+    assert marker["status"] == summary["status"] == "complete"
+    rows = (out / "history.csv").read_text().splitlines()
+    assert len(rows) == 1 + summary["steps"] + 1
+    scene = (out / "scene.toml").read_text()
+    assert f"end = {summary['steps'] * 0.001!r}" in scene or summary["steps"] in (500, 600, 700,
+                                                                                   800)
+    time.sleep(0)
