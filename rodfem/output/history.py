@@ -63,7 +63,7 @@ class History:
         (i, *rest), (w, *rest_w) = disc.nodes.interpolation(0.5)
         self.half = (2 * n + int(i), float(w), 2 * n + (int(rest[0]) if rest else int(i)),
                      rest_w[0] if rest else 0.0)
-        # Per step, the raw row of rodfem.output.columns.RAW.
+        # Per step, the raw row of rodfem.solver.record.RAW.
         self._rows = np.zeros((block, len(RAW)))
         self._slots = tuple(RAW_INDEX[name] for name in ("n", "iterations", "u_1", "d_1",
                                                          "u_half", "bulk_energy", "pressure"))

@@ -12,7 +12,7 @@ the operators off a method and its history once and runs ``steps`` steps in ``di
     [ΔΘⁿ; ΔUⁿ] = z + p q              (q = ``method.response``, w = ``method.compliance``)
     Θⁿ = Θⁿ⁻¹ + ΔΘⁿ, Uⁿ = Uⁿ⁻¹ + ΔUⁿ, Dⁿ = ΔUⁿ (Crank–Nicolson with inertia: 2ΔUⁿ − Dⁿ⁻¹)
 
-and for each new state the raw row of :data:`rodfem.output.columns.RAW` (record.h), which
+and for each new state the raw row of :data:`rodfem.solver.record.RAW` (record.h), which
 :meth:`rodfem.output.history.History.take` turns into rows of ``history.csv`` as it does the
 PETSc loop's.
 

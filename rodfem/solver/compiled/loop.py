@@ -7,7 +7,7 @@ A loop is built on a :class:`~rodfem.solver.methods.base.Method` and the run's
 x = 1), ``law``, ``time_scheme``, ``inertia``, ``sources``; and the history's positions ``u_1``,
 ``du_1``, ``half`` in the state and its ``energy``. :meth:`CompiledLoop.advance` does ``steps``
 steps as ``method.advance()`` followed by ``history.record(method)`` would, writing raw rows
-(:data:`rodfem.output.columns.RAW`).
+(:data:`rodfem.solver.record.RAW`).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from rodfem.solver.record import RAW
 
 def check_library(lib) -> None:
     """The C side agrees with the Python tables: the raw row's slots (record.h against
-    rodfem.output.columns.RAW) and the contact laws' codes (contact.h against
+    rodfem.solver.record.RAW) and the contact laws' codes (contact.h against
     rodfem.model.contact). RuntimeError otherwise."""
     expected = {f"RAW_{slot.name.upper()}": i for i, slot in enumerate(RAW)}
     expected["RAW_SLOTS"] = len(RAW)

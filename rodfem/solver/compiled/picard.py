@@ -19,7 +19,7 @@ off a method and its history once and runs ``steps`` steps of exactly that algeb
     Θⁿ = Θⁿ⁻¹ + ΔΘ, Uⁿ⁻¹ → u_prev, Uⁿ = Uⁿ⁻¹ + ΔU, Dⁿ = ΔU (Crank–Nicolson with inertia:
     2ΔU − Dⁿ⁻¹, as (ΔU − Dⁿ⁻¹) + ΔU)
 
-and for each new state the raw row of :data:`rodfem.output.columns.RAW` (record.h).
+and for each new state the raw row of :data:`rodfem.solver.record.RAW` (record.h).
 
 **Tridiagonal in node order.** Every operator couples only neighbouring nodes (anything wider is
 refused). A_h is factored L U and A_m U L, without pivoting (the operators are SPD up to the
