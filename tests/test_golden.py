@@ -14,7 +14,13 @@ import rodfem.scene
 from rodfem.run import simulate
 
 sys.path.insert(0, str(Path(__file__).parent / "golden"))
-from cases import CASES, END, PETSC_LOOP  # noqa: E402
+from cases import CASES, END, PETSC_LOOP, RECORDED_WITH  # noqa: E402
+
+import dolfinx  # noqa: E402
+
+pytestmark = pytest.mark.skipif(
+    not dolfinx.__version__.startswith(RECORDED_WITH + "."),
+    reason=f"recorded with dolfinx {RECORDED_WITH}; another version's assembly rounds otherwise")
 
 RECORDED = np.load(Path(__file__).parent / "golden" / "histories.npz")
 RUNS = [(name, False) for name in CASES] + [(name, True) for name in PETSC_LOOP]

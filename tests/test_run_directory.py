@@ -163,7 +163,7 @@ def test_force_does_not_cross_a_mount_point(shared_dir):
               f'--out "{out}" --force --quiet --set time.end=0.01')
     done = subprocess.run(["unshare", "--mount", "--propagation", "private", "sh", "-c", script],
                           capture_output=True, text=True)
-    if done.returncode != 2 and "mount" in done.stderr and "rodfem" not in done.stderr:
+    if done.returncode != 2 and "rodfem" not in done.stderr:  # unshare or mount refused here
         pytest.skip(f"bind mount refused here: {done.stderr.strip()}")
     assert done.returncode == 2, done.stderr
     assert "figures is a mount point" in done.stderr

@@ -2,6 +2,9 @@
 ``tests/test_golden.py``. Each case is a built-in scene and its overrides, to t = 1."""
 
 END = "time.end=1"
+# Recorded with Debian 12's dolfinx: another version assembles the operators with other round-off
+# (up to 6e-13 of ut_1 on Debian 13's 0.9), which is not what these histories guard.
+RECORDED_WITH = "0.5"
 CASES: dict[str, tuple[str, tuple[str, ...]]] = {}
 for _i in range(1, 6):
     for _method in ("picard", "direct", "newton"):
