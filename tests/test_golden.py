@@ -14,9 +14,8 @@ import rodfem.scene
 from rodfem.run import simulate
 
 sys.path.insert(0, str(Path(__file__).parent / "golden"))
-from cases import CASES, END, PETSC_LOOP, RECORDED_WITH  # noqa: E402
-
 import dolfinx  # noqa: E402
+from cases import CASES, END, PETSC_LOOP, RECORDED_WITH  # noqa: E402
 
 pytestmark = pytest.mark.skipif(
     not dolfinx.__version__.startswith(RECORDED_WITH + "."),
