@@ -42,7 +42,7 @@ from rodfem.studies.paper import run_experiment
 
 def run(out: Path, end: float = 8.0) -> str:
     """Simulate experiment 2 up to ``end`` into ``out``, with figures; return what it shows."""
-    _, facts = run_experiment("paper2", out, [f"time.end={end}"], force=True)
+    _, _, facts = run_experiment("paper2", out, [f"time.end={end}"], force=True)
     return facts
 
 

@@ -2,14 +2,15 @@
 :mod:`rodfem.commands`.
 
     rodfem run SCENE [--out DIR] [--set section.key=value ...] [--force]
+    rodfem resume DIR [--set time.end=T]
     rodfem plot DIR [DIR ...] [--out FIGDIR]
     rodfem stability [--out DIR] [--scene S] [--methods M,...] [--dt LIST] [--epsilon LIST]
                      [--zeta LIST] [--a LIST] [--end T] [--force] [--progress]
     rodfem verify [--out DIR] [--scenes S,...] [--force] [--quick] [--progress]
     rodfem work-precision [--out DIR] [--force] [--quick] [--progress]
 
-Exit codes: 0 complete, 2 bad input (nothing written), 3 the method did not converge at a step
-(results so far kept), 130 interrupted.
+Exit codes (:mod:`rodfem.commands`): 0 complete, 2 bad input, 3 a step could not be taken, 4 a
+file could not be written, 128 + the signal's number when stopped by a signal.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import sys
 from pathlib import Path
 
 from rodfem import commands
+from rodfem.output import interrupts
 from rodfem.scene import BUILTIN, EXTRA, SceneError
 
 
@@ -60,6 +62,20 @@ def parser() -> argparse.ArgumentParser:
     _overrides(run, "override a scene value, e.g. --set model.zeta=1 (repeatable)")
     run.add_argument("--quiet", action="store_true", help="no progress bar and no final line")
     _progress(run, "draw the progress bar even when output is not a terminal (mpirun)")
+    run.add_argument("--no-size-check", dest="large", action="store_true",
+                     help="run even if the estimated output or memory exceeds what is free")
+    resume = sub.add_parser(
+        "resume",
+        help="continue a stopped run, or extend a finished one",
+        description="Continue the run in DIR from its last checkpoint, after Ctrl-C, a signal, "
+        "a kill, a full disk or a failure, to the history and fields an uninterrupted run would "
+        "have written, bit for bit (under mpirun, on as many ranks as the run had). With --set "
+        "time.end=T a finished run goes on to T.",
+    )
+    resume.add_argument("dir", type=Path, metavar="DIR", help="a run directory of 'rodfem run'")
+    _overrides(resume, "a later end, time.end=T (the only value a resumed run may change)")
+    resume.add_argument("--quiet", action="store_true", help="no progress bar and no final line")
+    _progress(resume, "draw the progress bar even when output is not a terminal (mpirun)")
     plot = sub.add_parser(
         "plot",
         help="draw the figures of runs",
@@ -138,18 +154,52 @@ def parser() -> argparse.ArgumentParser:
     return parser
 
 
-COMMANDS = {"run": commands.run, "plot": commands.plot, "paper": commands.paper,
+COMMANDS = {"run": commands.run, "resume": commands.resume, "plot": commands.plot,
+            "paper": commands.paper,
             "stability": commands.stability, "verify": commands.verify,
             "work-precision": commands.verify}
 
 
+def _release(status: str) -> None:
+    """Mark the directories still held with ``status`` (if rodfem got as far as holding any)."""
+    directories = sys.modules.get("rodfem.output.directories")
+    if directories is not None:
+        directories.release_all(status)
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = parser().parse_args(argv)
+    interrupts.install()  # before anything heavy is imported: signals stop rodfem cleanly
     try:
+        args = parser().parse_args(argv)
         return COMMANDS[args.command](args)
     except SceneError as err:
         commands.say(f"rodfem: error: {err}")
         return commands.EXIT_INPUT
+    except Exception as err:  # noqa: BLE001 (what a signal or a failed write became)
+        signum = _signal_behind(err)
+        if signum is not None:
+            _release("interrupted")
+            commands.say(f"rodfem: {interrupts.Interrupted(signum)}; stopped outside a time "
+                         "loop, nothing half-written")
+            return 128 + signum
+        if isinstance(err, OSError):  # a write that failed outside a run's loop (a figure)
+            _release("failed")
+            where = f"{err.filename}: " if err.filename else ""
+            commands.say(f"rodfem: error: cannot write {where}{err.strerror or err}")
+            return commands.EXIT_IO
+        raise
+
+
+def _signal_behind(err: BaseException) -> int | None:
+    """The stop signal that raised ``err``, or that a library turned into another error (an
+    import of a compiled module reports "initialization failed"), or None."""
+    seen = set()
+    while err is not None and id(err) not in seen:
+        if isinstance(err, interrupts.Interrupted):
+            return err.signum
+        seen.add(id(err))
+        err = err.__cause__ or err.__context__
+    return interrupts.signal_received()
 
 
 if __name__ == "__main__":

@@ -2,8 +2,10 @@
 them): load and check the input, run, and report in one line per outcome, with the exit codes
 below.
 
-Exit codes: 0 complete, 2 bad input (nothing written), 3 the method did not converge at a step
-(results so far kept), 130 interrupted.
+Exit codes: 0 complete; 2 bad input (nothing written); 3 a step could not be taken: the method
+did not converge, or the values overflowed (the steps before it kept); 4 a file could not be
+written, e.g. a full disk (the files stay whole, up to the last checkpoint); 128 + the signal's
+number when stopped by a signal: 130 Ctrl-C (SIGINT), 143 SIGTERM, 129 SIGHUP, 138 SIGUSR1.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from pathlib import Path
 
 from rodfem.scene import BUILTIN, load
 
-EXIT_INPUT, EXIT_DIVERGED, EXIT_INTERRUPTED = 2, 3, 130
+EXIT_INPUT, EXIT_DIVERGED, EXIT_IO = 2, 3, 4
 
 
 def say(message: str, stream=None) -> None:
@@ -58,25 +60,44 @@ def run(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
     from rodfem.output.directories import OutputError, prepare_directory
-    from rodfem.run import simulate
+    from rodfem.output.sizes import SizeError, check_room
 
     try:
+        check_room(scene, out, MPI.COMM_WORLD, allow=args.large)
         scene_file = Path(args.scene) if args.scene not in BUILTIN else None
         prepare_directory(out, args.force, MPI.COMM_WORLD, keep=scene_file)
-    except OutputError as err:
+    except (OutputError, SizeError) as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
+    from rodfem.output.files import write_text
+
+    write_text(out / "scene.toml", scene.to_toml(), MPI.COMM_WORLD)  # resume reads it
+    from rodfem.run import simulate
+
     result = simulate(scene, out, MPI.COMM_WORLD, progress=not args.quiet,
                       force_progress=args.progress)
+    return _report(scene, result, out, args.quiet)
+
+
+def _report(scene, result, out: Path, quiet: bool) -> int:
+    """The one line that says how a run ended, and its exit code."""
     s = result.summary
+    again = f"'rodfem resume {out}' continues it"
+    if result.io_error is not None:
+        say(f"rodfem: error: {result.io_error}. The run's files are whole up to its last "
+            f"checkpoint in {out}; once the disk has room, {again}.")
+        return EXIT_IO
     if result.status == "failed":
         say(f"rodfem: {_advice(scene, result.error)} "
-             f"Steps 0..{s['steps']} are in {out} (status: failed).")
+            f"Steps 0..{s['steps']} are in {out} (status: failed).")
         return EXIT_DIVERGED
     if result.status == "interrupted":
-        say(f"rodfem: interrupted; steps 0..{s['steps']} are in {out}.")
-        return EXIT_INTERRUPTED
-    if not args.quiet:
+        import signal
+
+        name = signal.Signals(result.signal).name if result.signal else "a signal"
+        say(f"rodfem: interrupted by {name}; steps 0..{s['steps']} are in {out}, and {again}.")
+        return 128 + (result.signal or signal.SIGINT)
+    if not quiet:
         say(
             f"{scene.source}: {s['steps']} steps in {s['loop_seconds']:.2f} s "
             f"({s['us_per_step']:.1f} µs/step, {s['method']}: {s['iterations_mean']:.2f} "
@@ -85,6 +106,34 @@ def run(args: argparse.Namespace) -> int:
             sys.stdout,
         )
     return 0
+
+
+def resume(args: argparse.Namespace) -> int:
+    """Continue the run in args.dir from its checkpoint (or extend a finished one)."""
+    from mpi4py import MPI
+
+    from rodfem.output.directories import OutputError, finish, reopen
+    from rodfem.output.resume import ResumeError, plan
+
+    comm, out = MPI.COMM_WORLD, args.dir
+    try:
+        marker = reopen(out, comm)
+    except OutputError as err:
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    try:
+        scene, checkpoint = plan(out, args.overrides, marker, comm)
+    except (ResumeError, OutputError) as err:
+        finish(out, marker["status"], comm)  # as it was
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    from rodfem.run import simulate
+
+    if checkpoint is None and not args.quiet:
+        say(f"rodfem: {out} has no checkpoint yet; running it again from step 0")
+    result = simulate(scene, out, comm, progress=not args.quiet, force_progress=args.progress,
+                      resume=checkpoint)
+    return _report(scene, result, out, args.quiet)
 
 
 def plot(args: argparse.Namespace) -> int:
@@ -120,11 +169,22 @@ def paper(args: argparse.Namespace) -> int:
     for name in BUILTIN:  # every override is checked before anything runs
         load(name, args.overrides)
     try:
-        index = reproduce(args.out, args.force, MPI.COMM_WORLD, overrides=args.overrides,
-                          report=say)
+        index, failed, stopped = reproduce(args.out, args.force, MPI.COMM_WORLD,
+                                           overrides=args.overrides, report=say)
     except OutputError as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
+    if stopped is not None:
+        out = args.out / stopped.summary["scene"]
+        code = _report(None, stopped, out, quiet=True)  # interrupted, or a write failed
+        say("rodfem: the reproduction stopped there, before index.md; 'rodfem paper --force' "
+            "makes it again.")
+        return code
+    if failed:
+        say(f"rodfem: the run of {', '.join(failed)} failed (see {index}); the other "
+            "experiments are reproduced.")
+        say(str(index), sys.stdout)
+        return EXIT_DIVERGED
     say(str(index), sys.stdout)
     return 0
 
@@ -152,8 +212,7 @@ def stability(args: argparse.Namespace) -> int:
         return EXIT_INPUT
     if records is None:
         finish(args.out, "interrupted", comm)
-        say(f"rodfem: interrupted; no results written to {args.out}.")
-        return EXIT_INTERRUPTED
+        return _stopped(args.out)
     written = []
     if comm.rank == 0:
         from rodfem.post.stability import plot_stability
@@ -166,6 +225,17 @@ def stability(args: argparse.Namespace) -> int:
         say(str(path), sys.stdout)
     comm.barrier()
     return 0
+
+
+def _stopped(out: Path) -> int:
+    """A study stopped by a signal: one line, and 128 + the signal."""
+    import signal
+
+    from rodfem.output import interrupts
+
+    code = interrupts.exit_code()
+    say(f"rodfem: interrupted by {signal.Signals(code - 128).name}; no results written to {out}.")
+    return code
 
 
 def verify(args: argparse.Namespace) -> int:
@@ -201,8 +271,7 @@ def verify(args: argparse.Namespace) -> int:
         return EXIT_INPUT
     if data is None:
         finish(args.out, "interrupted", comm)
-        say(f"rodfem: interrupted; no results written to {args.out}.")
-        return EXIT_INTERRUPTED
+        return _stopped(args.out)
     written = draw(args.out) if comm.rank == 0 else []
     finish(args.out, "complete", comm)
     for line in task.summary_lines(data, args.out):

@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import signal
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -17,14 +14,16 @@ from petsc4py import PETSc
 
 import rodfem
 from rodfem.discrete.discretisation import Discretisation
+from rodfem.output import interrupts
+from rodfem.output.checkpoint import RunFiles
 from rodfem.output.columns import INDEX
 from rodfem.output.directories import finish
-from rodfem.output.files import FieldFile, HistoryFile, write_json, write_text
+from rodfem.output.files import write_json, write_text
 from rodfem.output.history import History
 from rodfem.output.progress import Progress
 from rodfem.scene import Scene
 from rodfem.solver.compiled import compiled_loop
-from rodfem.solver.errors import NotConverged
+from rodfem.solver.errors import NotConverged, NotFinite
 from rodfem.solver.methods import make_method
 
 # Êⁿ is non-increasing in exact arithmetic (Remark 4.4). An increase counts only if it exceeds the
@@ -58,34 +57,24 @@ class EnergyMonitor:
         return self.finite and self.max_increase <= ENERGY_ROUNDOFF * self.scale
 
 
-@contextlib.contextmanager
-def stop_requests(comm: MPI.Comm, every: int = 256):
-    """Turn Ctrl-C (SIGINT) or SIGUSR1 into a request to stop at the end of a step, so that
-    nothing is written half.
-
-    Yields a function ``requested(n)``; under MPI the ranks agree on it every ``every`` steps, so
-    they stop at the same step. (Open MPI's mpirun kills the ranks on Ctrl-C but forwards SIGUSR1:
-    ``kill -USR1 <pid of mpirun>`` stops a parallel run cleanly.)"""
-    flag = [False]
-    installed = threading.current_thread() is threading.main_thread()
-    signals = (signal.SIGINT, signal.SIGUSR1)
-    if installed:
-        previous = [signal.signal(s, lambda *_: flag.__setitem__(0, True)) for s in signals]
-
-    def requested(n: int) -> bool:
-        if comm.size == 1:
-            return flag[0]
-        return n % every == 0 and comm.allreduce(flag[0], op=MPI.LOR)
-
-    try:
-        yield requested
-    finally:
-        if installed:
-            for s, handler in zip(signals, previous, strict=True):
-                signal.signal(s, handler)
-
-
 STOP_EVERY = 256  # steps between two checks, agreed by all ranks, for a request to stop
+
+
+@dataclasses.dataclass
+class Iterations:
+    """The iteration counts of the steps so far (of the history's rows)."""
+
+    total: int = 0
+    max: int = 0
+    after_first: int = 0  # the sum over the steps n >= 2 (step 1 may be the paper's special one)
+    rows: int = 0
+
+    def update(self, steps: np.ndarray, iterations: np.ndarray) -> None:
+        if iterations.size:
+            self.total += int(iterations.sum())
+            self.max = max(self.max, int(iterations.max()))
+            self.after_first += int(iterations[steps >= 2].sum())
+            self.rows += int(iterations.size)
 
 
 @dataclasses.dataclass
@@ -97,70 +86,118 @@ class RunResult:
     theta: np.ndarray | None = None  # the last step's Θ (shifted temperature) at the nodes
     u: np.ndarray | None = None  # the last step's U at the nodes
     history: np.ndarray | None = None  # the rows of history.csv, for a run without files
+    io_error: str | None = None  # a file could not be written: the line that says which
+    signal: int | None = None  # the signal that interrupted the run
 
 
 class InMemory:
-    """Collects the history's rows instead of writing them."""
+    """A run's files when there are none: the history's rows collected, nothing else."""
 
     def __init__(self):
         self._blocks = []
+        self.rows = None
 
     def append(self, rows: np.ndarray) -> None:
         self._blocks.append(rows)
 
-    def close(self) -> None:
-        self.rows = np.concatenate(self._blocks)
+    def rows_so_far(self) -> np.ndarray:
+        return np.concatenate(self._blocks)
+
+
+def _io_line(err: OSError) -> str:
+    where = f"{err.filename}: " if err.filename else ""
+    return f"cannot write {where}{err.strerror or err}"
 
 
 def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
-             progress: bool = True, force_progress: bool = False):
+             progress: bool = True, force_progress: bool = False,
+             resume: tuple[dict, dict] | None = None):
     """Run ``scene`` into the (already created) directory ``out``; return a :class:`RunResult`.
 
     With ``out=None`` nothing is written: the history is returned (``RunResult.history``).
-    The progress bar is drawn on a terminal (``progress``), or always with ``force_progress``:
-    under mpirun, output is not a terminal."""
+    ``resume``: the checkpoint (arrays, metadata) of ``out`` to continue from
+    (:mod:`rodfem.output.checkpoint`). The progress bar is drawn on a terminal (``progress``), or
+    always with ``force_progress``: under mpirun, output is not a terminal.
+
+    Signals (Ctrl-C, SIGTERM, SIGHUP, SIGUSR1) stop the run at the end of a step, with its files
+    whole and a checkpoint to resume from (:mod:`rodfem.output.interrupts`)."""
     started = time.perf_counter()
-    if out is not None:
+    if out is not None and resume is None:
         write_text(out / "scene.toml", scene.to_toml(), comm)
     disc = Discretisation(scene, comm)
     method = make_method(disc)
     history = History(disc)
-    history_file = HistoryFile(out / "history.csv", comm) if out is not None else InMemory()
-    field_file = FieldFile(out / "fields.xdmf", disc) if out is not None else None
-    energy = EnergyMonitor()
+    meta = resume[1] if resume else {}
+    files = (RunFiles(out, disc, scene["output.checkpoint"], meta or None) if out is not None
+             else None)
+    rows_out = files.history if files is not None else InMemory()
+    energy = EnergyMonitor(**meta.get("energy", {}))
+    iterations = Iterations(**meta.get("iterations", {}))
     steps, every, dt = scene.steps, scene["output.every"], scene["time.dt"]
     on_terminal = sys.stderr.isatty() or force_progress
     bar = Progress(steps, enabled=progress and comm.rank == 0 and on_terminal)
-    iterations = []
+    io_error: list[str] = []
 
     def flush() -> None:
         rows = history.take()
-        history_file.append(rows)
-        energy.update(np.rint(rows[:, INDEX["t"]] / dt).astype(int), rows[:, INDEX["energy"]])
-        iterations.extend(rows[:, INDEX["iterations"]].astype(int).tolist())
+        rows_out.append(rows)
+        steps_of = np.rint(rows[:, INDEX["t"]] / dt).astype(int)
+        energy.update(steps_of, rows[:, INDEX["energy"]])
+        iterations.update(steps_of, rows[:, INDEX["iterations"]].astype(int))
+
+    def state_meta() -> dict:
+        return {"step": method.n, "scene": scene.data(), "source": scene.source,
+                "mpi_ranks": comm.size,
+                "energy": dataclasses.asdict(energy), "iterations": dataclasses.asdict(iterations),
+                "loop_seconds": loop_before + time.perf_counter() - loop_started}
+
+    def checkpoint(state_valid: bool = True) -> None:
+        """The rows and fields so far, and the state to resume from (rank 0 writes; a write
+        error is kept, and stops the run at the next agreed step)."""
+        if files is None or io_error:
+            return
+        flush()
+        try:
+            files.checkpoint(method.saved_state() if state_valid else None, state_meta())
+        except OSError as err:
+            io_error.append(_io_line(err))
 
     saved = [-1]
 
     def save_fields() -> None:
-        if field_file is not None:
-            field_file.write(method.n * dt, method.theta, method.u, method.velocity_back)
+        if files is not None:
+            files.fields.write(method.n, method.n * dt, method.theta, method.u,
+                               method.velocity_back)
+            if comm.rank == 0 and method.n > 0 and files.due():
+                checkpoint()
         saved[0] = method.n
 
     def observe() -> None:
         history.record(method)
+        check()
         if history.full:
             flush()
         if method.n % every == 0 or method.n == steps:
             save_fields()
 
+    def check(since: int | None = None) -> None:
+        """Stop at the first recorded step that is not finite (the rows before it are kept)."""
+        bad = history.first_non_finite(history.count - 1 if since is None else since)
+        if bad is not None:
+            raise NotFinite(method.name, bad[0], bad[0] * dt, bad[1])
+
+    if resume:
+        method.restore(resume[0])
     kernel = compiled_loop(method, history)
     setup_seconds = time.perf_counter() - started
     status, error = "complete", None
+    loop_before = meta.get("loop_seconds", 0.0)
     loop_started = time.perf_counter()
-    with stop_requests(comm, STOP_EVERY) as stop_requested:
+    with interrupts.deferred():
         try:
-            observe()
-            n = 0
+            if not resume:
+                observe()
+            n = method.n
             while n < steps:
                 if kernel is None or method.first_step_special:
                     # the paper's first step (U¹ = U⁰ + Δt P u₁) is the PETSc loop's
@@ -169,52 +206,84 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
                     observe()
                 else:
                     # As many steps as fit before the next saved fields, the end of the history's
-                    # block and the next check for a stop request, in one compiled call.
+                    # block and the next check for a request to stop, in one compiled call.
                     chunk = min(steps - n, every - n % every, history.free,
                                 STOP_EVERY - n % STOP_EVERY)
+                    since = history.count
                     try:
                         kernel.advance(chunk, history.reserve(chunk))
                     except NotConverged:
                         history.commit(getattr(kernel, "done", 0))  # the steps before the failure
+                        check(since)
                         raise
                     history.commit(chunk)
+                    check(since)
                     n += chunk
                     if history.full:
                         flush()
                     if n % every == 0 or n == steps:
                         save_fields()
                 bar.update(n)
-                if stop_requested(n):
+                if interrupts.requested(comm, n, STOP_EVERY, also=bool(io_error)):
                     status = "interrupted"
                     break
         except NotConverged as err:
             status, error = "failed", err
-    loop_seconds = time.perf_counter() - loop_started
-    bar.close()
-    if saved[0] != method.n:  # a failed or interrupted run keeps its last step's fields too
-        save_fields()
-    flush()
-    history_file.close()
-    if field_file is not None:
-        field_file.close()
-    done = len(iterations) - 1
+        loop_seconds = loop_before + time.perf_counter() - loop_started
+        bar.close()
+        valid = not isinstance(error, NotFinite)
+        if status == "interrupted" and io_error:
+            status = "failed"
+        if saved[0] != method.n and valid and files is not None:
+            # a failed or interrupted run keeps its last step's fields too
+            files.fields.write(method.n, method.n * dt, method.theta, method.u,
+                               method.velocity_back)
+        if files is not None:
+            checkpoint(valid)
+            files.close()
+        else:
+            flush()
+        summary = _summary(scene, status, error, iterations, energy, setup_seconds, loop_seconds,
+                           comm, resumed=bool(resume))
+        if files is not None:
+            summary["checkpoint_seconds"] = files.seconds  # rank 0's: it writes them
+        if io_error:
+            summary["error"] = io_error[0]
+        if out is not None:
+            try:
+                write_json(out / "summary.json", summary, comm)
+                finish(out, "failed" if io_error else status, comm)
+            except OSError as err:
+                io_error.append(_io_line(err))
+            io_error[:] = comm.bcast(io_error, root=0)
+            comm.barrier()  # every rank returns once rank 0 has written the run's files
+    return RunResult(status, summary, error, disc.nodes.x.copy(), method.theta.array_r.copy(),
+                     method.u.array_r.copy(),
+                     rows_out.rows_so_far() if files is None else None,
+                     io_error[0] if io_error else None, interrupts.signal_received())
+
+
+def _summary(scene, status, error, iterations, energy, setup_seconds, loop_seconds, comm,
+             resumed: bool) -> dict:
+    done = iterations.rows - 1
     summary = {
         "status": status,
         "scene": scene.source,
         "method": scene["solver.method"],
         "obstacle": scene["obstacle.kind"],
         "steps": done,
-        "steps_planned": steps,
+        "steps_planned": scene.steps,
         # A failed step's iterations count too (it is not in the history).
-        "iterations_total": int(sum(iterations)) + (error.iterations if error else 0),
-        "iterations_max": int(max(iterations + ([error.iterations] if error else []))),
-        "iterations_mean": float(sum(iterations[2:]) / max(1, done - 1)),
+        "iterations_total": iterations.total + (error.iterations if error else 0),
+        "iterations_max": max(iterations.max, error.iterations if error else 0),
+        "iterations_mean": float(iterations.after_first / max(1, done - 1)),
         "setup_seconds": setup_seconds,
         "loop_seconds": loop_seconds,
         "us_per_step": 1e6 * loop_seconds / max(1, done),
         "energy_non_increasing": bool(energy.non_increasing()),
         "energy_max_increase": energy.max_increase if done >= 2 else None,
         "mpi_ranks": comm.size,
+        "resumed": resumed,
         "versions": {
             "rodfem": rodfem.__version__,
             "dolfinx": dolfinx.__version__,
@@ -223,9 +292,4 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     }
     if error is not None:
         summary["error"] = str(error)
-    if out is not None:
-        write_json(out / "summary.json", summary, comm)
-        finish(out, status, comm)
-        comm.barrier()  # every rank returns once rank 0 has written the run's files
-    return RunResult(status, summary, error, disc.nodes.x.copy(), method.theta.array_r.copy(),
-                     method.u.array_r.copy(), getattr(history_file, "rows", None))
+    return summary

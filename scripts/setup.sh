@@ -13,6 +13,7 @@ APT_PACKAGES=(
   python3-meshio python3-h5py python3-scipy python3-numpy python3-venv python3-pip python3-cffi
   openmpi-bin libopenmpi-dev build-essential
   python3-mpmath  # the tests: high-precision references of the contact laws
+  python3-hypothesis  # the tests: property-based fuzzing of scene loading
   # rodfem plot: pyvista's matplotlib built for Debian's NumPy; VTK's wheel dlopen()s libEGL.so.1
   # at run time (ldd shows no GL library) and Mesa renders off-screen with libgl1-mesa-dri.
   python3-matplotlib libegl1 libgl1-mesa-dri

@@ -1,22 +1,16 @@
 """fields.xdmf holds θ, u and σ at the saved steps, consistent with history.csv and with the
 definitions θ = Θ − θ_A r and σ = u_x + ζ u_xt − aθ."""
 
-import h5py
 import numpy as np
 
 from conftest import COMM
+from rodfem.post.fields import read_fields
 
 
 def read(out):
-    with h5py.File(out / "fields.h5", "r") as f:
-        x = f["Mesh/mesh/geometry"][:, 0]
-        cells = f["Mesh/mesh/topology"][:]
-        fields = {}
-        for name in ("theta", "u", "sigma"):
-            group = f[f"Function/{name}"]
-            times = sorted(group, key=lambda key: float(key.replace("_", ".")))
-            fields[name] = np.array([group[key][:, 0] for key in times])
-    return x, cells, fields
+    f = read_fields(out / "fields.xdmf")
+    cells = np.stack([np.arange(f.x.size - 1), np.arange(1, f.x.size)], axis=1)
+    return f.x, cells, {"theta": f.theta, "u": f.u, "sigma": f.sigma}
 
 
 def test_fields_match_history_and_definitions(simulate):

@@ -138,7 +138,7 @@ def _not_a_run(root: Path, case: str) -> Path:
         return path
     path.mkdir()
     if case == "bad-header":
-        for name in ("scene.toml", "fields.xdmf", "fields.h5"):
+        for name in ("scene.toml", "fields.xdmf"):
             (path / name).write_text("")
         (path / "history.csv").write_text("time,u\n0,0\n")
     return path

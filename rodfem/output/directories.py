@@ -30,11 +30,14 @@ from pathlib import Path
 from mpi4py import MPI
 
 import rodfem
+from rodfem.output.atomic import TEMPORARY, replacing
 
 MARKER, LOCK = "rodfem.json", "rodfem.lock"
-RUN_FILES = ("history.csv", "fields.xdmf", "fields.h5", "scene.toml", "summary.json")
+RUN_FILES = ("history.csv", "fields.xdmf", "fields", "scene.toml", "summary.json",
+             "checkpoint.npz")
 FIGURE_DIRS = ("figures", "figure5")
 FIGURE_SUFFIXES = (".png", ".gif", ".mp4")
+DATA_DIRS = {"fields": (".h5",)}  # a run's subdirectories of data: the suffixes they hold
 
 _held: dict[Path, tuple[int, dict]] = {}  # the directories this process holds: lock fd, marker
 
@@ -45,13 +48,9 @@ class OutputError(ValueError):
 
 def _write_marker(path: Path, marker: dict) -> None:
     """rodfem.json by write-then-rename: whole or absent, never half-written."""
-    temporary = path / f".{MARKER}.{os.getpid()}"
-    with open(temporary, "w", encoding="utf-8") as file:
+    with replacing(path / MARKER) as file:
         json.dump(marker, file, indent=2)
         file.write("\n")
-        file.flush()
-        os.fsync(file.fileno())
-    os.replace(temporary, path / MARKER)
 
 
 def read_marker(path: Path) -> dict | None:
@@ -65,9 +64,14 @@ def read_marker(path: Path) -> dict | None:
     return marker
 
 
-def _images(path: Path) -> bool:
-    return all(f.is_file() and not f.is_symlink() and f.suffix in FIGURE_SUFFIXES
-               for f in path.iterdir())
+def _only(path: Path, suffixes: tuple[str, ...]) -> bool:
+    """Whether ``path`` holds only files (no links) of these suffixes, or rodfem's temporary
+    files of them."""
+    def ours(f: Path) -> bool:
+        match = TEMPORARY.match(f.name)
+        return Path(match["name"] if match else f.name).suffix in suffixes
+
+    return all(f.is_file() and not f.is_symlink() and ours(f) for f in path.iterdir())
 
 
 def mount_points() -> list[Path]:
@@ -106,10 +110,16 @@ def _foreign(path: Path, mounts: list[Path] | None = None) -> str | None:
             return f"{name} is a mount point"
         if name in (MARKER, LOCK) and entry.is_file():
             continue
-        if entry.is_dir() and name in FIGURE_DIRS and _images(entry):
+        if entry.is_dir() and name in FIGURE_DIRS and _only(entry, FIGURE_SUFFIXES):
+            continue
+        if entry.is_dir() and name in listed and name in DATA_DIRS \
+                and _only(entry, DATA_DIRS[name]):
             continue
         if name in listed and entry.is_file():
             continue
+        temporary = TEMPORARY.match(name)
+        if temporary and temporary["name"] in (*listed, MARKER) and entry.is_file():
+            continue  # left by a killed process as it replaced one of its files
         if name in listed and entry.is_dir() and _foreign(entry, mounts) is None:
             continue
         return f"it holds {name}"
@@ -220,3 +230,74 @@ def finish(path: Path, status: str, comm: MPI.Comm) -> None:
                              "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
     finally:
         os.close(fd)
+
+
+def reopen(path: Path, comm: MPI.Comm) -> dict:
+    """Hold the run directory ``path`` again (``rodfem resume``): it must be one that ``rodfem
+    run`` wrote and that no process holds. Its marker says ``running`` again, with this process;
+    returns the marker as it was.
+
+    Raises:
+        OutputError: on every rank, with one line saying why, and nothing touched.
+    """
+    error, before = None, None
+    if comm.rank == 0:
+        try:
+            if not path.is_dir():
+                raise OutputError(f"{path} is not a directory")
+            before = read_marker(path)
+            if before is None or before.get("command") != "run":
+                raise OutputError(f"{path} is not a directory of 'rodfem run' (no {MARKER} of "
+                                  "a run)")
+            fd = _lock(path)
+            marker = {**before, "status": "running", "pid": os.getpid(),
+                      "host": socket.gethostname(),
+                      "resumed": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+            marker.pop("finished", None)
+            try:
+                _write_marker(path, marker)
+            except BaseException:
+                os.close(fd)
+                raise
+            _held[path.resolve()] = (fd, marker)
+        except OSError as err:
+            error = f"cannot resume {path}: {err.strerror or err}"
+        except OutputError as err:
+            error = str(err)
+    error, before = comm.bcast((error, before), root=0)
+    if error:
+        raise OutputError(error)
+    return before
+
+
+def state(path: Path) -> str | None:
+    """How a run directory's command ended: its marker's status (complete, failed,
+    interrupted), ``running`` while a process holds it, ``gone`` if it says running but no
+    process holds it (it was killed), None without a marker."""
+    marker = read_marker(path)
+    if marker is None:
+        return None
+    if marker.get("status") != "running":
+        return str(marker.get("status"))
+    try:
+        fd = os.open(path / LOCK, os.O_RDONLY | os.O_CLOEXEC)
+    except OSError:
+        return "gone"
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return "running"
+    finally:
+        os.close(fd)
+    return "gone"
+
+
+def release_all(status: str) -> None:
+    """Record ``status`` in every directory this process still holds, and release them (a
+    command stopped before it could finish them itself). Errors are ignored: the lock is freed
+    when the process ends anyway, and a marker that still says running is read as 'gone'."""
+    for path in list(_held):
+        try:
+            finish(path, status, MPI.COMM_SELF)
+        except OSError:
+            pass

@@ -1,109 +1,117 @@
-"""The files of a run: history.csv, fields.xdmf (+ .h5), scene.toml and summary.json.
+"""The text files of a run: history.csv, scene.toml and summary.json (the fields are
+:mod:`rodfem.output.fields`).
 
-Rank 0 writes the text files; the XDMF file is written collectively. Files are written as the run
-goes, so a run that fails or is interrupted keeps everything it computed.
+Rank 0 writes them, each whole or not at all (:mod:`rodfem.output.atomic`): the history at every
+checkpoint, so that a run that fails, is interrupted or is killed keeps whole rows up to its last
+checkpoint.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import queue
+import shutil
 import threading
 import time
 from pathlib import Path
 
 import numpy as np
-from dolfinx import fem
-from dolfinx.io import XDMFFile
 from mpi4py import MPI
 
-import forms.copetti as copetti
-from rodfem.discrete import compat
-from rodfem.discrete.discretisation import Discretisation
+from rodfem.output.atomic import replacing, temporary
 from rodfem.output.columns import COLUMNS, NAMES
 
 
 class HistoryFile:
-    """history.csv, one row per step, appended block by block (rank 0).
+    """history.csv, one row per step: whole rows only, whatever happens to the process.
 
     Printing a row's seven numbers to round-trip precision takes about 2 µs, as long as a compiled
-    step itself, so rank 0 formats and writes the blocks in a thread of its own while the time
-    loop (a C call that releases the GIL) goes on. :meth:`close` waits for every block and passes
-    on any error of the writer."""
+    step itself, so rank 0 formats the blocks in a thread of its own while the time loop (a C call
+    that releases the GIL) goes on, and keeps the text. :meth:`checkpoint` writes it: a copy of
+    the file with the new rows appended, synced, renamed over it (:mod:`rodfem.output.atomic`).
+    ``keep``: the length in bytes of an existing history to continue (a resumed run); None for a
+    new file of just the header."""
 
     ROW = ",".join("%d" if c.integer else "%.17g" for c in COLUMNS) + "\n"  # round-trip floats
 
-    def __init__(self, path: Path, comm: MPI.Comm):
-        self.file = open(path, "w", encoding="utf-8") if comm.rank == 0 else None
+    def __init__(self, path: Path, comm: MPI.Comm, keep: int | None = None):
+        self.path, self.rank0 = path, comm.rank == 0
         self._error: BaseException | None = None
-        if self.file:
-            self.file.write(",".join(NAMES) + "\n")
-            self._blocks: queue.Queue = queue.Queue()
-            self._writer = threading.Thread(target=self._write, name="history.csv", daemon=True)
-            self._writer.start()
+        self._text: list[str] = []
+        self.size = 0
+        if not self.rank0:
+            return
+        if keep is None:
+            header = ",".join(NAMES) + "\n"
+            with replacing(path) as file:
+                file.write(header)
+            self.size = len(header.encode())
+        else:
+            if path.stat().st_size != keep:  # rows written after the checkpoint: not kept
+                with open(path, "rb") as old, replacing(path, "wb") as file:
+                    file.write(old.read(keep))
+            self.size = keep
+        self._blocks: queue.Queue = queue.Queue()
+        self._writer = threading.Thread(target=self._format, name="history.csv", daemon=True)
+        self._writer.start()
 
-    def _write(self) -> None:
+    def _format(self) -> None:
         row = self.ROW
-        while (rows := self._blocks.get()) is not None:
-            if self._error is None:
-                try:
-                    for part in range(0, len(rows), 64):  # short holds of the GIL
-                        self.file.write("".join([row % tuple(r)
-                                                 for r in rows[part:part + 64].tolist()]))
-                        time.sleep(0)
-                    self.file.flush()
-                except BaseException as err:  # noqa: BLE001 (handed to close)
-                    self._error = err
+        while True:
+            rows = self._blocks.get()
+            try:
+                if rows is None:
+                    return
+                for part in range(0, len(rows), 64):  # short holds of the GIL
+                    self._text.append("".join([row % tuple(r)
+                                               for r in rows[part:part + 64].tolist()]))
+                    time.sleep(0)
+            except BaseException as err:  # noqa: BLE001 (handed to checkpoint)
+                self._error = err
+            finally:
+                self._blocks.task_done()
 
     def append(self, rows: np.ndarray) -> None:
-        if self.file:
+        if self.rank0:
             self._blocks.put(np.array(rows, copy=True))
 
+    def checkpoint(self) -> int:
+        """Write the rows appended so far (rank 0); return the file's length in bytes."""
+        if not self.rank0:
+            return self.size
+        self._blocks.join()
+        if self._error is not None:
+            raise self._error
+        text = "".join(self._text).encode()
+        if text:
+            part = temporary(self.path)
+            try:
+                shutil.copyfile(self.path, part)
+                with open(part, "ab") as file:
+                    file.write(text)
+                    file.flush()
+                    os.fsync(file.fileno())
+                os.replace(part, self.path)
+            except BaseException:
+                part.unlink(missing_ok=True)
+                raise
+            self.size += len(text)
+            self._text.clear()
+        return self.size
+
     def close(self) -> None:
-        if self.file:
+        """Stop the formatting thread (after a last :meth:`checkpoint`, or without writing)."""
+        if self.rank0 and self._writer.is_alive():
             self._blocks.put(None)
             self._writer.join()
-            self.file.close()
-            if self._error is not None:
-                raise self._error
-
-
-class FieldFile:
-    """fields.xdmf: θ (P1), u (P1) and σ (DG0, constant per cell) at saved steps."""
-
-    def __init__(self, path: Path, disc: Discretisation):
-        self.Θ, self.U = disc.function("Θ"), disc.function("U")
-        self.U_prev = disc.function("U_prev")
-        self.theta, self.u = disc.function("theta"), self.U
-        self.u.name = "u"
-        self.sigma = fem.Function(disc.W)
-        self.sigma.name = "sigma"
-        c = disc.const
-        θ = copetti.temperature(self.Θ, c.theta_A, disc.r)
-        σ = copetti.stress(self.U, self.U_prev, θ, c.dt, c.zeta, c.a)
-        self.theta_expr = fem.Expression(θ, compat.interpolation_points(disc.V))
-        self.sigma_expr = fem.Expression(σ, compat.interpolation_points(disc.W))
-        self.nodes = disc.nodes
-        self.file = XDMFFile(disc.comm, str(path), "w")
-        self.file.write_mesh(disc.mesh)
-
-    def write(self, t: float, theta, u, u_prev) -> None:
-        """Write the fields of the step whose Θ, U, U_prev are the given node-ordered vectors."""
-        for f, values in ((self.Θ, theta), (self.U, u), (self.U_prev, u_prev)):
-            compat.petsc_vector(f).array[:] = self.nodes.owned_values(values)
-            f.x.scatter_forward()
-        self.theta.interpolate(self.theta_expr)
-        self.sigma.interpolate(self.sigma_expr)
-        for f in (self.theta, self.u, self.sigma):
-            self.file.write_function(f, t)
-
-    def close(self) -> None:
-        self.file.close()
 
 
 def write_text(path: Path, text: str, comm: MPI.Comm) -> None:
+    """A text file, whole or not at all (rank 0)."""
     if comm.rank == 0:
-        path.write_text(text, encoding="utf-8")
+        with replacing(path) as file:
+            file.write(text)
 
 
 def write_json(path: Path, data: dict, comm: MPI.Comm) -> None:

@@ -16,7 +16,7 @@ import forms.copetti as copetti
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.discrete.nodes import block_diagonal
 from rodfem.model import contact
-from rodfem.output.columns import RAW, RAW_INDEX, columns_of
+from rodfem.output.columns import RAW, RAW_INDEX, columns_of  # noqa: F401
 
 
 class Energy:
@@ -88,6 +88,11 @@ class History:
         self._count += 1
 
     @property
+    def count(self) -> int:
+        """How many rows the block holds."""
+        return self._count
+
+    @property
     def free(self) -> int:
         """How many rows fit before the block is full."""
         return len(self._rows) - self._count
@@ -99,6 +104,25 @@ class History:
 
     def commit(self, steps: int) -> None:
         self._count += steps
+
+    # Checked for finiteness, most telling first; every value of the state enters the bulk
+    # energy, so a non-finite Θ, D or U anywhere makes it non-finite.
+    CHECKED = {"u_1": "u(1)", "pressure": "the contact force", "d_1": "the velocity at x = 1",
+               "u_half": "u(0.5)", "bulk_energy": "the energy (so Θ, U or the velocity)"}
+
+    def first_non_finite(self, since: int) -> tuple[int, str] | None:
+        """The first of the rows recorded since the ``since``-th (of the block) with a value that
+        is not finite, and that value's meaning; those rows are dropped from the block."""
+        slots = [RAW_INDEX[name] for name in self.CHECKED]
+        rows = self._rows[since:self._count, slots]
+        bad = np.flatnonzero(~np.isfinite(rows).all(axis=1))
+        if bad.size == 0:
+            return None
+        first = int(bad[0])
+        quantity = list(self.CHECKED.values())[int(np.flatnonzero(~np.isfinite(rows[first]))[0])]
+        step = int(self._rows[since + first, RAW_INDEX["n"]])
+        self._count = since + first
+        return step, quantity
 
     def take(self) -> np.ndarray:
         """The rows recorded since the last call, with the columns ``COLUMNS``."""

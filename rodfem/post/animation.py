@@ -22,6 +22,7 @@ import pyvista as pv
 from PIL import Image
 from vtkmodules.util.numpy_support import numpy_to_vtk
 
+from rodfem.output.atomic import replacing
 from rodfem.post import style
 from rodfem.post.runs import Run
 
@@ -179,8 +180,9 @@ def rod_animation(run: Run, run_label: str, path: Path) -> Path:
         images.append(Image.fromarray(rgb).quantize(palette=palette, dither=Image.Dither.NONE))
     plotter.close()
     fps = min(20.0, max(4.0, len(images) / SECONDS))
-    images[0].save(path, format="GIF", save_all=True, append_images=images[1:],
-                   duration=round(1000 / fps), loop=0)
+    with replacing(path, "wb") as file:  # whole or not at all
+        images[0].save(file, format="GIF", save_all=True, append_images=images[1:],
+                       duration=round(1000 / fps), loop=0)
     return path
 
 

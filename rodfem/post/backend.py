@@ -32,3 +32,15 @@ def off_screen() -> None:
     pv.OFF_SCREEN = True
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+
+def save_image(plotter, path) -> None:
+    """The plotter's picture as a PNG, written whole or not at all (a full disk leaves no half
+    image)."""
+    from PIL import Image
+
+    from rodfem.output.atomic import replacing
+
+    image = Image.fromarray(plotter.screenshot(None, return_img=True))
+    with replacing(path, "wb") as file:
+        image.save(file, format="PNG")

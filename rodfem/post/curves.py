@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pyvista as pv
 
-from rodfem.post import style
+from rodfem.post import backend, style
 from rodfem.post.runs import Run
 
 # The paper's four panels (Figures 1-4): title, y label and history column.
@@ -71,7 +71,7 @@ def contact_figure(runs: list[Run], labels: list[str], path: Path) -> Path:
     for panel in range(len(PANELS)):
         plotter.subplot(panel // 2, panel % 2)
         plotter.add_chart(_panel(runs, labels, panel))
-    plotter.screenshot(str(path))
+    backend.save_image(plotter, path)
     plotter.close()
     return path
 
@@ -91,6 +91,6 @@ def energy_figure(runs: list[Run], labels: list[str], path: Path) -> Path:
     style.place_legend(chart, [(run.history.t, y) for run, y in zip(runs, series, strict=True)],
                        len(runs))
     plotter.add_chart(chart)
-    plotter.screenshot(str(path))
+    backend.save_image(plotter, path)
     plotter.close()
     return path

@@ -1,25 +1,21 @@
-"""``fields.xdmf`` read back through meshio: θ and u per node, σ per cell, at the saved steps.
+"""``fields.xdmf`` read back: θ and u per node, σ per cell, at the saved steps, in float64.
 
-dolfinx writes one XDMF file with the mesh grid and, per function, a temporal collection of grids
-that include the mesh by reference and carry one attribute each; the heavy data is in
-``fields.h5``, which meshio opens with h5py.
+rodfem writes XDMF 3 the way dolfinx does (a mesh grid, then per field a temporal collection of
+grids that include the mesh by reference and carry one attribute each), with the heavy data in
+HDF5: its own runs as rows (hyperslabs) of the segments in ``fields/``, dolfinx's files as one
+dataset per step in ``fields.h5``. This reader reads both with h5py and the standard library's
+XML parser. (Stock meshio 5 cannot: it does not know the topology name "PolyLine", which the XDMF
+specification and dolfinx use for interval meshes, and it reads a single collection per file.)
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from xml.etree.ElementTree import ParseError
+from xml.etree import ElementTree
 
+import h5py
 import numpy as np
-from meshio import ReadError
-from meshio.xdmf import common as xdmf_common
-from meshio.xdmf.time_series import TimeSeriesReader
-
-# dolfinx names an interval mesh's topology "PolyLine", as the XDMF specification spells it;
-# meshio 5.0 knows only the spelling "Polyline". Register dolfinx's spelling as an alias of the
-# same meshio cell type, in the table meshio's readers look names up in.
-xdmf_common.xdmf_to_meshio_type.setdefault("PolyLine", xdmf_common.xdmf_to_meshio_type["Polyline"])
 
 FUNCTIONS = ("theta", "u", "sigma")
 
@@ -49,28 +45,88 @@ class Fields:
     sigma: np.ndarray
 
 
-class _FunctionSeries(TimeSeriesReader):
-    """meshio's XDMF time-series reader, for dolfinx's one collection per function (meshio's own
-    reader picks a single collection: the last one in the file)."""
+class _Reader:
+    """The data items of one XDMF file, HDF5 files opened once each."""
 
-    def series(self, name: str) -> tuple[np.ndarray, np.ndarray]:
-        """Times and values (point data per node, or cell data per cell) of one function."""
-        grids = [g for g in self.domain
-                 if g.get("CollectionType") == "Temporal" and g.get("Name") == name]
-        if len(grids) != 1:
-            raise FieldsError(f"no time series '{name}'")
-        self.collection = list(grids[0])  # read_data(k) reads the k-th grid of self.collection
-        times, values = [], []
-        for k in range(len(self.collection)):
-            t, point_data, cell_data = self.read_data(k)
-            data = point_data[name] if name in point_data else cell_data[name][0]
-            times.append(t)
-            values.append(np.asarray(data, dtype=float).reshape(len(data)))
-        return np.array(times), np.array(values)
+    def __init__(self, path: Path):
+        self.path, self.files, self.arrays = path, {}, {}
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        for f in self.files.values():
+            f.close()
+
+    def _hdf(self, text: str, index=()) -> np.ndarray:
+        name, _, dataset = text.strip().partition(":")
+        file = Path(name)
+        if file.is_absolute() or ".." in file.parts or not dataset:
+            raise FieldsError(f"a data item names {text.strip()!r}, not a file beside it")
+        if name not in self.files:
+            self.files[name] = h5py.File(self.path.parent / file, "r")
+        if (name, dataset) not in self.arrays:  # read once: the steps are rows of a few datasets
+            data = self.files[name][dataset]
+            if not isinstance(data, h5py.Dataset):
+                raise FieldsError(f"{text.strip()} is not a dataset")
+            self.arrays[name, dataset] = data[()]
+        data = self.arrays[name, dataset]
+        if index and data.ndim != len(index):
+            raise FieldsError("a hyperslab does not match its data")
+        return data[index]
+
+    def data(self, item) -> np.ndarray:
+        """The array of a DataItem: HDF, XML or a hyperslab of one."""
+        if item is None or item.tag != "DataItem":
+            raise FieldsError("a data item is missing")
+        if item.get("ItemType") == "HyperSlab":
+            selection, source = list(item)
+            start, stride, count = self.data(selection).astype(int).reshape(3, -1)
+            if source.tag != "DataItem" or source.get("Format") != "HDF" or (
+                    start < 0).any() or (stride < 1).any():
+                raise FieldsError("a hyperslab that is not of an HDF5 dataset")
+            index = tuple(slice(a, a + s * c, s)
+                          for a, s, c in zip(start, stride, count, strict=True))
+            part = self._hdf(source.text or "", index)
+            if part.shape != tuple(count):
+                raise FieldsError("a hyperslab reaches past its data")
+            return part
+        if item.get("Format") == "XML":
+            return np.array(item.text.split(), dtype=float)
+        if item.get("Format") == "HDF":
+            return self._hdf(item.text or "")
+        raise FieldsError(f"a data item of format {item.get('Format')!r}")
+
+    def read(self):
+        root = ElementTree.parse(self.path).getroot()
+        domain = root.find("Domain")
+        if domain is None:
+            raise FieldsError("no Domain")
+        mesh = next((g for g in domain.findall("Grid") if g.get("GridType") == "Uniform"), None)
+        if mesh is None:
+            raise FieldsError("no mesh")
+        points = self.data(mesh.find("Geometry/DataItem"))
+        cells = self.data(mesh.find("Topology/DataItem"))
+        series = {}
+        for name in FUNCTIONS:
+            grids = [g for g in domain.findall("Grid")
+                     if g.get("CollectionType") == "Temporal" and g.get("Name") == name]
+            if len(grids) != 1:
+                raise FieldsError(f"no time series '{name}'")
+            times, values = [], []
+            for grid in grids[0].findall("Grid"):
+                time = grid.find("Time")
+                if time is None:
+                    raise FieldsError(f"a step of '{name}' has no time")
+                times.append(float(time.get("Value")))
+                values.append(np.asarray(self.data(grid.find("Attribute/DataItem")),
+                                         dtype=float).reshape(-1))
+            series[name] = (np.array(times), values)
+        return points, cells, series
 
 
 def read_fields(path: Path) -> Fields:
-    """Read θ, u and σ from a run's ``fields.xdmf`` (and the ``fields.h5`` beside it).
+    """Read θ, u and σ from a run's ``fields.xdmf`` (and the HDF5 files it names).
 
     Args:
         path: the XDMF file.
@@ -82,12 +138,11 @@ def read_fields(path: Path) -> Fields:
         FieldsError: the file is missing, unreadable, or its functions do not share their times.
     """
     try:
-        with _FunctionSeries(path) as reader:
-            points, cells = reader.read_points_cells()
-            series = {name: reader.series(name) for name in FUNCTIONS}
+        with _Reader(path) as reader:
+            points, cells, series = reader.read()
     except FieldsError as err:
         raise FieldsError(f"{path}: {err}") from None
-    except (OSError, KeyError, ValueError, ParseError, ReadError) as err:
+    except (OSError, KeyError, ValueError, TypeError, IndexError, ElementTree.ParseError) as err:
         raise FieldsError(f"{path} is not readable as rodfem fields ({err})") from None
 
     times = series["theta"][0]
@@ -95,19 +150,26 @@ def read_fields(path: Path) -> Fields:
         raise FieldsError(f"{path} holds no saved step")
     if any(not np.array_equal(series[name][0], times) for name in FUNCTIONS):
         raise FieldsError(f"{path}: θ, u and σ are saved at different times")
-    if len(cells) != 1 or cells[0].data.shape[1] != 2:
+    if points.ndim != 2 or cells.ndim != 2 or cells.shape[1] != 2 or cells.size == 0:
         raise FieldsError(f"{path}: not an interval mesh")
+    if cells.min() < 0 or cells.max() >= len(points):
+        raise FieldsError(f"{path}: the mesh's cells name nodes it does not have")
+    node_values = {len(v) for name in ("theta", "u") for v in series[name][1]}
+    cell_values = {len(v) for v in series["sigma"][1]}
+    if node_values != {len(points)} or cell_values != {len(cells)}:
+        raise FieldsError(f"{path}: the fields do not match the mesh's nodes and cells")
 
     x = points[:, 0]
     nodes = np.argsort(x, kind="stable")
-    midpoints = x[cells[0].data].mean(axis=1)
+    midpoints = x[cells.astype(np.int64)].mean(axis=1)
     order = np.argsort(midpoints, kind="stable")
     steps = np.argsort(times, kind="stable")
+    theta, u, sigma = (np.array(series[name][1]) for name in FUNCTIONS)
     return Fields(
         x=x[nodes],
         t=times[steps],
-        theta=series["theta"][1][np.ix_(steps, nodes)],
-        u=series["u"][1][np.ix_(steps, nodes)],
+        theta=theta[np.ix_(steps, nodes)],
+        u=u[np.ix_(steps, nodes)],
         x_cells=midpoints[order],
-        sigma=series["sigma"][1][np.ix_(steps, order)],
+        sigma=sigma[np.ix_(steps, order)],
     )

@@ -6,7 +6,6 @@ directory stops ``rodfem plot`` with one line and no half-written figures.
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -15,6 +14,8 @@ import numpy as np
 
 from rodfem.output.columns import NAMES as HISTORY_COLUMNS
 from rodfem.post.fields import Fields, FieldsError, read_fields
+from rodfem.scene import SceneError
+from rodfem.scene import load as load_scene
 
 # Scene values that tell runs apart in a legend, with their symbols in the paper: in mathtext
 # (typeset by matplotlib, for the charts) and in Unicode (for text drawn many times, as in the
@@ -128,7 +129,7 @@ def load_run(path: Path) -> Run:
     """Read a run directory written by ``rodfem run``.
 
     Args:
-        path: the directory holding ``history.csv``, ``scene.toml`` and ``fields.xdmf`` (+ .h5).
+        path: the directory holding ``history.csv``, ``scene.toml`` and ``fields.xdmf``.
 
     Raises:
         RunDirectoryError: ``path`` is not a directory, or a file is missing or unreadable.
@@ -136,15 +137,14 @@ def load_run(path: Path) -> Run:
     path = Path(path)
     if not path.is_dir():
         raise RunDirectoryError(f"{path} is not a directory")
-    for name in ("history.csv", "scene.toml", "fields.xdmf", "fields.h5"):
+    for name in ("history.csv", "scene.toml", "fields.xdmf"):
         if not (path / name).is_file():
             raise RunDirectoryError(f"{path} is not a rodfem run directory (it has no {name})")
     history = read_history(path / "history.csv")
-    try:
-        scene = _flatten(tomllib.loads((path / "scene.toml").read_text(encoding="utf-8")))
-        float(scene["obstacle.gap"])
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, KeyError, TypeError) as err:
-        raise RunDirectoryError(f"cannot read {path / 'scene.toml'}: {err}") from None
+    try:  # the resolved scene, checked as any scene is (it may have been edited)
+        scene = _flatten(load_scene(str(path / "scene.toml")).data())
+    except SceneError as err:
+        raise RunDirectoryError(f"{path / 'scene.toml'}: {err}") from None
     try:
         fields = read_fields(path / "fields.xdmf")
     except FieldsError as err:

@@ -14,7 +14,7 @@ import numpy as np
 import pyvista as pv
 from vtkmodules.util.numpy_support import numpy_to_vtk
 
-from rodfem.post import style
+from rodfem.post import backend, style
 from rodfem.post.fields import Fields
 
 ASPECT = 1.35  # width / height of the map
@@ -99,6 +99,6 @@ def spacetime_figure(fields: Fields, name: str, run_label: str, path: Path) -> P
     plotter.camera.position = (centre[0], centre[1], 10.0)
     plotter.camera.up = (0.0, 1.0, 0.0)
     plotter.camera.parallel_scale = max(width / aspect, 1 + top + bottom) / 2
-    plotter.screenshot(str(path))
+    backend.save_image(plotter, path)
     plotter.close()
     return path

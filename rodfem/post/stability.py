@@ -141,7 +141,7 @@ def stability_figure(rows: list[dict], method: str, info: dict, path: Path) -> P
             plotter.subplot(i + 1, j)
             panel = [r for r in rows if r["a"] == a and r["zeta"] == zeta]
             plotter.add_chart(_panel(panel, zeta, a, x_range, y_range))
-    plotter.screenshot(str(path))
+    backend.save_image(plotter, path)
     plotter.close()
     return path
 

@@ -140,7 +140,7 @@ def orders_figure(data: dict, scene: str, path: Path) -> Path:
             if chart is not None:
                 plotter.subplot(i, j)
                 plotter.add_chart(chart)
-    plotter.screenshot(str(path))
+    backend.save_image(plotter, path)
     plotter.close()
     return path
 
@@ -171,7 +171,7 @@ def work_precision_figure(data: dict, scene: str, path: Path) -> Path:
     chart.GetLegend().SetHorizontalAlignment(chart.GetLegend().RIGHT)
     plotter = pv.Plotter(window_size=(1100, 800), off_screen=True)
     plotter.add_chart(chart)
-    plotter.screenshot(str(path))
+    backend.save_image(plotter, path)
     plotter.close()
     return path
 

@@ -183,6 +183,15 @@ def validate(data: dict[str, Any], source: str = "") -> Scene:
     return scene
 
 
+def _check_magnitude(key: str, values: np.ndarray, x: np.ndarray, given, t=None) -> None:
+    """Data beyond ±BIG overflow the energy (a sum of their squares over the cells)."""
+    big = np.flatnonzero(np.abs(values) > BIG)
+    if big.size:
+        at = f"x = {x[big[0]]:g}" + (f", t = {t:g}" if t is not None else "")
+        raise SceneError(f"{key}: {values[big[0]]:.3g} at {at} ({_toml_value(given)}); the data "
+                         f"must stay within ±{BIG:g}, beyond which the energy overflows")
+
+
 def _check_consistency(scene: Scene) -> None:
     if scene["obstacle.kind"] == "rigid" and scene["obstacle.law"] != "linear":
         raise SceneError(
@@ -230,6 +239,7 @@ def _check_consistency(scene: Scene) -> None:
                 f"initial.{name}: not finite at x = {x[bad[0]]:g} "
                 f"({_toml_value(scene.values['initial'][name])})"
             )
+        _check_magnitude(f"initial.{name}", values, x, scene.values["initial"][name])
         if abs(values[0] - required) > 1e-12 * max(1.0, abs(required)):
             raise SceneError(
                 f"initial.{name}: must equal {required:g} at x = 0 (boundary condition), "
@@ -249,6 +259,7 @@ def _check_consistency(scene: Scene) -> None:
                     f"source.{name}: not finite at x = {x[bad[0]]:g}, t = {t:g} "
                     f"({_toml_value(scene.values['source'][name])})"
                 )
+            _check_magnitude(f"source.{name}", values, x, scene.values["source"][name], t)
 
 
 def _parse_override(item: str) -> tuple[str, str, Any]:
@@ -257,10 +268,26 @@ def _parse_override(item: str) -> tuple[str, str, Any]:
     dotted, text = item.split("=", 1)
     section, key = dotted.strip().split(".", 1)
     try:
-        value = tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+        value = _parse_toml(f"v = {text}", f"--set {shorten(item)}")["v"]
+    except SceneError as err:
+        if "invalid TOML" not in str(err):
+            raise
         value = text  # a bare string, e.g. an expression or a choice
     return section, key, value
+
+
+def _parse_toml(text: str, what: str) -> dict:
+    """TOML text as a dict; SceneError (one line) for anything tomllib refuses, including what
+    it refuses with other errors: integers of more than 4,300 digits (ValueError), nesting
+    deeper than Python's recursion limit (RecursionError)."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SceneError(f"{what}: invalid TOML ({err})") from None
+    except ValueError as err:
+        raise SceneError(f"{what}: a value TOML cannot hold ({err})") from None
+    except RecursionError:
+        raise SceneError(f"{what}: nested too deeply to read") from None
 
 
 def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
@@ -274,7 +301,12 @@ def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
         source = scene
     else:
         path = Path(scene)
-        if not path.is_file():
+        try:
+            is_file = path.is_file()
+        except (OSError, ValueError) as err:  # e.g. a name longer than the system allows
+            raise SceneError(f"scene '{shorten(scene)}': cannot be read "
+                             f"({getattr(err, 'strerror', None) or err})") from None
+        if not is_file:
             raise SceneError(
                 f"scene '{scene}': not a built-in scene ({', '.join(BUILTIN + EXTRA)}) nor a TOML "
                 "file"
@@ -284,10 +316,7 @@ def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
         except (OSError, UnicodeDecodeError) as err:
             raise SceneError(f"scene '{scene}': cannot be read ({err})") from None
         source = str(path)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise SceneError(f"scene '{scene}': invalid TOML ({err})") from None
+    data = _parse_toml(text, f"scene '{shorten(scene)}'")
     for item in overrides:
         section, key, value = _parse_override(item)
         if section not in SCHEMA:

@@ -11,7 +11,11 @@ from typing import Any
 
 
 class SceneError(ValueError):
-    """A scene value that is wrong: the message names the key and what is allowed."""
+    """A scene value that is wrong: the message names the key and what is allowed, on one line
+    (control characters from the user's text, a newline say, are shown escaped)."""
+
+    def __init__(self, message: str):
+        super().__init__("".join(c if c.isprintable() else repr(c)[1:-1] for c in str(message)))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -91,8 +95,14 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "heat": Key("expression", "0", help="source of the heat equation, in x and t"),
         "momentum": Key("expression", "0", help="source of the momentum equation, in x and t"),
     },
-    "output": {"every": Key("integer", 50, minimum=1, maximum=MAX_STEPS,
-                            help="save fields every n steps")},
+    "output": {
+        "every": Key("integer", 50, minimum=1, maximum=MAX_STEPS,
+                     help="save fields every n steps"),
+        "checkpoint": Key("real", 5.0, minimum=0.0, maximum=BIG,
+                          help="write a checkpoint (history, fields and the state to resume "
+                          "from) at the first field save this many seconds of wall time after "
+                          "the last one; 0: at every field save"),
+    },
 }
 TOP_LEVEL = {"description": ""}
 MODEL_NAMES = tuple(SCHEMA["model"])

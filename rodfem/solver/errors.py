@@ -41,3 +41,15 @@ class PicardNotConverged(NotConverged):
         else:
             what = f"it diverged to non-finite values at iteration {iterations}"
         super().__init__("picard", step, time, what, iterations)
+
+
+class NotFinite(NotConverged):
+    """A step whose values are not finite (an overflow: data or sources too large for the
+    scheme). The run stops before it; unlike a step that did not converge, the method's state is
+    already past it, so it is not one to continue from."""
+
+    def __init__(self, method: str, step: int, time: float, quantity: str):
+        self.quantity = quantity
+        super().__init__(method, step, time, f"{quantity} is not finite", 1)
+        RuntimeError.__init__(self, f"step {step} (t = {time:g}) is not finite: {quantity} "
+                              "overflowed")

@@ -16,6 +16,7 @@ import rodfem.scene
 from rodfem.model.stationary import stationary
 from rodfem.output.columns import INDEX
 from rodfem.output.directories import finish, prepare_directory
+from rodfem.output.files import write_text
 from rodfem.run import simulate
 
 
@@ -63,12 +64,18 @@ def measured(scene: rodfem.scene.Scene, run: Path, result) -> str:
     u_star, sigma_star = stationary(np.array([1.0]), scene["model.a"], scene["model.theta_A"],
                                     scene["model.k"], epsilon, gap)
     s = result.summary
+    change = s["energy_max_increase"]
+    change = f"largest step change {change:.2e}" if change is not None else "fewer than 2 steps"
+    ended = ""
+    if result.status != "complete":
+        ended = f"**The run {result.status} at step {s['steps'] + 1}: {s.get('error', '')}** "
     return (
-        f"{contact}; at t = {t[-1]:g} the rod is {'in contact' if touching[-1] else 'free'}, "
+        f"{ended}{contact}; at t = {t[-1]:g} the rod is "
+        f"{'in contact' if touching[-1] else 'free'}, "
         f"u(1) = {u_1[-1]:.5f}, σ(1) = {sigma_1[-1]:.5f}, against the stationary state "
         f"u*(1) = {u_star[0]:.5f}, σ* = {sigma_star:.5f} (`rodfem.model.stationary`). Energy "
-        f"non-increasing: {'yes' if s['energy_non_increasing'] else 'NO'} (largest step change "
-        f"{s['energy_max_increase']:.2e}); {s['iterations_mean']:.2f} Picard iterations per step."
+        f"non-increasing: {'yes' if s['energy_non_increasing'] else 'NO'} ({change}); "
+        f"{s['iterations_mean']:.2f} Picard iterations per step."
     )
 
 
@@ -76,46 +83,60 @@ def run_experiment(name: str, out: Path, overrides=(), force: bool = False,
                    comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = True):
     """Run a built-in scene into ``out`` and draw its figures into ``out``/figures.
 
-    Returns the scene and, on rank 0, what the run shows (:func:`measured`)."""
-    from rodfem.post import plot  # pyvista only where figures are made
+    Returns the scene, the run's :class:`~rodfem.run.RunResult` and, on rank 0, what the run
+    shows (:func:`measured`). An interrupted run is not drawn."""
+    from rodfem.post import PlotError, plot  # pyvista only where figures are made
 
     scene = rodfem.scene.load(name, list(overrides))
     prepare_directory(out, force, comm)
     result = simulate(scene, out, comm, progress=progress)
     facts = ""
-    if comm.rank == 0:
+    if comm.rank == 0 and result.status != "interrupted" and result.io_error is None:
         facts = measured(scene, out, result)
-        plot([out], None)
+        try:
+            plot([out], None)
+        except PlotError as err:
+            facts += f" (No figures: {err}.)"
     comm.barrier()
-    return scene, facts
+    return scene, result, facts
 
 
 def reproduce(out: Path, force: bool = False, comm: MPI.Comm = MPI.COMM_WORLD,
-              progress: bool = True, overrides=(), report=lambda line: None) -> Path:
+              progress: bool = True, overrides=(), report=lambda line: None):
     """Run the five experiments into ``out``/paperN, plot them, write ``out``/index.md.
 
     ``overrides`` (``section.key=value``) apply to every experiment, e.g. a shorter end time;
-    ``report`` receives a line as each experiment is done."""
-    from rodfem.post import plot
+    ``report`` receives a line as each experiment is done. Returns the index, the experiments
+    whose run failed, and the run that stopped the reproduction (interrupted, or a file that
+    could not be written: its :class:`~rodfem.run.RunResult`) or None."""
+    from rodfem.post import PlotError, plot
 
     prepare_directory(out, force, comm, command="paper",
                       files=("index.md", *(e.scene for e in EXPERIMENTS), "figure5"))
-    sections = []
+    sections, failed = [], []
     for experiment in EXPERIMENTS:
         run = out / experiment.scene
-        scene, facts = run_experiment(experiment.scene, run, overrides, comm=comm,
-                                      progress=progress)
+        scene, result, facts = run_experiment(experiment.scene, run, overrides, comm=comm,
+                                              progress=progress)
+        if result.status == "interrupted" or result.io_error is not None:
+            finish(out, "interrupted" if result.io_error is None else "failed", comm)
+            return out / "index.md", failed, result
+        if result.status == "failed":
+            failed.append(experiment.scene)
         sections.append((experiment, scene, facts))
         report(f"{experiment.scene}: {facts}")
     if comm.rank == 0:
-        plot([out / "paper1", out / "paper2"], out / "figure5")
-        write_index(out, sections)
-    finish(out, "complete", comm)
+        try:
+            plot([out / "paper1", out / "paper2"], out / "figure5")
+        except PlotError:
+            pass  # index.md says which runs failed
+        write_index(out, sections, failed)
+    finish(out, "failed" if failed else "complete", comm)
     comm.barrier()
-    return out / "index.md"
+    return out / "index.md", failed, None
 
 
-def write_index(out: Path, sections) -> None:
+def write_index(out: Path, sections, failed=()) -> None:
     lines = [
         "# Copetti, Section 6, reproduced by rodfem",
         "",
@@ -126,6 +147,9 @@ def write_index(out: Path, sections) -> None:
         "its folder.",
         "",
     ]
+    if failed:
+        lines += [f"**Not reproduced: the run of {', '.join(failed)} failed** (its section says "
+                  "where and why).", ""]
     for experiment, scene, facts in sections:
         e, k, z = scene["obstacle.epsilon"], scene["model.k"], scene["model.zeta"]
         figure = f" (the paper's Figure {experiment.figure})" if experiment.figure != "—" else ""
@@ -136,4 +160,4 @@ def write_index(out: Path, sections) -> None:
         lines.append("")
     lines += ["## Figure 5: the energy, ζ = 0.2 against ζ = 1 (ε = 0.01, k = 1)", "",
               f"> {FIGURE5}", "", "![ln(Ê + 0.01), experiments 1 and 2](figure5/energy.png)", ""]
-    (out / "index.md").write_text("\n".join(lines), encoding="utf-8")
+    write_text(out / "index.md", "\n".join(lines), MPI.COMM_SELF)

@@ -122,6 +122,24 @@ class Method:
         self.pressure = 0.0
         self._set_initial_state()
 
+    def saved_state(self) -> dict[str, np.ndarray]:
+        """Everything the next steps depend on, as arrays (a checkpoint): the state [Θ; D; U],
+        Uⁿ⁻¹, and the step n, the contact force and the last count of iterations."""
+        return {"state": self.values.copy(), "u_prev": self.u_prev.array_r.copy(),
+                "step": np.array([self.n, self.iterations], dtype=np.int64),
+                "pressure": np.array([self.pressure])}
+
+    def restore(self, saved: dict[str, np.ndarray]) -> None:
+        """Go back to the step of :meth:`saved_state` (of a method of the same scene)."""
+        if saved["state"].shape != self.values.shape:
+            raise ValueError("the saved state is of another mesh")
+        self.values[:] = saved["state"]
+        self.u_prev.array[:] = saved["u_prev"]
+        for vector in (self.state, self.theta, self.du, self.u, self.u_prev):
+            vector.stateIncrease()
+        self.n, self.iterations = (int(v) for v in saved["step"])
+        self.pressure = float(saved["pressure"][0])
+
     def coupled_operator(self) -> PETSc.Mat:
         """[[A_h, −N_U], [−N_Θ, A_m]]: (3.1)–(3.2) for [ΔΘⁿ; ΔUⁿ] without the contact term."""
         N_u, N_theta = self.heat.N["du"].copy(), self.momentum.N["dtheta"].copy()

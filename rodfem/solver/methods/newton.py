@@ -26,7 +26,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from rodfem.discrete.discretisation import Discretisation
-from rodfem.solver.errors import NotConverged
+from rodfem.solver.errors import NotConverged, NotFinite
 from rodfem.solver.linalg import LU_OPTIONS, set_default_options, stacked
 from rodfem.solver.methods.base import Method
 
@@ -72,6 +72,15 @@ class NewtonMethod(Method):
         snes.setFromOptions()
         self.snes = snes
         self._floor = 0.0
+
+    def saved_state(self) -> dict[str, np.ndarray]:
+        """The base state and Newton's first guess for the next step: the last increments."""
+        return {**super().saved_state(), "guess": self.x.array_r.copy()}
+
+    def restore(self, saved: dict[str, np.ndarray]) -> None:
+        super().restore(saved)
+        self.x.array[:] = saved["guess"]
+        self.x.stateIncrease()
 
     def _residual(self, snes, x: PETSc.Vec, F: PETSc.Vec) -> None:
         self.C.mult(x, F)
@@ -120,6 +129,9 @@ class NewtonMethod(Method):
         self.snes.solve(None, self.x)
         reason = self.snes.getConvergedReason()
         iterations = self.snes.getIterationNumber()
+        if reason == PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN:
+            raise NotFinite("newton", self.n + 1, (self.n + 1) * self.dt,
+                            "the residual of (3.1)-(3.2)")
         if reason <= 0:
             raise NotConverged("newton", self.n + 1, (self.n + 1) * self.dt,
                                f"{REASONS.get(reason, reason)} after {iterations} iterations",

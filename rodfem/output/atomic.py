@@ -1,0 +1,45 @@
+"""Files written whole or not at all: write a temporary file beside the target, flush it to the
+disk (fsync), then rename it over the target. A reader, a killed process or a power cut sees the
+old file or the new one, never half of either.
+
+The temporary file is ``.<name>.<pid>`` in the same directory; a failed write removes it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+from pathlib import Path
+
+TEMPORARY = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)$")  # the name of a temporary file
+
+
+def temporary(path: Path) -> Path:
+    return path.with_name(f".{path.name}.{os.getpid()}")
+
+
+@contextlib.contextmanager
+def replacing(path: Path, mode: str = "w"):
+    """``with replacing(path) as file: file.write(...)``: ``path`` is replaced by what was written
+    when the block ends without an error; otherwise it is left as it was."""
+    part = temporary(path)
+    try:
+        with open(part, mode, **({} if "b" in mode else {"encoding": "utf-8"})) as file:
+            yield file
+            file.flush()
+            os.fsync(file.fileno())
+        os.replace(part, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            part.unlink()
+        raise
+
+
+def sync_directory(path: Path) -> None:
+    """Flush a directory's entries (the renames into it) to the disk."""
+    fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)

@@ -1,0 +1,105 @@
+"""Signals that stop a command: Ctrl-C (SIGINT), SIGTERM (a cluster's time limit), SIGHUP (a
+closed terminal) and SIGUSR1 (which Open MPI's mpirun forwards to the ranks).
+
+A command stops on any of them with exit code 128 + the signal's number (130, 143, 129, 138) and
+no traceback. Where it stops depends on when the signal comes:
+
+* during start-up (imports, just-in-time compilation, set-up) and between runs, the signal raises
+  :class:`Interrupted` at once; nothing is half-written, since every file rodfem writes outside
+  the time loop is written whole or not at all;
+* inside :func:`deferred` (the time loop, and the writing of a run's files), it is only noted:
+  the loop stops at the end of a step, writes its checkpoint and files whole, and reports the run
+  as interrupted. Under MPI the ranks agree on the step (:func:`requested`).
+
+:func:`install` is called by the ``rodfem`` command first thing; a library caller who did not call
+it gets the handlers inside :func:`deferred` only, and its own handlers back afterwards.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import threading
+
+SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGUSR1)
+
+_received: list[int] = []  # the signals received since install() or the last reset()
+_depth = [0]  # > 0 inside deferred(): a signal is noted, not raised
+
+
+class Interrupted(Exception):
+    """A stop signal outside the time loop."""
+
+    def __init__(self, signum: int):
+        self.signum = signum
+        super().__init__(f"interrupted by {signal.Signals(signum).name}")
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + self.signum
+
+
+def _handler(signum, frame) -> None:
+    _received.append(signum)
+    if _depth[0] == 0:
+        raise Interrupted(signum)
+
+
+def _main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
+
+
+def install() -> None:
+    """Route the stop signals to rodfem for the rest of the process. PETSc installs handlers of
+    its own (SIGHUP and SIGTERM call MPI_Abort) unless told not to: this tells it, so call it
+    before petsc4py is imported."""
+    options = os.environ.get("PETSC_OPTIONS", "")
+    if "-no_signal_handler" not in options.split():
+        os.environ["PETSC_OPTIONS"] = f"{options} -no_signal_handler".strip()
+    if _main_thread():
+        for s in SIGNALS:
+            signal.signal(s, _handler)
+
+
+def signal_received() -> int | None:
+    """The first stop signal received, or None."""
+    return _received[0] if _received else None
+
+
+def exit_code() -> int:
+    """128 + the first stop signal received (130 for Ctrl-C if none was)."""
+    return 128 + (signal_received() or signal.SIGINT)
+
+
+def reset() -> None:
+    _received.clear()
+
+
+@contextlib.contextmanager
+def deferred():
+    """Inside, a stop signal is noted (:func:`signal_received`) instead of raised. The handlers
+    are (re)installed on entry: the libraries imported since may have replaced them."""
+    if not _main_thread():
+        yield
+        return
+    previous = [signal.signal(s, _handler) for s in SIGNALS]
+    _depth[0] += 1
+    try:
+        yield
+    finally:
+        _depth[0] -= 1
+        for s, handler in zip(SIGNALS, previous, strict=True):
+            signal.signal(s, handler)
+
+
+def requested(comm, n: int, every: int, also: bool = False) -> bool:
+    """Whether to stop after step n: a stop signal was received (or ``also``, e.g. a write
+    failed). Under MPI every rank must answer alike, so the ranks agree (one reduction) every
+    ``every`` steps only."""
+    local = bool(_received) or also
+    if comm.size == 1:
+        return local
+    from mpi4py import MPI
+
+    return n % every == 0 and comm.allreduce(local, op=MPI.LOR)

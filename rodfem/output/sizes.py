@@ -1,0 +1,73 @@
+"""What a run will write and hold, estimated before it starts, against what the machine has
+free: a run that cannot fit stops at once (exit code 2) rather than after hours, unless asked to
+go on anyway (``--no-size-check``)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+HISTORY_ROW = 140  # bytes of a row of history.csv: seven numbers to 17 digits, and commas
+STATE_PER_NODE = 4000  # bytes per node of the operators, factors and vectors of a method
+
+
+class SizeError(ValueError):
+    """The run would not fit on the disk or in memory (exit code 2)."""
+
+
+def estimate(scene) -> tuple[int, int]:
+    """(bytes written, bytes of memory at most) of a run of ``scene``."""
+    steps, nodes = scene.steps, scene["mesh.cells"] + 1
+    saves = steps // scene["output.every"] + 2
+    fields = saves * (3 * nodes) * 8
+    history = (steps + 2) * HISTORY_ROW
+    # Between two checkpoints rank 0 keeps the saved fields and the history's text; at most all.
+    return fields + history, fields + history + nodes * STATE_PER_NODE
+
+
+def _free_memory() -> int | None:
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _existing(path: Path) -> Path:
+    path = path.absolute()
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
+def _size(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if n < 1000 or unit == "TB":
+            return f"{n:.3g} {unit}"
+        n /= 1000
+    return f"{n:.3g} TB"
+
+
+def check_room(scene, out: Path, comm, allow: bool = False) -> None:
+    """SizeError (on every rank, one line) if the run of ``scene`` into ``out`` would not fit."""
+    error = None
+    if comm.rank == 0 and not allow:
+        written, memory = estimate(scene)
+        try:
+            disk = shutil.disk_usage(_existing(out)).free
+        except OSError:
+            disk = None
+        ram = _free_memory()
+        advice = ("fewer steps, fields saved less often (output.every), or --no-size-check to "
+                  "run anyway")
+        if disk is not None and written > disk:
+            error = (f"the run would write about {_size(written)} into {out}, where "
+                     f"{_size(disk)} is free; use {advice}")
+        elif ram is not None and memory > ram:
+            error = (f"the run would hold about {_size(memory)} in memory, and "
+                     f"{_size(ram)} is free; use {advice}")
+    error = comm.bcast(error, root=0)
+    if error:
+        raise SizeError(error)

@@ -1,0 +1,175 @@
+"""Runs stopped at any instant (Ctrl-C, SIGTERM, SIGHUP, SIGKILL; in start-up or in the loop;
+serially and under mpirun) leave whole files, and `rodfem resume` continues them to the history
+and fields of an uninterrupted run, bit for bit. Also: extending a finished run, and what resume
+refuses."""
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import serial_only
+from rodfem.output.directories import state
+from rodfem.post.fields import read_fields
+
+RODFEM = str(Path(sys.executable).with_name("rodfem"))
+ENV = {**os.environ, "PYTHONUNBUFFERED": "1", "OMPI_ALLOW_RUN_AS_ROOT": "1",
+       "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1", "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+# About a second of loop after about a second of start-up; a checkpoint every 0.2 s.
+SCENE = ["paper1", "--set", "mesh.cells=100", "--set", "time.end=120",
+         "--set", "output.every=500", "--set", "output.checkpoint=0.2"]
+
+
+def rodfem(*args, ranks=1, check=None):
+    command = [RODFEM, *map(str, args)]
+    if ranks > 1:
+        command = ["mpirun", "-n", str(ranks), *command]
+    done = subprocess.run(command, capture_output=True, text=True, env=ENV, timeout=600)
+    if check is not None:
+        assert done.returncode == check, done.stderr
+    return done
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The uninterrupted run, serially and on two ranks."""
+    root = tmp_path_factory.mktemp("reference")
+    runs = {}
+    for ranks in (1, 2):
+        out = root / f"n{ranks}"
+        rodfem("run", *SCENE, "--out", out, "--quiet", ranks=ranks, check=0)
+        runs[ranks] = out
+    return runs
+
+
+def assert_whole(out: Path) -> None:
+    """Every file of a stopped run is whole: history.csv has only whole rows, the fields up to
+    the last checkpoint are readable, the marker and checkpoint parse."""
+    text = (out / "history.csv").read_text()
+    assert text.endswith("\n")
+    lines = text.splitlines()
+    assert lines[0] == "t,u_1,u_half,ut_1,sigma_1,energy,iterations"
+    rows = np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
+    assert rows.shape[1:] == (7,) or rows.size == 0
+    if rows.size:
+        np.testing.assert_array_equal(np.rint(rows[:, 0] / 1e-3), np.arange(len(rows)))
+    read_fields(out / "fields.xdmf") if (out / "fields" / "steps-000000.h5").exists() else None
+    json.loads((out / "rodfem.json").read_text())
+
+
+def assert_same_run(out: Path, reference: Path) -> None:
+    assert (out / "history.csv").read_bytes() == (reference / "history.csv").read_bytes()
+    a, b = read_fields(out / "fields.xdmf"), read_fields(reference / "fields.xdmf")
+    for name in ("t", "x", "theta", "u", "sigma"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    summary = json.loads((out / "summary.json").read_text())
+    expected = json.loads((reference / "summary.json").read_text())
+    for key in ("status", "steps", "iterations_total", "iterations_max", "iterations_mean",
+                "energy_non_increasing", "energy_max_increase"):
+        assert summary[key] == expected[key], key
+
+
+CASES = [(signal.SIGINT, 1), (signal.SIGTERM, 1), (signal.SIGHUP, 1), (signal.SIGKILL, 1),
+         (signal.SIGTERM, 1), (signal.SIGKILL, 1), (signal.SIGUSR1, 2), (signal.SIGKILL, 2)]
+
+
+@serial_only
+@pytest.mark.parametrize("sent, ranks", CASES,
+                         ids=[f"{signal.Signals(s).name}-n{r}-{i}" for i, (s, r) in
+                              enumerate(CASES)])
+def test_stopped_anywhere_resumes_to_the_same_run(tmp_path, reference, sent, ranks):
+    delay = random.Random(f"{sent}{ranks}{tmp_path.name}").uniform(0.3, 2.5 * ranks)
+    out = tmp_path / "run"
+    command = [RODFEM, "run", *SCENE, "--out", str(out), "--quiet"]
+    if ranks > 1:
+        command = ["mpirun", "-n", str(ranks), *command]
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, env=ENV)
+    time.sleep(delay)
+    if ranks > 1 and sent == signal.SIGKILL:  # a node lost: every rank killed at once
+        subprocess.run(["pkill", "-KILL", "-f", f"rodfem run .*{out}"], check=False)
+    else:
+        process.send_signal(sent)
+    _, err = process.communicate(timeout=300)
+    deadline = time.monotonic() + 30  # every rank gone (and its lock with it)
+    while subprocess.run(["pgrep", "-f", f"rodfem run .*{out}"],
+                         capture_output=True).returncode == 0:
+        assert time.monotonic() < deadline
+        time.sleep(0.1)
+    code = process.returncode
+    print(f"\n{signal.Signals(sent).name} n{ranks} after {delay:.2f} s: exit {code}, "
+          f"{state(out) if out.exists() else 'nothing written'}")
+    if code == 0 or (out.exists() and state(out) == "complete"):
+        assert_same_run(out, reference[ranks])  # the run ended before the signal came
+        return
+    if sent != signal.SIGKILL:
+        lines = err.strip().splitlines()
+        if ranks == 1:
+            assert code == 128 + sent, err
+        assert "Traceback" not in err
+        ours = [line for line in lines if line.startswith("rodfem")]  # mpirun has its own
+        assert ours and ours[-1].startswith("rodfem: interrupted"), err
+    if not (out / "rodfem.json").exists():  # stopped before anything was written
+        assert not out.exists() or not any(out.iterdir())
+        return
+    if sent == signal.SIGKILL:
+        assert state(out) == "gone"
+    else:
+        assert state(out) == "interrupted"
+    if (out / "history.csv").exists():
+        assert_whole(out)
+    again = rodfem("resume", out, "--quiet", ranks=ranks)
+    assert again.returncode == 0, again.stderr
+    assert state(out) == "complete"
+    assert_same_run(out, reference[ranks])
+
+
+@serial_only
+def test_a_finished_run_extends_to_a_later_end(tmp_path):
+    short, long = tmp_path / "short", tmp_path / "long"
+    scene = ["paper1", "--set", "mesh.cells=40", "--set", "output.every=7"]
+    rodfem("run", *scene, "--set", "time.end=0.5", "--out", short, "--quiet", check=0)
+    refused = rodfem("resume", short)
+    assert refused.returncode == 2 and "is complete" in refused.stderr
+    rodfem("resume", short, "--set", "time.end=1", "--quiet", check=0)
+    rodfem("run", *scene, "--set", "time.end=1", "--out", long, "--quiet", check=0)
+    assert_same_run(short, long)
+    assert "end = 1" in (short / "scene.toml").read_text()
+
+
+@serial_only
+def test_resume_refuses_what_it_cannot_continue_exactly(tmp_path):
+    out = tmp_path / "run"
+    rodfem("run", "paper1", "--set", "mesh.cells=20", "--set", "time.end=0.2", "--out", out,
+           "--quiet", check=0)
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    cases = [
+        (["--set", "model.zeta=1"], "only time.end can be changed"),
+        (["--set", "time.end=0.1"], "is before the checkpoint"),
+    ]
+    for extra, message in cases:
+        done = rodfem("resume", out, *extra)
+        assert done.returncode == 2 and message in done.stderr, done.stderr
+        assert len(done.stderr.strip().splitlines()) == 1
+    done = rodfem("resume", out, "--set", "time.end=0.4", ranks=2)
+    assert done.returncode == 2 and "mpirun -n 1" in done.stderr, done.stderr
+    (out / "scene.toml").write_text((out / "scene.toml").read_text().replace("zeta = 0.2",
+                                                                             "zeta = 0.3"))
+    done = rodfem("resume", out, "--set", "time.end=0.4")
+    assert done.returncode == 2 and "was it edited" in done.stderr
+    (out / "checkpoint.npz").write_bytes(b"not a checkpoint")
+    (out / "scene.toml").write_bytes(before["scene.toml"])
+    done = rodfem("resume", out, "--set", "time.end=0.4")
+    assert done.returncode == 2 and "not a readable checkpoint" in done.stderr
+    for name in ("history.csv", "summary.json", "scene.toml"):
+        assert (out / name).read_bytes() == before[name]
+    assert state(out) == "complete"
+    for target in (tmp_path / "missing", tmp_path):
+        done = rodfem("resume", target)
+        assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
