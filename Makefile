@@ -4,7 +4,7 @@ PY := .venv/bin/python
 MPIRUN := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 \
   PRTE_MCA_rmaps_default_mapping_policy=:oversubscribe mpirun
 
-.PHONY: setup demo test test-serial test-mpi bench clean container-test
+.PHONY: setup demo test test-serial test-mpi fuzz bench clean container-test
 
 setup:
 	@scripts/setup.sh
@@ -21,8 +21,12 @@ test-serial:
 test-mpi:
 	$(MPIRUN) -n 2 $(PY) -m mpi4py -m pytest -q tests
 
+# Scene loading fuzzed with 10^4 examples per property (the suite runs 150).
+fuzz: setup
+	HYPOTHESIS_PROFILE=fuzz $(PY) -m pytest -q tests/test_scene_fuzz.py
+
 clean:
-	rm -rf results .pytest_cache
+	rm -rf results .pytest_cache .hypothesis
 
 bench: setup
 	$(PY) benchmarks/bench_picard.py
