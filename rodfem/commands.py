@@ -136,24 +136,44 @@ def resume(args: argparse.Namespace) -> int:
     return _report(scene, result, out, args.quiet)
 
 
+# What ``rodfem plot`` says of a run directory that is not complete: the figures show what is
+# there, up to the run's last checkpoint.
+INCOMPLETE = {
+    "gone": "is incomplete: the process is gone (killed before it finished); the figures show its "
+            "steps up to the last checkpoint, and 'rodfem resume {path}' continues it",
+    "running": "is still being written by a run; the figures show its last checkpoint",
+    "interrupted": "holds an interrupted run ('rodfem resume {path}' continues it)",
+    "failed": "holds a run that failed; the figures show the steps before the failure",
+}
+
+
 def plot(args: argparse.Namespace) -> int:
     """Draw the figures on rank 0 (the others wait), then list the files written."""
     from mpi4py import MPI
 
+    from rodfem.output.directories import state
+
     comm = MPI.COMM_WORLD
-    written, error = [], None
+    written, error, code = [], None, 0
     if comm.rank == 0:
         from rodfem.post import PlotError
         from rodfem.post import plot as draw
 
+        for path in args.dirs:
+            note = INCOMPLETE.get(state(path) if path.is_dir() else None)
+            if note:
+                say(f"rodfem: note: {path} {note.format(path=path)}")
         try:
             written = draw(args.dirs, args.out)
         except PlotError as err:
-            error = " ".join(str(err).split())  # one line
-    written, error = comm.bcast((written, error), root=0)
+            error, code = " ".join(str(err).split()), EXIT_INPUT  # one line
+        except OSError as err:
+            where = f"{err.filename}: " if err.filename else ""
+            error, code = f"cannot write {where}{err.strerror or err}", EXIT_IO
+    written, error, code = comm.bcast((written, error, code), root=0)
     if error is not None:
         say(f"rodfem: error: {error}")
-        return EXIT_INPUT
+        return code
     for path in written:
         say(str(path), sys.stdout)
     return 0

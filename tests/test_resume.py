@@ -173,3 +173,22 @@ def test_resume_refuses_what_it_cannot_continue_exactly(tmp_path):
     for target in (tmp_path / "missing", tmp_path):
         done = rodfem("resume", target)
         assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
+
+
+@serial_only
+def test_plot_of_a_killed_run_says_the_process_is_gone(tmp_path):
+    out = tmp_path / "run"
+    process = subprocess.Popen([RODFEM, "run", *SCENE, "--set", "time.end=1000", "--out",
+                                str(out), "--quiet"], env=ENV)
+    deadline = time.monotonic() + 120
+    while not (out / "fields" / "steps-000001.h5").exists():  # two checkpoints written
+        assert time.monotonic() < deadline and process.poll() is None
+        time.sleep(0.05)
+    process.kill()
+    process.wait()
+    assert state(out) == "gone"
+    assert_whole(out)
+    done = rodfem("plot", out)
+    assert done.returncode == 0, done.stderr
+    assert "the process is gone" in done.stderr and f"rodfem resume {out}" in done.stderr
+    assert (out / "figures" / "contact.png").stat().st_size > 0

@@ -178,3 +178,20 @@ def test_a_one_step_paper_reproduction_completes(tmp_path):
     done = rodfem("paper", "--out", tmp_path / "paper", "--set", "time.end=0.001")
     assert done.returncode == 0, done.stderr
     assert "fewer than 2 steps" in (tmp_path / "paper" / "index.md").read_text()
+
+
+@serial_only
+def test_paper_stops_on_a_signal_like_run(tmp_path):
+    import signal
+    import time
+
+    out = tmp_path / "paper"
+    process = subprocess.Popen([RODFEM, "paper", "--out", str(out), "--set", "time.end=2"],
+                               stderr=subprocess.PIPE, text=True, env=ENV)
+    time.sleep(4.0)
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=300)
+    assert process.returncode == 128 + signal.SIGTERM, err
+    assert "Traceback" not in err and "interrupted by SIGTERM" in err
+    assert state(out) in ("interrupted", "failed")
+    assert not (out / "index.md").exists()

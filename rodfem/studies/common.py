@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 import rodfem
+from rodfem.output.atomic import replacing
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -71,8 +72,8 @@ def csv_value(value) -> str:
 
 
 def write_csv(path: Path, columns: tuple[str, ...], rows: list[dict]) -> None:
-    """A table of ``rows`` with the given ``columns`` (rank 0 calls it)."""
-    with open(path, "w", encoding="utf-8", newline="") as f:
+    """A table of ``rows`` with the given ``columns``, whole or not at all (rank 0 calls it)."""
+    with replacing(path, "w") as f:
         writer = csv.writer(f)
         writer.writerow(columns)
         for row in rows:
