@@ -184,6 +184,16 @@ def _claim(path: Path, force: bool, keep: Path | None) -> int:
     return fd
 
 
+def _hold(path: Path, fd: int, marker: dict) -> None:
+    """Mark ``path`` with ``marker`` while holding its lock ``fd``, until :func:`finish`."""
+    try:
+        _write_marker(path, marker)
+    except BaseException:
+        os.close(fd)
+        raise
+    _held[path.resolve()] = (fd, marker)
+
+
 def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None = None,
                       command: str = "run", files: tuple[str, ...] = RUN_FILES) -> None:
     """Create ``path`` for a command that writes ``files`` (rank 0), mark it and hold its lock
@@ -197,16 +207,10 @@ def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None
     error = None
     if comm.rank == 0:
         try:
-            fd = _claim(path, force, keep)
-            marker = {"rodfem": rodfem.__version__, "command": command, "status": "running",
-                      "pid": os.getpid(), "host": socket.gethostname(),
-                      "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": list(files)}
-            try:
-                _write_marker(path, marker)
-            except BaseException:
-                os.close(fd)
-                raise
-            _held[path.resolve()] = (fd, marker)
+            _hold(path, _claim(path, force, keep),
+                  {"rodfem": rodfem.__version__, "command": command, "status": "running",
+                   "pid": os.getpid(), "host": socket.gethostname(),
+                   "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": list(files)})
         except OSError as err:
             error = f"cannot create output directory {path}: {err.strerror or err}"
         except OutputError as err:
@@ -249,17 +253,11 @@ def reopen(path: Path, comm: MPI.Comm) -> dict:
             if before is None or before.get("command") != "run":
                 raise OutputError(f"{path} is not a directory of 'rodfem run' (no {MARKER} of "
                                   "a run)")
-            fd = _lock(path)
             marker = {**before, "status": "running", "pid": os.getpid(),
                       "host": socket.gethostname(),
                       "resumed": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
             marker.pop("finished", None)
-            try:
-                _write_marker(path, marker)
-            except BaseException:
-                os.close(fd)
-                raise
-            _held[path.resolve()] = (fd, marker)
+            _hold(path, _lock(path), marker)
         except OSError as err:
             error = f"cannot resume {path}: {err.strerror or err}"
         except OutputError as err:
