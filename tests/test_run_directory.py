@@ -196,3 +196,26 @@ def test_two_runs_at_once_never_mix(shared_dir):
     assert f"end = {summary['steps'] * 0.001!r}" in scene or summary["steps"] in (500, 600, 700,
                                                                                    800)
     time.sleep(0)
+
+
+def test_force_takes_a_directory_left_between_its_creation_and_its_marker(tmp_path):
+    """A command stopped right after creating its directory leaves only the lock (and perhaps the
+    marker's temporary file): --force may use it; a decoy beside them stops it."""
+    from mpi4py.MPI import COMM_SELF
+
+    from rodfem.output.directories import OutputError, finish, prepare_directory
+
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / LOCK).write_text("")
+    (out / f".{MARKER}.1234").write_text("{")
+    prepare_directory(out, True, COMM_SELF)
+    finish(out, "complete", COMM_SELF)
+    assert sorted(p.name for p in out.iterdir()) == sorted([LOCK, MARKER])
+    decoy = tmp_path / "decoy"
+    decoy.mkdir()
+    (decoy / LOCK).write_text("")
+    (decoy / "notes.txt").write_text("mine")
+    with pytest.raises(OutputError, match="no rodfem.json"):
+        prepare_directory(decoy, True, COMM_SELF)
+    assert (decoy / "notes.txt").read_text() == "mine"

@@ -146,6 +146,18 @@ def _inside(path: Path) -> bool:
     return here == there or there in here.parents
 
 
+def _unmarked_claim(path: Path) -> bool:
+    """Whether ``path`` holds only what a command stopped between creating it and marking it
+    leaves: its lock, and perhaps the temporary file of its marker."""
+    def ours(entry: Path) -> bool:
+        match = TEMPORARY.match(entry.name)
+        return entry.is_file() and not entry.is_symlink() and (
+            entry.name == LOCK or (match is not None and match["name"] == MARKER))
+
+    entries = list(path.iterdir())
+    return bool(entries) and all(ours(e) for e in entries)
+
+
 def _claim(path: Path, force: bool, keep: Path | None) -> int:
     """Create ``path``, or (with ``force``) empty the rodfem directory it is; return its lock."""
     try:
@@ -162,12 +174,13 @@ def _claim(path: Path, force: bool, keep: Path | None) -> int:
                           "with --force")
     if keep is not None and path.resolve() in keep.resolve().parents:
         raise OutputError(f"the scene {keep} is inside the output directory {path}")
-    if read_marker(path) is None:  # taking its lock would write into a directory not ours
+    if read_marker(path) is None and not _unmarked_claim(path):
+        # taking its lock would write into a directory not ours
         raise OutputError(f"{path} is not a rodfem output directory (it has no {MARKER}); not "
                           "replacing it, even with --force")
     fd = _lock(path)
     try:
-        why = _foreign(path)
+        why = None if _unmarked_claim(path) else _foreign(path)
         if why is not None:
             raise OutputError(f"{path} is not a rodfem output directory ({why}); not replacing "
                               "it, even with --force")
