@@ -271,6 +271,8 @@ def _summary(scene, status, error, iterations, energy, setup_seconds, loop_secon
         "scene": scene.source,
         "method": scene["solver.method"],
         "obstacle": scene["obstacle.kind"],
+        "law": scene["obstacle.law"] if scene["obstacle.kind"] == "elastic" else None,
+        "time_scheme": scene["time.scheme"],
         "steps": done,
         "steps_planned": scene.steps,
         # A failed step's iterations count too (it is not in the history).
