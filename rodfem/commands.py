@@ -85,7 +85,7 @@ def _report(scene, result, out: Path, quiet: bool) -> int:
     again = f"'rodfem resume {out}' continues it"
     if result.io_error is not None:
         say(f"rodfem: error: {result.io_error}. The run's files are whole up to its last "
-            f"checkpoint in {out}; once the disk has room, {again}.")
+            f"checkpoint in {out}; once they can be written again, {again}.")
         return EXIT_IO
     if result.status == "failed":
         say(f"rodfem: {_advice(scene, result.error)} "

@@ -8,11 +8,24 @@ The temporary file is ``.<name>.<pid>`` in the same directory; a failed write re
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import re
 from pathlib import Path
 
 TEMPORARY = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)$")  # the name of a temporary file
+
+
+def named(err: OSError, path: Path) -> OSError:
+    """``err`` with the file it concerns: a failed write or flush says only "No space left on
+    device", and HDF5 reports its system errors as text ("errno = 28")."""
+    if err.filename is not None and err.errno is not None:
+        return err
+    code = err.errno
+    if code is None:
+        found = re.search(r"errno = (\d+)", str(err))
+        code = int(found[1]) if found else errno.EIO
+    return OSError(code, os.strerror(code), str(path))
 
 
 def temporary(path: Path) -> Path:
@@ -30,9 +43,11 @@ def replacing(path: Path, mode: str = "w"):
             file.flush()
             os.fsync(file.fileno())
         os.replace(part, path)
-    except BaseException:
+    except BaseException as err:
         with contextlib.suppress(OSError):
             part.unlink()
+        if isinstance(err, OSError):
+            raise named(err, path) from None
         raise
 
 

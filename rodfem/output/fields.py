@@ -28,7 +28,7 @@ from dolfinx import fem
 import forms.copetti as copetti
 from rodfem.discrete import compat
 from rodfem.discrete.discretisation import Discretisation
-from rodfem.output.atomic import replacing, temporary
+from rodfem.output.atomic import named, replacing, temporary
 
 FIELDS = ("theta", "u", "sigma")
 DIRECTORY = "fields"
@@ -56,8 +56,10 @@ def _write_h5(path: Path, datasets: dict[str, np.ndarray]) -> None:
         finally:
             os.close(fd)
         os.replace(part, path)
-    except BaseException:
+    except BaseException as err:
         part.unlink(missing_ok=True)
+        if isinstance(err, OSError):
+            raise named(err, path) from None
         raise
 
 

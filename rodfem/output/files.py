@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from rodfem.output.atomic import replacing, temporary
+from rodfem.output.atomic import named, replacing, temporary
 from rodfem.output.columns import COLUMNS, NAMES
 
 
@@ -93,8 +93,10 @@ class HistoryFile:
                     file.flush()
                     os.fsync(file.fileno())
                 os.replace(part, self.path)
-            except BaseException:
+            except BaseException as err:
                 part.unlink(missing_ok=True)
+                if isinstance(err, OSError):
+                    raise named(err, self.path) from None
                 raise
             self.size += len(text)
             self._text.clear()
