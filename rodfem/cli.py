@@ -41,9 +41,17 @@ def _progress(command: argparse.ArgumentParser, help: str) -> None:
     command.add_argument("--progress", action="store_true", help=help)
 
 
+class _Parser(argparse.ArgumentParser):
+    """A mistake in the arguments is one line, and exit code 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} "
+                     "--help)\n")
+
+
 def parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand (the CLI reference is generated from it)."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="rodfem",
         description="Dynamic contact of a thermoviscoelastic rod with an obstacle (Copetti).",
     )
@@ -176,30 +184,31 @@ def main(argv: list[str] | None = None) -> int:
         commands.say(f"rodfem: error: {err}")
         return commands.EXIT_INPUT
     except Exception as err:  # noqa: BLE001 (what a signal or a failed write became)
-        signum = _signal_behind(err)
+        signum = interrupts.signal_behind(err)
         if signum is not None:
             _release("interrupted")
             commands.say(f"rodfem: {interrupts.Interrupted(signum)}; stopped outside a time "
                          "loop, nothing half-written")
+            _abort_ranks(128 + signum)
             return 128 + signum
         if isinstance(err, OSError):  # a write that failed outside a run's loop (a figure)
             _release("failed")
             where = f"{err.filename}: " if err.filename else ""
-            commands.say(f"rodfem: error: cannot write {where}{err.strerror or err}")
+            commands.say(" ".join(f"rodfem: error: cannot write {where}{err.strerror or err}"
+                                  .split()))
+            _abort_ranks(commands.EXIT_IO)
             return commands.EXIT_IO
         raise
 
 
-def _signal_behind(err: BaseException) -> int | None:
-    """The stop signal that raised ``err``, or that a library turned into another error (an
-    import of a compiled module reports "initialization failed"), or None."""
-    seen = set()
-    while err is not None and id(err) not in seen:
-        if isinstance(err, interrupts.Interrupted):
-            return err.signum
-        seen.add(id(err))
-        err = err.__cause__ or err.__context__
-    return interrupts.signal_received()
+def _abort_ranks(code: int) -> None:
+    """Under MPI, end every rank: a rank stopped outside the time loop may leave the others
+    waiting in a collective call for ever (a signal that reached the ranks at different
+    points of their start-up). Open MPI then prints its own lines."""
+    MPI = getattr(sys.modules.get("mpi4py.MPI"), "COMM_WORLD", None)
+    if MPI is not None and MPI.Get_size() > 1:
+        sys.stderr.flush()
+        MPI.Abort(code)
 
 
 if __name__ == "__main__":

@@ -112,7 +112,7 @@ def resume(args: argparse.Namespace) -> int:
     """Continue the run in args.dir from its checkpoint (or extend a finished one)."""
     from mpi4py import MPI
 
-    from rodfem.output.directories import OutputError, finish, reopen
+    from rodfem.output.directories import OutputError, mark_running, release, reopen
     from rodfem.output.resume import ResumeError, plan
 
     comm, out = MPI.COMM_WORLD, args.dir
@@ -123,8 +123,9 @@ def resume(args: argparse.Namespace) -> int:
         return EXIT_INPUT
     try:
         scene, checkpoint = plan(out, args.overrides, marker, comm)
+        mark_running(out, comm)
     except (ResumeError, OutputError) as err:
-        finish(out, marker["status"], comm)  # as it was
+        release(out, comm)  # untouched
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
     from rodfem.run import simulate

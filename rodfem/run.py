@@ -106,7 +106,7 @@ class InMemory:
 
 def _io_line(err: OSError) -> str:
     where = f"{err.filename}: " if err.filename else ""
-    return f"cannot write {where}{err.strerror or err}"
+    return " ".join(f"cannot write {where}{err.strerror or err}".split())  # one line
 
 
 def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
@@ -162,7 +162,8 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
         except OSError as err:
             io_error.append(_io_line(err))
 
-    saved = [-1]
+    # the last step whose fields are saved (a resumed run's, from its checkpoint)
+    saved = [meta["saves"][-1][0] if meta.get("saves") else -1]
 
     def save_fields() -> None:
         if files is not None:

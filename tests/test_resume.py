@@ -6,6 +6,7 @@ refuses."""
 import json
 import os
 import random
+import shutil
 import signal
 import subprocess
 import sys
@@ -149,6 +150,7 @@ def test_resume_refuses_what_it_cannot_continue_exactly(tmp_path):
     rodfem("run", "paper1", "--set", "mesh.cells=20", "--set", "time.end=0.2", "--out", out,
            "--quiet", check=0)
     before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    marker = (out / "rodfem.json").read_bytes()
     cases = [
         (["--set", "model.zeta=1"], "only time.end can be changed"),
         (["--set", "time.end=0.1"], "is before the checkpoint"),
@@ -157,19 +159,29 @@ def test_resume_refuses_what_it_cannot_continue_exactly(tmp_path):
         done = rodfem("resume", out, *extra)
         assert done.returncode == 2 and message in done.stderr, done.stderr
         assert len(done.stderr.strip().splitlines()) == 1
+        assert (out / "rodfem.json").read_bytes() == marker  # a refusal changes nothing
     done = rodfem("resume", out, "--set", "time.end=0.4", ranks=2)
     assert done.returncode == 2 and "mpirun -n 1" in done.stderr, done.stderr
     (out / "scene.toml").write_text((out / "scene.toml").read_text().replace("zeta = 0.2",
                                                                              "zeta = 0.3"))
     done = rodfem("resume", out, "--set", "time.end=0.4")
     assert done.returncode == 2 and "was it edited" in done.stderr
-    (out / "checkpoint.npz").write_bytes(b"not a checkpoint")
     (out / "scene.toml").write_bytes(before["scene.toml"])
-    done = rodfem("resume", out, "--set", "time.end=0.4")
-    assert done.returncode == 2 and "not a readable checkpoint" in done.stderr
+    history = out / "history.csv"
+    for damaged in (before["history.csv"][:-30], before["history.csv"].replace(b"0.1", b"0.2")):
+        history.write_bytes(damaged)
+        done = rodfem("resume", out, "--set", "time.end=0.4")
+        assert done.returncode == 2 and "no longer holds the rows" in done.stderr, done.stderr
+    history.write_bytes(before["history.csv"])
+    for damaged in (b"not a checkpoint", before["checkpoint.npz"][:5000]):
+        (out / "checkpoint.npz").write_bytes(damaged)
+        done = rodfem("resume", out, "--set", "time.end=0.4")
+        assert done.returncode == 2 and "not a readable checkpoint" in done.stderr, done.stderr
+        assert len(done.stderr.strip().splitlines()) == 1
     for name in ("history.csv", "summary.json", "scene.toml"):
         assert (out / name).read_bytes() == before[name]
     assert state(out) == "complete"
+    assert (out / "rodfem.json").read_bytes() == marker
     for target in (tmp_path / "missing", tmp_path):
         done = rodfem("resume", target)
         assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
@@ -192,3 +204,33 @@ def test_plot_of_a_killed_run_says_the_process_is_gone(tmp_path):
     assert done.returncode == 0, done.stderr
     assert "the process is gone" in done.stderr and f"rodfem resume {out}" in done.stderr
     assert (out / "figures" / "contact.png").stat().st_size > 0
+
+
+@serial_only
+def test_a_run_killed_after_its_last_checkpoint_is_completed_by_resume(tmp_path, reference):
+    """Killed between its final checkpoint and its marker: resume has no step left to take, and
+    writes what the run did not (summary.json, the final marker)."""
+    out = tmp_path / "run"
+    shutil.copytree(reference[1], out)
+    marker = json.loads((out / "rodfem.json").read_text())
+    marker.update(status="running", pid=2**22 + 1)
+    marker.pop("finished")
+    (out / "rodfem.json").write_text(json.dumps(marker))
+    (out / "summary.json").unlink()
+    assert state(out) == "gone"
+    rodfem("resume", out, "--quiet", check=0)
+    assert state(out) == "complete"
+    assert_same_run(out, reference[1])
+
+
+@serial_only
+def test_an_ignored_hangup_stays_ignored(tmp_path):
+    """Started under nohup (SIGHUP ignored), a run goes on when its terminal closes."""
+    out = tmp_path / "run"
+    process = subprocess.Popen(
+        [RODFEM, "run", "paper1", "--set", "time.end=20", "--out", str(out), "--quiet"], env=ENV,
+        preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    time.sleep(2.0)
+    process.send_signal(signal.SIGHUP)
+    assert process.wait(timeout=120) == 0
+    assert state(out) == "complete"

@@ -219,3 +219,28 @@ def test_force_takes_a_directory_left_between_its_creation_and_its_marker(tmp_pa
     with pytest.raises(OutputError, match="no rodfem.json"):
         prepare_directory(decoy, True, COMM_SELF)
     assert (decoy / "notes.txt").read_text() == "mine"
+
+
+def test_force_keeps_data_files_rodfem_does_not_write(tmp_path):
+    from mpi4py.MPI import COMM_SELF
+
+    from rodfem.output.directories import OutputError, finish, prepare_directory
+
+    out = tmp_path / "run"
+    prepare_directory(out, False, COMM_SELF)
+    (out / "fields").mkdir()
+    (out / "fields" / "steps-000000.h5").write_bytes(b"")
+    finish(out, "complete", COMM_SELF)
+    (out / "fields" / "mine.h5").write_bytes(b"mine")
+    with pytest.raises(OutputError, match="it holds fields"):
+        prepare_directory(out, True, COMM_SELF)
+    assert (out / "fields" / "mine.h5").read_bytes() == b"mine"
+
+
+def test_a_mistake_in_the_arguments_is_one_line(capsys):
+    for argv in (["run"], ["run", "paper1", "--bogus"], ["plot"], ["nonsense"]):
+        with pytest.raises(SystemExit) as stop:
+            main(argv)
+        assert stop.value.code == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and "error" in err and "--help" in err, err

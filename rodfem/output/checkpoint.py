@@ -15,7 +15,9 @@ write them.
 from __future__ import annotations
 
 import json
+import os
 import time
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -46,7 +48,7 @@ def read_checkpoint(out: Path) -> tuple[dict[str, np.ndarray], dict]:
         meta = json.loads(str(arrays.pop("meta")))
     except FileNotFoundError:
         raise CheckpointError(f"{path} does not exist") from None
-    except (OSError, ValueError, KeyError, EOFError) as err:
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
         raise CheckpointError(f"{path} is not a readable checkpoint ({err})") from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise CheckpointError(f"{path} is not a checkpoint this version of rodfem reads")
@@ -85,7 +87,8 @@ class RunFiles:
         for entry in self.out.iterdir():
             match = TEMPORARY.match(entry.name)
             if match and entry.is_file() and not entry.is_symlink() and match["name"] in (
-                    "history.csv", "fields.xdmf", "summary.json", "scene.toml", NAME):
+                    "history.csv", "fields.xdmf", "summary.json", "scene.toml", NAME,
+                    "rodfem.json") and int(match["pid"]) != os.getpid():
                 entry.unlink()
 
     def due(self) -> bool:
@@ -102,6 +105,7 @@ class RunFiles:
         size = self.history.checkpoint()
         if arrays is not None and self.comm.rank == 0:
             write_checkpoint(self.out, arrays, {**meta, "history_bytes": size,
+                                                "history_sha256": self.history.digest.hexdigest(),
                                                 "saves": self.fields.saves,
                                                 "segments": self.fields.segments})
         if self.comm.rank == 0:

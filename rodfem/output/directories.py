@@ -22,6 +22,7 @@ from __future__ import annotations
 import fcntl
 import json
 import os
+import re
 import shutil
 import socket
 import time
@@ -37,7 +38,8 @@ RUN_FILES = ("history.csv", "fields.xdmf", "fields", "scene.toml", "summary.json
              "checkpoint.npz")
 FIGURE_DIRS = ("figures", "figure5")
 FIGURE_SUFFIXES = (".png", ".gif", ".mp4")
-DATA_DIRS = {"fields": (".h5",)}  # a run's subdirectories of data: the suffixes they hold
+# A run's subdirectories of data, and the names of the files rodfem writes there.
+DATA_DIRS = {"fields": re.compile(r"^(mesh|steps-\d{6,})\.h5$")}
 
 _held: dict[Path, tuple[int, dict]] = {}  # the directories this process holds: lock fd, marker
 
@@ -62,6 +64,16 @@ def read_marker(path: Path) -> dict | None:
     if not isinstance(marker, dict) or not isinstance(marker.get("files"), list):
         return None
     return marker
+
+
+def _only_named(path: Path, names: re.Pattern) -> bool:
+    """Whether ``path`` holds only files (no links) with names rodfem gives them, or rodfem's
+    temporary files of those."""
+    def ours(f: Path) -> bool:
+        match = TEMPORARY.match(f.name)
+        return names.match(match["name"] if match else f.name) is not None
+
+    return all(f.is_file() and not f.is_symlink() and ours(f) for f in path.iterdir())
 
 
 def _only(path: Path, suffixes: tuple[str, ...]) -> bool:
@@ -113,7 +125,7 @@ def _foreign(path: Path, mounts: list[Path] | None = None) -> str | None:
         if entry.is_dir() and name in FIGURE_DIRS and _only(entry, FIGURE_SUFFIXES):
             continue
         if entry.is_dir() and name in listed and name in DATA_DIRS \
-                and _only(entry, DATA_DIRS[name]):
+                and _only_named(entry, DATA_DIRS[name]):
             continue
         if name in listed and entry.is_file():
             continue
@@ -251,8 +263,8 @@ def finish(path: Path, status: str, comm: MPI.Comm) -> None:
 
 def reopen(path: Path, comm: MPI.Comm) -> dict:
     """Hold the run directory ``path`` again (``rodfem resume``): it must be one that ``rodfem
-    run`` wrote and that no process holds. Its marker says ``running`` again, with this process;
-    returns the marker as it was.
+    run`` wrote and that no process holds. Returns its marker; nothing is written until
+    :func:`mark_running` (or :func:`release`, which lets it go untouched).
 
     Raises:
         OutputError: on every rank, with one line saying why, and nothing touched.
@@ -266,11 +278,7 @@ def reopen(path: Path, comm: MPI.Comm) -> dict:
             if before is None or before.get("command") != "run":
                 raise OutputError(f"{path} is not a directory of 'rodfem run' (no {MARKER} of "
                                   "a run)")
-            marker = {**before, "status": "running", "pid": os.getpid(),
-                      "host": socket.gethostname(),
-                      "resumed": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-            marker.pop("finished", None)
-            _hold(path, _lock(path), marker)
+            _held[path.resolve()] = (_lock(path), before)
         except OSError as err:
             error = f"cannot resume {path}: {err.strerror or err}"
         except OutputError as err:
@@ -279,6 +287,26 @@ def reopen(path: Path, comm: MPI.Comm) -> dict:
     if error:
         raise OutputError(error)
     return before
+
+
+def mark_running(path: Path, comm: MPI.Comm) -> None:
+    """The marker of a directory held by :func:`reopen` says ``running`` again, with this
+    process (rank 0)."""
+    if comm.rank != 0:
+        return
+    fd, before = _held.pop(path.resolve())
+    marker = {**before, "status": "running", "pid": os.getpid(), "host": socket.gethostname(),
+              "resumed": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+    marker.pop("finished", None)
+    _hold(path, fd, marker)
+
+
+def release(path: Path, comm: MPI.Comm) -> None:
+    """Let a held directory go without writing anything (rank 0)."""
+    if comm.rank == 0:
+        held = _held.pop(path.resolve(), None)
+        if held is not None:
+            os.close(held[0])
 
 
 def state(path: Path) -> str | None:

@@ -8,6 +8,7 @@ checkpoint.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import queue
@@ -40,6 +41,7 @@ class HistoryFile:
         self._error: BaseException | None = None
         self._text: list[str] = []
         self.size = 0
+        self.digest = hashlib.sha256()  # of the file as written: resume checks it is unchanged
         if not self.rank0:
             return
         if keep is None:
@@ -47,10 +49,14 @@ class HistoryFile:
             with replacing(path) as file:
                 file.write(header)
             self.size = len(header.encode())
+            self.digest.update(header.encode())
         else:
+            with open(path, "rb") as old:
+                kept = old.read(keep)
+            self.digest.update(kept)
             if path.stat().st_size != keep:  # rows written after the checkpoint: not kept
-                with open(path, "rb") as old, replacing(path, "wb") as file:
-                    file.write(old.read(keep))
+                with replacing(path, "wb") as file:
+                    file.write(kept)
             self.size = keep
         self._blocks: queue.Queue = queue.Queue()
         self._writer = threading.Thread(target=self._format, name="history.csv", daemon=True)
@@ -99,6 +105,7 @@ class HistoryFile:
                     raise named(err, self.path) from None
                 raise
             self.size += len(text)
+            self.digest.update(text)
             self._text.clear()
         return self.size
 

@@ -2,7 +2,8 @@
 closed terminal) and SIGUSR1 (which Open MPI's mpirun forwards to the ranks).
 
 A command stops on any of them with exit code 128 + the signal's number (130, 143, 129, 138) and
-no traceback. Where it stops depends on when the signal comes:
+no traceback. A signal the command was started ignoring (``nohup``; SIGINT for a shell's ``&``
+job) stays ignored. Where it stops depends on when the signal comes:
 
 * during start-up (imports, just-in-time compilation, set-up) and between runs, the signal raises
   :class:`Interrupted` at once; nothing is half-written, since every file rodfem writes outside
@@ -59,7 +60,8 @@ def install() -> None:
         os.environ["PETSC_OPTIONS"] = f"{options} -no_signal_handler".strip()
     if _main_thread():
         for s in SIGNALS:
-            signal.signal(s, _handler)
+            if signal.getsignal(s) is not signal.SIG_IGN:  # nohup, or a shell's & job: kept
+                signal.signal(s, _handler)
 
 
 def signal_received() -> int | None:
@@ -83,14 +85,18 @@ def deferred():
     if not _main_thread():
         yield
         return
-    previous = [signal.signal(s, _handler) for s in SIGNALS]
+    previous = [signal.getsignal(s) for s in SIGNALS]
+    for s, handler in zip(SIGNALS, previous, strict=True):
+        if handler is not signal.SIG_IGN:
+            signal.signal(s, _handler)
     _depth[0] += 1
     try:
         yield
     finally:
         _depth[0] -= 1
         for s, handler in zip(SIGNALS, previous, strict=True):
-            signal.signal(s, handler)
+            if handler is not None:
+                signal.signal(s, handler)
 
 
 def requested(comm, n: int, every: int, also: bool = False) -> bool:
@@ -103,3 +109,15 @@ def requested(comm, n: int, every: int, also: bool = False) -> bool:
     from mpi4py import MPI
 
     return n % every == 0 and comm.allreduce(local, op=MPI.LOR)
+
+
+def signal_behind(err: BaseException) -> int | None:
+    """The stop signal that raised ``err``, or that a library turned into another error (an
+    import of a compiled module reports "initialization failed"), or None."""
+    seen = set()
+    while err is not None and id(err) not in seen:
+        if isinstance(err, Interrupted):
+            return err.signum
+        seen.add(id(err))
+        err = err.__cause__ or err.__context__
+    return signal_received()

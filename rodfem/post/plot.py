@@ -19,7 +19,7 @@ from pathlib import Path
 from rodfem.post import backend
 from rodfem.post.animation import rod_animation
 from rodfem.post.curves import contact_figure, energy_figure
-from rodfem.post.runs import PlotError, RunDirectoryError, file_suffixes, legend_labels, load_run
+from rodfem.post.runs import RunDirectoryError, file_suffixes, legend_labels, load_run
 from rodfem.post.spacetime import MAPS, spacetime_figure
 
 
@@ -41,10 +41,7 @@ def plot(dirs: list[Path], out: Path | None = None) -> list[Path]:
         raise RunDirectoryError("no run directory given")
     runs = [load_run(Path(d)) for d in dirs]
     out = Path(out) if out is not None else runs[0].path / "figures"
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise PlotError(f"cannot create figure directory {out}: {err.strerror}") from None
+    out.mkdir(parents=True, exist_ok=True)  # an OSError is a write error (exit code 4)
 
     backend.off_screen()
     labels = legend_labels(runs)
