@@ -98,6 +98,19 @@ def test_force_replaces_a_run_and_its_figures(shared_dir):
     assert len((out / "history.csv").read_text().splitlines()) == 1 + 21
 
 
+def test_force_keeps_an_image_rodfem_did_not_draw(shared_dir, capsys):
+    out = shared_dir / "run"
+    assert run(out)[0] == 0
+    if COMM.rank == 0:
+        (out / "figures").mkdir()
+        (out / "figures" / "contact.png").write_bytes(b"png")
+        (out / "figures" / "mine.png").write_bytes(b"mine")
+    COMM.barrier()
+    code, err = run(out, "--force", capsys=capsys)
+    assert code == 2 and "it holds figures" in err
+    assert (out / "figures" / "mine.png").read_bytes() == b"mine"
+
+
 @serial_only
 @pytest.mark.parametrize("where", [".", "figures"])
 def test_force_never_replaces_the_current_directory_or_its_parent(shared_dir, where):

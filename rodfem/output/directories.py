@@ -37,7 +37,9 @@ MARKER, LOCK = "rodfem.json", "rodfem.lock"
 RUN_FILES = ("history.csv", "fields.xdmf", "fields", "scene.toml", "summary.json",
              "checkpoint.npz")
 FIGURE_DIRS = ("figures", "figure5")
-FIGURE_SUFFIXES = (".png", ".gif", ".mp4")
+# The names of the figures rodfem draws (rodfem.post; "_<run>" when several runs are drawn).
+FIGURE_NAMES = re.compile(r"^((contact|energy)(_.+)?\.png|spacetime_(u|theta|sigma)(_.+)?\.png"
+                          r"|rod(_.+)?\.gif|stability_\w+\.png|(orders|workprecision)_.+\.png)$")
 # A run's subdirectories of data, and the names of the files rodfem writes there.
 DATA_DIRS = {"fields": re.compile(r"^(mesh|steps-\d{6,})\.h5$")}
 
@@ -72,16 +74,6 @@ def _only_named(path: Path, names: re.Pattern) -> bool:
     def ours(f: Path) -> bool:
         match = TEMPORARY.match(f.name)
         return names.match(match["name"] if match else f.name) is not None
-
-    return all(f.is_file() and not f.is_symlink() and ours(f) for f in path.iterdir())
-
-
-def _only(path: Path, suffixes: tuple[str, ...]) -> bool:
-    """Whether ``path`` holds only files (no links) of these suffixes, or rodfem's temporary
-    files of them."""
-    def ours(f: Path) -> bool:
-        match = TEMPORARY.match(f.name)
-        return Path(match["name"] if match else f.name).suffix in suffixes
 
     return all(f.is_file() and not f.is_symlink() and ours(f) for f in path.iterdir())
 
@@ -122,7 +114,7 @@ def _foreign(path: Path, mounts: list[Path] | None = None) -> str | None:
             return f"{name} is a mount point"
         if name in (MARKER, LOCK) and entry.is_file():
             continue
-        if entry.is_dir() and name in FIGURE_DIRS and _only(entry, FIGURE_SUFFIXES):
+        if entry.is_dir() and name in FIGURE_DIRS and _only_named(entry, FIGURE_NAMES):
             continue
         if entry.is_dir() and name in listed and name in DATA_DIRS \
                 and _only_named(entry, DATA_DIRS[name]):
