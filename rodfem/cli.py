@@ -193,9 +193,9 @@ def main(argv: list[str] | None = None) -> int:
             return 128 + signum
         if isinstance(err, OSError):  # a write that failed outside a run's loop (a figure)
             _release("failed")
-            where = f"{err.filename}: " if err.filename else ""
-            commands.say(" ".join(f"rodfem: error: cannot write {where}{err.strerror or err}"
-                                  .split()))
+            from rodfem.output.atomic import io_line
+
+            commands.say(f"rodfem: error: {io_line(err)}")
             _abort_ranks(commands.EXIT_IO)
             return commands.EXIT_IO
         raise

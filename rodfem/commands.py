@@ -169,8 +169,9 @@ def plot(args: argparse.Namespace) -> int:
         except PlotError as err:
             error, code = " ".join(str(err).split()), EXIT_INPUT  # one line
         except OSError as err:
-            where = f"{err.filename}: " if err.filename else ""
-            error, code = f"cannot write {where}{err.strerror or err}", EXIT_IO
+            from rodfem.output.atomic import io_line
+
+            error, code = io_line(err), EXIT_IO
     written, error, code = comm.bcast((written, error, code), root=0)
     if error is not None:
         say(f"rodfem: error: {error}")

@@ -15,6 +15,7 @@ from petsc4py import PETSc
 import rodfem
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output import interrupts
+from rodfem.output.atomic import io_line
 from rodfem.output.checkpoint import RunFiles
 from rodfem.output.columns import INDEX
 from rodfem.output.directories import finish
@@ -95,18 +96,12 @@ class InMemory:
 
     def __init__(self):
         self._blocks = []
-        self.rows = None
 
     def append(self, rows: np.ndarray) -> None:
         self._blocks.append(rows)
 
     def rows_so_far(self) -> np.ndarray:
         return np.concatenate(self._blocks)
-
-
-def _io_line(err: OSError) -> str:
-    where = f"{err.filename}: " if err.filename else ""
-    return " ".join(f"cannot write {where}{err.strerror or err}".split())  # one line
 
 
 def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
@@ -160,7 +155,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
         try:
             files.checkpoint(method.saved_state() if state_valid else None, state_meta())
         except OSError as err:
-            io_error.append(_io_line(err))
+            io_error.append(io_line(err))
 
     # the last step whose fields are saved (a resumed run's, from its checkpoint)
     saved = [meta["saves"][-1][0] if meta.get("saves") else -1]
@@ -255,7 +250,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
                 write_json(out / "summary.json", summary, comm)
                 finish(out, "failed" if io_error else status, comm)
             except OSError as err:
-                io_error.append(_io_line(err))
+                io_error.append(io_line(err))
             io_error[:] = comm.bcast(io_error, root=0)
             comm.barrier()  # every rank returns once rank 0 has written the run's files
     return RunResult(status, summary, error, disc.nodes.x.copy(), method.theta.array_r.copy(),

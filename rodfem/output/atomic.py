@@ -28,6 +28,12 @@ def named(err: OSError, path: Path) -> OSError:
     return OSError(code, os.strerror(code), str(path))
 
 
+def io_line(err: OSError) -> str:
+    """What a failed write says to the user: the file and the system's message, on one line."""
+    where = f"{err.filename}: " if err.filename else ""
+    return " ".join(f"cannot write {where}{err.strerror or err}".split())
+
+
 def temporary(path: Path) -> Path:
     return path.with_name(f".{path.name}.{os.getpid()}")
 
