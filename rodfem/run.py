@@ -160,10 +160,12 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     # the last step whose fields are saved (a resumed run's, from its checkpoint)
     saved = [meta["saves"][-1][0] if meta.get("saves") else -1]
 
+    def write_fields() -> None:
+        files.fields.write(method.n, method.n * dt, method.theta, method.u, method.velocity_back)
+
     def save_fields() -> None:
         if files is not None:
-            files.fields.write(method.n, method.n * dt, method.theta, method.u,
-                               method.velocity_back)
+            write_fields()
             if comm.rank == 0 and method.n > 0 and files.due():
                 checkpoint()
         saved[0] = method.n
@@ -231,9 +233,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
         if status == "interrupted" and io_error:
             status = "failed"
         if saved[0] != method.n and valid and files is not None:
-            # a failed or interrupted run keeps its last step's fields too
-            files.fields.write(method.n, method.n * dt, method.theta, method.u,
-                               method.velocity_back)
+            write_fields()  # a failed or interrupted run keeps its last step's fields too
         if files is not None:
             checkpoint(valid)
             files.close()

@@ -123,10 +123,6 @@ class FieldFile:
             θ[self._node_positions] = theta_owned
             self._pending.append((step, t, θ, u.array_r.copy(), sigma_owned[self._cell_order]))
 
-    def drop_after(self, step: int) -> None:
-        """Forget the saves after ``step`` (none of them written yet)."""
-        self._pending = [p for p in self._pending if p[0] <= step]
-
     def checkpoint(self) -> None:
         """Write the kept saves as a new segment, then list them in fields.xdmf (rank 0)."""
         if self.comm.rank != 0 or not self._pending:
@@ -187,7 +183,3 @@ class FieldFile:
         lines += ["  </Domain>", "</Xdmf>", ""]
         with replacing(self.path) as file:
             file.write("\n".join(lines))
-
-    def close(self) -> None:
-        self.checkpoint()
-

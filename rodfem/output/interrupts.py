@@ -25,7 +25,7 @@ import threading
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGUSR1)
 
-_received: list[int] = []  # the signals received since install() or the last reset()
+_received: list[int] = []  # the signals this process has received
 _depth = [0]  # > 0 inside deferred(): a signal is noted, not raised
 
 
@@ -72,10 +72,6 @@ def signal_received() -> int | None:
 def exit_code() -> int:
     """128 + the first stop signal received (130 for Ctrl-C if none was)."""
     return 128 + (signal_received() or signal.SIGINT)
-
-
-def reset() -> None:
-    _received.clear()
 
 
 @contextlib.contextmanager
