@@ -2,6 +2,24 @@
 
 Copetti's scheme: a heat equation coupled to a Kelvin–Voigt wave equation on (0, 1), penalty
 contact with an elastic obstacle at x = 1, P1 elements and a Picard loop per time step.
+
+From Python: :func:`simulate` runs a scene, :func:`load` reads a run directory, both give a
+:class:`Result`; :func:`sweep` runs a sweep file (:mod:`rodfem.studies.sweep`). They are
+imported on first use, so that ``import rodfem`` stays light.
 """
 
 __version__ = "0.1.0"
+
+_API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
+        "SceneError": "rodfem.scene", "OutputError": "rodfem.output.directories",
+        "sweep": "rodfem.studies.sweep", "load_sweep": "rodfem.studies.sweep"}
+__all__ = [*_API, "__version__"]
+
+
+def __getattr__(name: str):
+    if name in _API:
+        import importlib
+
+        module = importlib.import_module(_API[name])
+        return getattr(module, "run_sweep" if name == "sweep" else name)
+    raise AttributeError(f"module 'rodfem' has no attribute {name!r}")

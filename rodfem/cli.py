@@ -2,8 +2,9 @@
 :mod:`rodfem.commands`.
 
     rodfem run SCENE [--out DIR] [--set section.key=value ...] [--force]
+    rodfem sweep SWEEP.toml [--out DIR] [--force] [--histories]
     rodfem resume DIR [--set time.end=T]
-    rodfem plot DIR [DIR ...] [--out FIGDIR]
+    rodfem plot DIR [DIR ...] [--out FIGDIR]     (runs, or one sweep)
     rodfem stability [--out DIR] [--scene S] [--methods M,...] [--dt LIST] [--epsilon LIST]
                      [--zeta LIST] [--a LIST] [--end T] [--force] [--progress]
     rodfem verify [--out DIR] [--scenes S,...] [--force] [--quick] [--progress]
@@ -72,15 +73,33 @@ def parser() -> argparse.ArgumentParser:
     _progress(run, "draw the progress bar even when output is not a terminal (mpirun)")
     run.add_argument("--no-size-check", dest="large", action="store_true",
                      help="run even if the estimated output or memory exceeds what is free")
+    sweep = sub.add_parser(
+        "sweep",
+        help="run many scenes of a sweep file, their measures in one table",
+        description="Run every scene of a sweep file (a base scene, fixed values, and a grid, "
+        "zipped lists or samples of any scene keys) and write results.csv: one row per scene, "
+        "its swept values, status and measures. Under mpirun the ranks share the scenes, each "
+        "taking the next as it is free; the table is the same for any number of ranks. "
+        "'rodfem resume DIR' continues a stopped sweep.",
+    )
+    sweep.add_argument("file", metavar="SWEEP.toml", help="the sweep file")
+    _output(sweep, None, "output directory (default: results/<sweep file's name>)",
+            "replace an existing sweep directory")
+    sweep.add_argument("--histories", action="store_true",
+                       help="also keep every scene's history, in histories.h5")
+    sweep.add_argument("--quiet", action="store_true", help="no progress and no final line")
+    _progress(sweep, "a progress line every few seconds even when output is not a terminal")
     resume = sub.add_parser(
         "resume",
-        help="continue a stopped run, or extend a finished one",
+        help="continue a stopped run or sweep, or extend a finished run",
         description="Continue the run in DIR from its last checkpoint, after Ctrl-C, a signal, "
         "a kill, a full disk or a failure, to the history and fields an uninterrupted run would "
         "have written, bit for bit (under mpirun, on as many ranks as the run had). With --set "
-        "time.end=T a finished run goes on to T.",
+        "time.end=T a finished run goes on to T. A stopped sweep runs the scenes its journal "
+        "does not hold (on any number of ranks), to the table an uninterrupted sweep writes.",
     )
-    resume.add_argument("dir", type=Path, metavar="DIR", help="a run directory of 'rodfem run'")
+    resume.add_argument("dir", type=Path, metavar="DIR",
+                        help="a directory of 'rodfem run' or 'rodfem sweep'")
     _overrides(resume, "a later end, time.end=T (the only value a resumed run may change)")
     resume.add_argument("--quiet", action="store_true", help="no progress bar and no final line")
     _progress(resume, "draw the progress bar even when output is not a terminal (mpirun)")
@@ -90,10 +109,12 @@ def parser() -> argparse.ArgumentParser:
         description="Draw contact.png, energy.png, spacetime_{u,theta,sigma}.png and rod.gif of "
         "a run directory into DIR/figures. With several directories, contact.png and energy.png "
         "overlay the runs and the per-run figures are named after each run's directory, "
-        "e.g. rod_paper2.gif, all in the first directory's figures/ (or FIGDIR).",
+        "e.g. rod_paper2.gif, all in the first directory's figures/ (or FIGDIR). For a sweep "
+        "directory, sweep_<measure>.png draws each measure over the swept keys: a line over one, "
+        "a coloured map over two grid axes (and lines, one per value of the second).",
     )
     plot.add_argument("dirs", nargs="+", type=Path, metavar="DIR",
-                      help="a run directory written by 'rodfem run'")
+                      help="a run directory written by 'rodfem run', or one sweep directory")
     plot.add_argument("--out", type=Path, metavar="FIGDIR",
                       help="figure directory (default: the first DIR's figures/)")
     paper = sub.add_parser(
@@ -162,7 +183,8 @@ def parser() -> argparse.ArgumentParser:
     return parser
 
 
-COMMANDS = {"run": commands.run, "resume": commands.resume, "plot": commands.plot,
+COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.resume,
+            "plot": commands.plot,
             "paper": commands.paper,
             "stability": commands.stability, "verify": commands.verify,
             "work-precision": commands.verify}

@@ -14,7 +14,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from rodfem.scene import BUILTIN, load
+from rodfem.scene import BUILTIN, SceneError, load
 
 EXIT_INPUT, EXIT_DIVERGED, EXIT_IO = 2, 3, 4
 
@@ -59,19 +59,24 @@ def run(args: argparse.Namespace) -> int:
 
     from mpi4py import MPI
 
+    from rodfem.output import interrupts
     from rodfem.output.directories import OutputError, prepare_directory
+    from rodfem.output.files import write_text
     from rodfem.output.sizes import SizeError, check_room
 
     try:
         check_room(scene, out, MPI.COMM_WORLD, allow=args.large)
         scene_file = Path(args.scene) if args.scene not in BUILTIN else None
-        prepare_directory(out, args.force, MPI.COMM_WORLD, keep=scene_file)
+        # A directory marked is one with its scene.toml, which resume reads: a signal between
+        # the two is taken after both.
+        with interrupts.deferred():
+            prepare_directory(out, args.force, MPI.COMM_WORLD, keep=scene_file)
+            write_text(out / "scene.toml", scene.to_toml(), MPI.COMM_WORLD)
     except (OutputError, SizeError) as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
-    from rodfem.output.files import write_text
-
-    write_text(out / "scene.toml", scene.to_toml(), MPI.COMM_WORLD)  # resume reads it
+    if interrupts.signal_received() is not None:
+        raise interrupts.Interrupted(interrupts.signal_received())
     from rodfem.run import simulate
 
     result = simulate(scene, out, MPI.COMM_WORLD, progress=not args.quiet,
@@ -108,8 +113,58 @@ def _report(scene, result, out: Path, quiet: bool) -> int:
     return 0
 
 
+def sweep(args: argparse.Namespace) -> int:
+    """Run the sweep file args.file into args.out; report its table in one line."""
+    from mpi4py import MPI
+
+    from rodfem.output.directories import OutputError
+    from rodfem.studies import design
+    from rodfem.studies.sweep import run_sweep
+
+    spec = design.load(args.file)  # SceneError: exit 2, nothing written
+    out = args.out if args.out is not None else Path("results") / Path(args.file).stem
+    try:
+        result = run_sweep(spec, out, MPI.COMM_WORLD, histories=args.histories, force=args.force,
+                           progress=args.progress or sys.stderr.isatty(),
+                           text=Path(args.file).read_text(encoding="utf-8"))
+    except OutputError as err:
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    return _sweep_report(result, out, args.quiet)
+
+
+def _sweep_report(result, out: Path, quiet: bool) -> int:
+    """The line that says how a sweep ended, and its exit code."""
+    import json
+
+    from mpi4py import MPI
+
+    summary = json.loads((out / "summary.json").read_text()) if MPI.COMM_WORLD.rank == 0 else {}
+    summary = MPI.COMM_WORLD.bcast(summary, root=0)
+    failed, total = summary.get("scenes_failed", 0), summary.get("scenes", len(result))
+    if result.status != "complete":
+        import signal
+
+        from rodfem.output import interrupts
+
+        code = interrupts.exit_code()
+        done = summary.get("scenes_complete", 0) + failed
+        say(f"rodfem: interrupted by {signal.Signals(code - 128).name}; {done} of {total} scenes "
+            f"are in {out / 'results.csv'}, and 'rodfem resume {out}' runs the rest.")
+        return code
+    if not quiet:
+        rate = summary.get("scenes_per_second") or 0.0
+        ranks = summary.get("mpi_ranks", 1)
+        note = f", {failed} failed (their rows say why)" if failed else ""
+        say(f"{total} scenes{note}; {summary.get('ran_this_time', total)} run in "
+            f"{summary.get('seconds', 0.0):.2f} s ({rate:.1f} scenes/s on {ranks} "
+            f"rank{'s' if ranks > 1 else ''}) -> {out / 'results.csv'}", sys.stdout)
+    return 0
+
+
 def resume(args: argparse.Namespace) -> int:
-    """Continue the run in args.dir from its checkpoint (or extend a finished one)."""
+    """Continue the run in args.dir from its checkpoint (or extend a finished one), or the
+    sweep in args.dir."""
     from mpi4py import MPI
 
     from rodfem.output.directories import OutputError, mark_running, release, reopen
@@ -121,6 +176,8 @@ def resume(args: argparse.Namespace) -> int:
     except OutputError as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
+    if marker.get("command") == "sweep":
+        return _resume_sweep(args, out, marker)
     try:
         scene, checkpoint = plan(out, args.overrides, marker, comm)
         mark_running(out, comm)
@@ -135,6 +192,31 @@ def resume(args: argparse.Namespace) -> int:
     result = simulate(scene, out, comm, progress=not args.quiet, force_progress=args.progress,
                       resume=checkpoint)
     return _report(scene, result, out, args.quiet)
+
+
+def _resume_sweep(args: argparse.Namespace, out: Path, marker: dict) -> int:
+    from mpi4py import MPI
+
+    from rodfem.output.directories import release
+    from rodfem.studies.sweep import resume as resume_sweep
+
+    comm = MPI.COMM_WORLD
+    if args.overrides:
+        release(out, comm)
+        say(f"rodfem: error: --set: a sweep resumes as it was written; {out} is a sweep "
+            "(change its sweep file and run it again instead)")
+        return EXIT_INPUT
+    if marker.get("status") == "complete":
+        release(out, comm)
+        say(f"rodfem: {out} is a complete sweep; nothing to resume", sys.stdout)
+        return 0
+    try:
+        result = resume_sweep(out, comm, progress=args.progress or sys.stderr.isatty())
+    except SceneError as err:
+        release(out, comm)
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    return _sweep_report(result, out, args.quiet)
 
 
 # What ``rodfem plot`` says of a run directory that is not complete: the figures show what is
@@ -152,7 +234,7 @@ def plot(args: argparse.Namespace) -> int:
     """Draw the figures on rank 0 (the others wait), then list the files written."""
     from mpi4py import MPI
 
-    from rodfem.output.directories import state
+    from rodfem.output.directories import read_marker, state
 
     comm = MPI.COMM_WORLD
     written, error, code = [], None, 0
@@ -165,7 +247,16 @@ def plot(args: argparse.Namespace) -> int:
             if note:
                 say(f"rodfem: note: {path} {note.format(path=path)}")
         try:
-            written = draw(args.dirs, args.out)
+            sweeps = [d for d in args.dirs if (read_marker(d) or {}).get("command") == "sweep"]
+            if sweeps and len(args.dirs) > 1:
+                raise PlotError(f"{sweeps[0]} is a sweep: plot it alone (its figures draw every "
+                                "scene's measures)")
+            if sweeps:
+                from rodfem.post.sweep import plot_sweep
+
+                written = plot_sweep(sweeps[0], args.out)
+            else:
+                written = draw(args.dirs, args.out)
         except PlotError as err:
             error, code = " ".join(str(err).split()), EXIT_INPUT  # one line
         except OSError as err:

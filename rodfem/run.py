@@ -19,6 +19,7 @@ from rodfem.output.atomic import io_line
 from rodfem.output.checkpoint import RunFiles
 from rodfem.output.columns import INDEX
 from rodfem.output.directories import finish
+from rodfem.output.fields import FieldFile
 from rodfem.output.files import write_json, write_text
 from rodfem.output.history import History
 from rodfem.output.progress import Progress
@@ -89,6 +90,7 @@ class RunResult:
     history: np.ndarray | None = None  # the rows of history.csv, for a run without files
     io_error: str | None = None  # a file could not be written: the line that says which
     signal: int | None = None  # the signal that interrupted the run
+    fields: tuple | None = None  # keep_fields: (steps, t, θ, u, σ) of the saves (rank 0)
 
 
 class InMemory:
@@ -104,28 +106,55 @@ class InMemory:
         return np.concatenate(self._blocks)
 
 
+class SetUps:
+    """The discretisations of the last few scenes, for the next ones to reuse: a scene of the
+    same mesh and mass (:meth:`Discretisation.key`) on the same communicator gets the same
+    mesh, spaces and compiled forms, with its own values in the constants; its method then
+    assembles and factors its operators once, and nothing is compiled."""
+
+    def __init__(self, size: int = 4):
+        self.size = size
+        self._kept: dict[tuple, Discretisation] = {}
+
+    def discretisation(self, scene: Scene, comm: MPI.Comm) -> Discretisation:
+        key = (comm.py2f(), Discretisation.key(scene))
+        disc = self._kept.pop(key, None)
+        if disc is None:
+            disc = Discretisation(scene, comm)
+        else:
+            disc.load(scene)
+        self._kept[key] = disc  # the most recent last
+        while len(self._kept) > self.size:
+            del self._kept[next(iter(self._kept))]
+        return disc
+
+
 def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
              progress: bool = True, force_progress: bool = False,
-             resume: tuple[dict, dict] | None = None):
+             resume: tuple[dict, dict] | None = None, setups: SetUps | None = None,
+             keep_fields: bool = False):
     """Run ``scene`` into the (already created) directory ``out``; return a :class:`RunResult`.
 
-    With ``out=None`` nothing is written: the history is returned (``RunResult.history``).
+    With ``out=None`` nothing is written: the history is returned (``RunResult.history``), and
+    with ``keep_fields`` the saved fields too (``RunResult.fields``, on rank 0).
     ``resume``: the checkpoint (arrays, metadata) of ``out`` to continue from
-    (:mod:`rodfem.output.checkpoint`). The progress bar is drawn on a terminal (``progress``), or
-    always with ``force_progress``: under mpirun, output is not a terminal.
+    (:mod:`rodfem.output.checkpoint`). ``setups``: where to find (and keep) a discretisation
+    this scene can share with others (:class:`SetUps`). The progress bar is drawn on a terminal
+    (``progress``), or always with ``force_progress``: under mpirun, output is not a terminal.
 
     Signals (Ctrl-C, SIGTERM, SIGHUP, SIGUSR1) stop the run at the end of a step, with its files
     whole and a checkpoint to resume from (:mod:`rodfem.output.interrupts`)."""
     started = time.perf_counter()
     if out is not None and resume is None:
         write_text(out / "scene.toml", scene.to_toml(), comm)
-    disc = Discretisation(scene, comm)
+    disc = setups.discretisation(scene, comm) if setups else Discretisation(scene, comm)
     method = make_method(disc)
     history = History(disc)
     meta = resume[1] if resume else {}
     files = (RunFiles(out, disc, scene["output.checkpoint"], meta or None) if out is not None
              else None)
     rows_out = files.history if files is not None else InMemory()
+    kept = FieldFile(None, disc) if files is None and keep_fields else None
     energy = EnergyMonitor(**meta.get("energy", {}))
     iterations = Iterations(**meta.get("iterations", {}))
     steps, every, dt = scene.steps, scene["output.every"], scene["time.dt"]
@@ -161,13 +190,14 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     saved = [meta["saves"][-1][0] if meta.get("saves") else -1]
 
     def write_fields() -> None:
-        files.fields.write(method.n, method.n * dt, method.theta, method.u, method.velocity_back)
+        (files.fields if kept is None else kept).write(method.n, method.n * dt, method.theta,
+                                                       method.u, method.velocity_back)
 
     def save_fields() -> None:
-        if files is not None:
+        if files is not None or kept is not None:
             write_fields()
-            if comm.rank == 0 and method.n > 0 and files.due():
-                checkpoint()
+        if files is not None and comm.rank == 0 and method.n > 0 and files.due():
+            checkpoint()
         saved[0] = method.n
 
     def observe() -> None:
@@ -232,7 +262,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
         valid = not isinstance(error, NotFinite)
         if status == "interrupted" and io_error:
             status = "failed"
-        if saved[0] != method.n and valid and files is not None:
+        if saved[0] != method.n and valid and (files is not None or kept is not None):
             write_fields()  # a failed or interrupted run keeps its last step's fields too
         if files is not None:
             checkpoint(valid)
@@ -256,7 +286,8 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     return RunResult(status, summary, error, disc.nodes.x.copy(), method.theta.array_r.copy(),
                      method.u.array_r.copy(),
                      rows_out.rows_so_far() if files is None else None,
-                     io_error[0] if io_error else None, interrupts.signal_received())
+                     io_error[0] if io_error else None, interrupts.signal_received(),
+                     kept.kept() if kept is not None else None)
 
 
 def _summary(scene, status, error, iterations, energy, setup_seconds, loop_seconds, comm,

@@ -12,6 +12,13 @@ same for (3.4). Rows and columns of the Dirichlet node x = 0 are removed from ev
 
 Assembly is distributed; the operators handed to the time loop are sequential copies in node order
 (see :mod:`rodfem.discrete.nodes`).
+
+**One set-up for many scenes.** The parameters are :class:`dolfinx.fem.Constant` s of the forms
+and the forms' functions are symbols (:meth:`Discretisation.symbol`, zero, one per name), so a
+form built again for another scene is the same UFL expression. :meth:`Discretisation.form`
+compiles each once (keyed by the expression's ``repr``, which names its functions and constants
+by their identity) and :meth:`Discretisation.load` puts another scene's values into the
+constants: a sweep over parameters assembles and factors once per scene, and compiles nothing.
 """
 
 from __future__ import annotations
@@ -77,17 +84,53 @@ class Discretisation:
         })
         self.r = copetti.robin_shift(ufl.SpatialCoordinate(self.mesh), self.const.k)
         self.nodes = NodeOrder(self.V)
+        self._symbols: dict[str, fem.Function] = {}
+        self._forms: dict[str, fem.Form] = {}
+
+    STRUCTURE = ("mesh.cells", "discretisation.mass")  # what load() cannot change
+
+    @classmethod
+    def key(cls, scene: Scene) -> tuple:
+        """What a scene must share with another for :meth:`load` to take it."""
+        return tuple(scene[name] for name in cls.STRUCTURE)
+
+    def load(self, scene: Scene) -> None:
+        """Take another scene of the same :meth:`key`: its values go into the constants."""
+        if self.key(scene) != self.key(self.scene):
+            raise ValueError(f"{self.STRUCTURE} differ: {self.key(scene)} != "
+                             f"{self.key(self.scene)}")
+        self.scene = scene
+        self.const.dt.value = scene["time.dt"]
+        for p in ("a", "b", "zeta", "k", "theta_A"):
+            getattr(self.const, p).value = scene[f"model.{p}"]
 
     def function(self, name: str) -> fem.Function:
+        """A new function of V (for values: a field to save, say)."""
         f = fem.Function(self.V)
         f.name = name
         return f
+
+    def symbol(self, name: str) -> fem.Function:
+        """The function of V called ``name`` in forms whose operators are read off by linearity
+        (:meth:`affine_operator`): always zero, the same object for every call."""
+        if name not in self._symbols:
+            self._symbols[name] = self.function(name)
+        return self._symbols[name]
+
+    def form(self, a: ufl.Form) -> fem.Form:
+        """``a`` compiled: once per expression (its ``repr``), for every scene :meth:`load`
+        takes."""
+        key = repr(a)
+        if key not in self._forms:
+            self._forms[key] = fem.form(a)
+        return self._forms[key]
 
     def affine_operator(self, F: ufl.Form, x: fem.Function, y: dict[str, fem.Function],
                         loads: tuple[str, ...] = ()):
         """Read A, N_k and b off the residual F(x; y), which must be affine in x and each y_k.
 
-        Every function in F must be zero when this is called, so that F itself is F(0; 0). The
+        Every function in F must be zero when this is called, so that F itself is F(0; 0) (the
+        symbols of :meth:`symbol` are). The
         y_k named in ``loads`` are data on all of I, not functions of S_E (a source f, whose value
         at x = 0 counts): their N_k keep the column of x = 0.
         """
@@ -101,13 +144,13 @@ class Discretisation:
         """The matrix of a bilinear form on S_E (``diagonal`` in the row of x = 0), node order.
         With ``rows_only`` the column of x = 0 is kept and only its row is zero."""
         if not rows_only:
-            return self.nodes.matrix(compat.assemble_matrix(fem.form(a), self.bcs, diagonal))
-        B = self.nodes.matrix(compat.assemble_matrix(fem.form(a), [], 0.0))
+            return self.nodes.matrix(compat.assemble_matrix(self.form(a), self.bcs, diagonal))
+        B = self.nodes.matrix(compat.assemble_matrix(self.form(a), [], 0.0))
         B.zeroRows(np.flatnonzero(self.nodes.x == 0.0).astype(PETSc.IntType), diag=0.0)
         return B
 
     def vector(self, L: ufl.Form) -> PETSc.Vec:
         """The vector of a linear form on S_E (0 in the row of x = 0), node order."""
-        b = compat.assemble_vector(fem.form(L))
+        b = compat.assemble_vector(self.form(L))
         compat.set_bc(b, self.bcs)
         return self.nodes.vector(b)

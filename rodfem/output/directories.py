@@ -39,9 +39,11 @@ RUN_FILES = ("history.csv", "fields.xdmf", "fields", "scene.toml", "summary.json
 FIGURE_DIRS = ("figures", "figure5")
 # The names of the figures rodfem draws (rodfem.post; "_<run>" when several runs are drawn).
 FIGURE_NAMES = re.compile(r"^((contact|energy)(_.+)?\.png|spacetime_(u|theta|sigma)(_.+)?\.png"
-                          r"|rod(_.+)?\.gif|stability_\w+\.png|(orders|workprecision)_.+\.png)$")
+                          r"|rod(_.+)?\.gif|stability_\w+\.png|(orders|workprecision)_.+\.png"
+                          r"|sweep_\w+\.png)$")
 # A run's subdirectories of data, and the names of the files rodfem writes there.
-DATA_DIRS = {"fields": re.compile(r"^(mesh|steps-\d{6,})\.h5$")}
+DATA_DIRS = {"fields": re.compile(r"^(mesh|steps-\d{6,})\.h5$"),
+             "journal": re.compile(r"^part-\d{4,}-\d{5,}\.bin$")}
 
 _held: dict[Path, tuple[int, dict]] = {}  # the directories this process holds: lock fd, marker
 
@@ -255,8 +257,8 @@ def finish(path: Path, status: str, comm: MPI.Comm) -> None:
 
 def reopen(path: Path, comm: MPI.Comm) -> dict:
     """Hold the run directory ``path`` again (``rodfem resume``): it must be one that ``rodfem
-    run`` wrote and that no process holds. Returns its marker; nothing is written until
-    :func:`mark_running` (or :func:`release`, which lets it go untouched).
+    run`` or ``rodfem sweep`` wrote and that no process holds. Returns its marker; nothing is
+    written until :func:`mark_running` (or :func:`release`, which lets it go untouched).
 
     Raises:
         OutputError: on every rank, with one line saying why, and nothing touched.
@@ -267,9 +269,9 @@ def reopen(path: Path, comm: MPI.Comm) -> dict:
             if not path.is_dir():
                 raise OutputError(f"{path} is not a directory")
             before = read_marker(path)
-            if before is None or before.get("command") != "run":
-                raise OutputError(f"{path} is not a directory of 'rodfem run' (no {MARKER} of "
-                                  "a run)")
+            if before is None or before.get("command") not in ("run", "sweep"):
+                raise OutputError(f"{path} is not a directory of 'rodfem run' or 'rodfem sweep' "
+                                  f"(no {MARKER} of a run or a sweep)")
             _held[path.resolve()] = (_lock(path), before)
         except OSError as err:
             error = f"cannot resume {path}: {err.strerror or err}"

@@ -66,9 +66,10 @@ def _write_h5(path: Path, datasets: dict[str, np.ndarray]) -> None:
 class FieldFile:
     """The saved fields of a run (collective: every rank calls :meth:`write`).
 
-    ``saves``: the steps already on disk (a resumed run), each ``[step, t, segment, row]``."""
+    ``saves``: the steps already on disk (a resumed run), each ``[step, t, segment, row]``.
+    ``path=None``: nothing is written; the saves are kept (:meth:`kept`)."""
 
-    def __init__(self, path: Path, disc: Discretisation, saves: list | None = None,
+    def __init__(self, path: Path | None, disc: Discretisation, saves: list | None = None,
                  segments: int = 0):
         self.path, self.comm = path, disc.comm
         self.Θ, self.U = disc.function("Θ"), disc.function("U")
@@ -95,6 +96,9 @@ class FieldFile:
                                           kind="stable")
             self.x = self.nodes.x.copy()
             self.cells = self.x.size - 1
+            self.x_cells = np.sort(np.concatenate([g[1] for g in gathered]))
+            if path is None:
+                return
             (path.parent / DIRECTORY).mkdir(exist_ok=True)
             if saves is None:
                 geometry = np.stack([self.x, np.zeros_like(self.x)], axis=1)
@@ -123,9 +127,19 @@ class FieldFile:
             θ[self._node_positions] = theta_owned
             self._pending.append((step, t, θ, u.array_r.copy(), sigma_owned[self._cell_order]))
 
+    def kept(self) -> tuple[np.ndarray, ...] | None:
+        """The saves so far (of a FieldFile without a path), as arrays: the steps, t, and θ, u
+        (saves × nodes) and σ (saves × cells); None on ranks other than 0."""
+        if self.comm.rank != 0:
+            return None
+        columns = list(zip(*self._pending, strict=True)) or [[], [], [], [], []]
+        shapes = ((0,), (0,), (0, self.x.size), (0, self.x.size), (0, self.cells))
+        return tuple(np.array(c) if len(c) else np.zeros(shape)
+                     for c, shape in zip(columns, shapes, strict=True))
+
     def checkpoint(self) -> None:
         """Write the kept saves as a new segment, then list them in fields.xdmf (rank 0)."""
-        if self.comm.rank != 0 or not self._pending:
+        if self.comm.rank != 0 or not self._pending or self.path is None:
             return
         k = self.segments
         _write_h5(self.path.parent / DIRECTORY / segment_name(k),

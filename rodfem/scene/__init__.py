@@ -9,7 +9,11 @@ from rodfem.scene.loading import (
     Scene,
     SceneError,
     load,
+    read,
+    split_key,
     validate,
+    with_values,
 )
 
-__all__ = ["BUILTIN", "EXTRA", "METHODS", "SCHEMA", "Scene", "SceneError", "load", "validate"]
+__all__ = ["BUILTIN", "EXTRA", "METHODS", "SCHEMA", "Scene", "SceneError", "load", "read",
+           "split_key", "validate", "with_values"]

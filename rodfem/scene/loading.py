@@ -290,33 +290,77 @@ def _parse_toml(text: str, what: str) -> dict:
         raise SceneError(f"{what}: nested too deeply to read") from None
 
 
+def read(scene: str | Path) -> tuple[dict, str]:
+    """The raw TOML data of a built-in scene (by name) or a TOML file (by path), and its source:
+    the name, or the path as given.
+
+    Raises:
+        SceneError: if the scene cannot be read.
+    """
+    scene = str(scene)
+    if scene in BUILTIN or scene in EXTRA:
+        text = resources.files("rodfem.scene").joinpath("builtin", f"{scene}.toml").read_text()
+        return _parse_toml(text, f"scene '{scene}'"), scene
+    path = Path(scene)
+    try:
+        is_file = path.is_file()
+    except (OSError, ValueError) as err:  # e.g. a name longer than the system allows
+        raise SceneError(f"scene '{shorten(scene)}': cannot be read "
+                         f"({getattr(err, 'strerror', None) or err})") from None
+    if not is_file:
+        raise SceneError(
+            f"scene '{scene}': not a built-in scene ({', '.join(BUILTIN + EXTRA)}) nor a TOML "
+            "file"
+        )
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise SceneError(f"scene '{scene}': cannot be read ({err})") from None
+    return _parse_toml(text, f"scene '{shorten(scene)}'"), str(path)
+
+
+def split_key(dotted: Any, what: str) -> tuple[str, str]:
+    """``"section.key"`` as (section, key), the section one of the schema's.
+
+    Raises:
+        SceneError: naming ``what`` (where the key was given) if it is not.
+    """
+    if not isinstance(dotted, str) or dotted.count(".") != 1:
+        raise SceneError(f"{what}: {_toml_value(str(dotted))} must be section.key, e.g. "
+                         "model.zeta")
+    section, key = dotted.strip().split(".")
+    if section not in SCHEMA:
+        raise SceneError(f"{what}: unknown section '{section}': {_suggest(section, SCHEMA)}")
+    if key not in SCHEMA[section]:
+        raise SceneError(f"{what}: unknown key '{section}.{key}': {_suggest(key, SCHEMA[section])}")
+    return section, key
+
+
+def with_values(data: dict, values: dict[str, Any], what: str = "--set") -> dict:
+    """A copy of the raw scene ``data`` with ``values`` ({"section.key": value}) set.
+
+    Raises:
+        SceneError: for a key that is not a scene key (``what`` says where it was given).
+    """
+    data = {name: dict(part) if isinstance(part, dict) else part for name, part in data.items()}
+    for dotted, value in values.items():
+        section, key = split_key(dotted, f"{what} {dotted}" if what == "--set" else what)
+        data.setdefault(section, {})
+        if not isinstance(data[section], dict):
+            raise SceneError(f"{section}: must be a section [{section}]")
+        data[section][key] = value
+    return data
+
+
 def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
     """Load a built-in scene by name or a TOML file by path, apply ``--set`` overrides, validate.
 
     Raises:
         SceneError: if the scene cannot be read or any value is wrong.
     """
-    if scene in BUILTIN or scene in EXTRA:
-        text = resources.files("rodfem.scene").joinpath("builtin", f"{scene}.toml").read_text()
-        source = scene
-    else:
-        path = Path(scene)
-        try:
-            is_file = path.is_file()
-        except (OSError, ValueError) as err:  # e.g. a name longer than the system allows
-            raise SceneError(f"scene '{shorten(scene)}': cannot be read "
-                             f"({getattr(err, 'strerror', None) or err})") from None
-        if not is_file:
-            raise SceneError(
-                f"scene '{scene}': not a built-in scene ({', '.join(BUILTIN + EXTRA)}) nor a TOML "
-                "file"
-            )
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as err:
-            raise SceneError(f"scene '{scene}': cannot be read ({err})") from None
-        source = str(path)
-    data = _parse_toml(text, f"scene '{shorten(scene)}'")
+    if isinstance(overrides, str):
+        raise SceneError(f"overrides: a list of section.key=value, not the string {overrides!r}")
+    data, source = read(scene)
     for item in overrides:
         section, key, value = _parse_override(item)
         if section not in SCHEMA:

@@ -59,7 +59,7 @@ class Method:
         self.tol, self.max_iterations = scene["solver.tol"], scene["solver.max_iterations"]
         c = disc.const
         dt, a, b, zeta, k, theta_A = c.dt, c.a, c.b, c.zeta, c.k, c.theta_A
-        f = disc.function
+        f = disc.symbol
         ΔΘ, Θ_prev, ΔΘ_other = f("ΔΘ"), f("Θ_prev"), f("ΔΘ_other")
         ΔU, D_prev, U_prev, ΔU_other = f("ΔU"), f("D_prev"), f("U_prev"), f("ΔU_other")
         w = ufl.TestFunction(disc.V)

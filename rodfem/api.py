@@ -1,0 +1,188 @@
+"""rodfem from Python: run a scene (:func:`simulate`), read a run directory (:func:`load`), and
+what both give back (:class:`Result`).
+
+    >>> import rodfem
+    >>> r = rodfem.simulate("paper1", {"time.end": 1, "model.k": 10})
+    >>> r.history["u_1"][-1], r.fields.theta[:, 0]      # θ(0, t) = θ_A at every saved step
+
+Labelled data are NumPy's own: the history is a structured array (a column per name, e.g.
+``r.history["u_1"]``, ``r.history.dtype.names``), the fields a small dataclass of arrays with
+their coordinates (:class:`rodfem.post.fields.Fields`). xarray and pandas would add a dependency
+that rodfem's runs do not need (and a second of import time to every ``rodfem`` command) for two
+one-dimensional coordinates; ``xarray.Dataset({"u": (("t", "x"), r.fields.u)}, coords=...)`` is a
+line away for those who use them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rodfem.output.columns import COLUMNS
+from rodfem.output.measures import measures as _measures
+from rodfem.post.fields import Fields
+from rodfem.scene import Scene, SceneError, read, validate, with_values
+from rodfem.scene import load as load_scene
+
+
+@dataclass(frozen=True)
+class Result:
+    """A run: what :func:`simulate` did, or what :func:`load` read.
+
+    Attributes:
+        scene: the resolved scene (every key, defaults filled in): ``r.scene["model.k"]``.
+        summary: what ``summary.json`` holds: status, steps, iterations, seconds, versions…
+        history: the rows of ``history.csv``, one per step n = 0 … N, as a structured array:
+            ``r.history["u_1"]`` (columns: :data:`rodfem.output.columns.COLUMNS`).
+        fields: θ (the physical temperature), u and σ at every saved step, with ``t``, ``x``
+            and ``x_cells`` (:class:`rodfem.post.fields.Fields`); None where none were saved.
+        path: the run directory, or None for a run in memory.
+    """
+
+    scene: Scene
+    summary: dict
+    history: np.ndarray
+    fields: Fields | None = None
+    path: Path | None = None
+
+    @property
+    def status(self) -> str:
+        """complete, failed or interrupted (for a directory read by :func:`load`: also
+        ``gone``, a run killed before it could say how it ended, or ``running``)."""
+        return self.summary["status"]
+
+    @property
+    def measures(self) -> dict[str, float | int]:
+        """The run's measures by name (:mod:`rodfem.output.measures`), as a sweep records
+        them."""
+        columns = {name: self.history[name] for name in self.history.dtype.names}
+        return _measures(columns, self.scene, self.summary)
+
+
+def named_history(rows: np.ndarray) -> np.ndarray:
+    """Rows of history.csv (steps × columns) as a structured array with the columns' names."""
+    dtype = [(c.name, np.int64 if c.integer else np.float64) for c in COLUMNS]
+    history = np.empty(len(rows), dtype=dtype)
+    for i, column in enumerate(COLUMNS):
+        history[column.name] = rows[:, i]
+    return history
+
+
+def scene_of(scene: str | Path | Mapping | Scene, overrides=None) -> Scene:
+    """The validated scene of a built-in name, a TOML path, TOML-shaped data (a dict of
+    sections) or a :class:`Scene`, with ``overrides`` ({"model.k": 10}, or the command line's
+    ["model.k=10"]) set.
+
+    Raises:
+        SceneError: the message ``rodfem run`` would print, on one line.
+    """
+    if isinstance(overrides, (list, tuple)):
+        if not isinstance(scene, (str, Path)):
+            raise SceneError("overrides: a list of section.key=value goes with a scene name or "
+                             'path; give a dict ({"model.k": 10}) otherwise')
+        return load_scene(str(scene), list(overrides))
+    if overrides is not None and not isinstance(overrides, Mapping):
+        raise SceneError('overrides: must be a dict of scene keys, e.g. {"model.k": 10}, not '
+                         f"{type(overrides).__name__}")
+    if isinstance(scene, Scene):
+        data, source = scene.data(), scene.source
+        data["description"] = scene.description
+    elif isinstance(scene, Mapping):
+        data, source = dict(scene), "<dict>"
+    elif isinstance(scene, (str, Path)):
+        data, source = read(scene)
+    else:
+        raise SceneError("scene: must be a built-in name, a TOML path or a dict of sections, not "
+                         f"{type(scene).__name__}")
+    return validate(with_values(data, dict(overrides or {}), "overrides"), source)
+
+
+def simulate(scene: str | Path | Mapping | Scene, overrides=None, out: str | Path | None = None,
+             comm=None, *, force: bool = False, progress: bool = False) -> Result:
+    """Run a scene and return its :class:`Result`.
+
+    Args:
+        scene: a built-in name ("paper1"), a TOML path, a dict shaped like the file
+            ({"model": {"k": 10}}), or a :class:`Scene`.
+        overrides: scene keys to set, {"model.k": 10, "time.end": 2}.
+        out: a run directory to write, as ``rodfem run --out`` does (it must not exist, or
+            ``force``); None keeps everything in memory, the saved fields included.
+        comm: the MPI communicator of the run (default ``MPI.COMM_WORLD``: under ``mpirun``
+            the ranks share the mesh).
+        progress: draw a progress bar on a terminal.
+
+    A run whose method fails or which a signal stops is returned with ``status`` failed or
+    interrupted and the steps it took.
+
+    Raises:
+        SceneError: a mistake in the scene or the overrides (the CLI's one-line message).
+        rodfem.OutputError: ``out`` cannot be used.
+    """
+    from mpi4py import MPI
+
+    from rodfem.output.directories import prepare_directory
+    from rodfem.run import simulate as run
+
+    comm = comm or MPI.COMM_WORLD
+    resolved = scene_of(scene, overrides)
+    if out is None:
+        result = run(resolved, None, comm, progress=progress, keep_fields=True)
+        fields = None
+        if result.fields is not None:
+            _, t, theta, u, sigma = result.fields
+            x = result.x
+            fields = Fields(x, t, theta, u, (x[1:] + x[:-1]) / 2, sigma)
+        return Result(resolved, result.summary, named_history(result.history), fields)
+    out = Path(out)
+    from rodfem.output.files import write_text
+
+    prepare_directory(out, force, comm)
+    write_text(out / "scene.toml", resolved.to_toml(), comm)
+    run(resolved, out, comm, progress=progress)
+    comm.barrier()
+    return load(out)
+
+
+def load(path: str | Path) -> Result:
+    """The :class:`Result` of a run directory of ``rodfem run`` (complete, failed,
+    interrupted, or killed: what its files hold).
+
+    Raises:
+        rodfem.post.runs.RunDirectoryError: ``path`` is not a readable run directory.
+    """
+    from rodfem.output.directories import state
+    from rodfem.post.fields import FieldsError, read_fields
+    from rodfem.post.runs import RunDirectoryError, read_history
+
+    path = Path(path)
+    for name in ("history.csv", "scene.toml"):
+        if not (path / name).is_file():
+            raise RunDirectoryError(f"{path} is not a rodfem run directory (it has no {name})")
+    try:
+        scene = load_scene(str(path / "scene.toml"))
+    except SceneError as err:
+        raise RunDirectoryError(f"{path / 'scene.toml'}: {err}") from None
+    history = read_history(path / "history.csv")
+    rows = np.column_stack([history[c.name] for c in COLUMNS])
+    try:
+        summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        summary = {}
+    summary = {**summary, "status": state(path) or summary.get("status", "gone")}
+    if isinstance(summary.get("scene"), str):  # the scene it was run from, not scene.toml
+        scene = dataclasses.replace(scene, source=summary["scene"])
+    summary.setdefault("iterations_max", int(rows[:, -1].max()) if len(rows) else 0)
+    summary.setdefault("loop_seconds", float("nan"))
+    fields = None
+    if (path / "fields.xdmf").is_file():
+        try:
+            fields = read_fields(path / "fields.xdmf")
+        except FieldsError as err:
+            raise RunDirectoryError(str(err)) from None
+    return Result(scene, summary, named_history(rows), fields, path)
+

@@ -1,0 +1,84 @@
+"""The measures of a run: one number each, made from its history (the columns of
+:mod:`rodfem.output.columns`), its scene and its summary. A sweep's ``results.csv`` has a column
+per measure (:mod:`rodfem.studies.sweep`), and :attr:`rodfem.Result.measures` gives them for any
+run. Importing this module needs NumPy only.
+
+The rod is *in contact* at tⁿ when the obstacle pushes on it: σ(1, tⁿ) < 0 (the elastic laws:
+u(1, tⁿ) > g; the rigid obstacle: a positive multiplier). Counts and fractions are over the steps
+n = 1 … N that the run took (the initial state, n = 0, is data, not a step).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+
+import numpy as np
+
+
+@dataclasses.dataclass(frozen=True)
+class Measure:
+    """One measure: its name, meaning, and how it is computed from the history's columns (a dict
+    of name → array over n = 0 … N), the scene and the run's summary."""
+
+    name: str
+    meaning: str
+    compute: Callable[[dict[str, np.ndarray], object, dict], float]
+    integer: bool = False
+
+
+def in_contact(history: dict[str, np.ndarray]) -> np.ndarray:
+    """Whether the rod is in contact at each step n = 1 … N (the module's docstring)."""
+    return history["sigma_1"][1:] < 0.0
+
+
+def _final(name: str):
+    return lambda history, scene, summary: float(history[name][-1])
+
+
+def _max_penetration(history, scene, summary) -> float:
+    return float(np.max(np.maximum(history["u_1"] - scene["obstacle.gap"], 0.0)))
+
+
+def _contact_fraction(history, scene, summary) -> float:
+    touching = in_contact(history)
+    return float(touching.mean()) if touching.size else 0.0
+
+
+def _contact_intervals(history, scene, summary) -> int:
+    touching = in_contact(history).astype(np.int8)
+    return int(np.count_nonzero(np.diff(touching, prepend=0) == 1))
+
+
+def _last_contact_change(history, scene, summary) -> float:
+    touching = in_contact(history)
+    changed = np.flatnonzero(np.diff(touching.astype(np.int8), prepend=0) != 0)
+    return float(history["t"][1:][changed[-1]]) if changed.size else float("nan")
+
+
+MEASURES = (
+    Measure("t_final", "the time the run reached: T if it is complete", _final("t")),
+    Measure("u_1_final", "u(1, t) at the last step", _final("u_1")),
+    Measure("sigma_1_final", "the contact stress σ(1, t) at the last step", _final("sigma_1")),
+    Measure("max_penetration", "max over the steps of [u(1, tⁿ) − g]₊ (the rigid obstacle: "
+            "round-off)", _max_penetration),
+    Measure("contact_fraction", "the fraction of the steps in contact", _contact_fraction),
+    Measure("contact_intervals", "how many separate intervals of contact (runs of steps in "
+            "contact)", _contact_intervals, integer=True),
+    Measure("last_contact_change", "the time tⁿ of the last step whose contact state differs "
+            "from the step before's (nan if it never changes; a run starting in contact counts "
+            "as a change at t¹)", _last_contact_change),
+    Measure("energy_final", "the discrete energy Êⁿ at the last step", _final("energy")),
+    Measure("iterations_max", "the most iterations any step took (a failed step's included)",
+            lambda history, scene, summary: int(summary["iterations_max"]), integer=True),
+    Measure("loop_seconds", "wall time of the time loop, s (a timing: it varies from run to "
+            "run)", lambda history, scene, summary: float(summary["loop_seconds"])),
+)
+NAMES = tuple(measure.name for measure in MEASURES)
+TIMINGS = ("loop_seconds",)  # the measures that are not reproducible bit for bit
+
+
+def measures(history: dict[str, np.ndarray], scene, summary: dict) -> dict[str, float | int]:
+    """Every measure of a run, by name. ``history``: its columns by name (at least the row of
+    n = 0)."""
+    return {m.name: m.compute(history, scene, summary) for m in MEASURES}

@@ -1,0 +1,199 @@
+"""Figures of a sweep directory (``rodfem sweep``): one per measure, from ``results.csv``.
+
+``sweep_<measure>.png`` for every measure of :mod:`rodfem.output.measures` (``t_final`` only
+when the scenes did not all reach the same time), drawn by how the sweep was swept
+(``sweep.json``):
+
+* one axis (grid, zip or sample): the measure against the axis, a line with markers, the axis
+  on a log scale when its values are positive and span a factor of 100 or more;
+* two grid axes or more: a map over the first two grid axes, one cell per pair of values, each
+  coloured by the measure (and labelled with it), with a colour bar; with further axes, at their
+  first values, which the title states. With exactly two axes, also ``sweep_<measure>_lines.png``:
+  the measure against the first axis, one line per value of the second;
+* two axes or more otherwise (zipped lists, samples): the scenes as points over the first two
+  axes, coloured by the measure.
+
+A scene that failed or was interrupted, or whose measure is nan, is left out of lines and shown
+as a hatched grey cell in maps (a grey cross among points). Reads the sweep's files only and
+draws with matplotlib, off-screen (its figures are not pyplot's: nothing to close, no backend).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
+
+from rodfem.output import results
+from rodfem.output.atomic import replacing
+from rodfem.output.measures import MEASURES
+from rodfem.post.runs import PlotError
+from rodfem.scene import SceneError
+from rodfem.studies import design
+
+SIZE, DPI = (6.4, 4.8), 100
+MISSING = dict(facecolor="lightgrey", edgecolor="grey", hatch="//", linewidth=0)
+
+
+class SweepDirectoryError(PlotError):
+    """A path given to ``rodfem plot`` is not a readable sweep directory."""
+
+
+def load_sweep(path: Path) -> tuple[design.Sweep, dict[str, np.ndarray]]:
+    """The sweep of ``sweep.json`` and the columns of ``results.csv``, checked against it."""
+    try:
+        meta = json.loads((path / "sweep.json").read_text(encoding="utf-8"))
+        sweep = design.parse(meta["sweep"], meta["name"], base=(meta["base"], meta["source"]))
+        axes, columns = results.read(path / results.NAME)
+    except (OSError, ValueError, SceneError) as err:  # ResultsError and json's are ValueErrors
+        reason = getattr(err, "strerror", None) or err
+        raise SweepDirectoryError(" ".join(f"{path} is not a readable sweep directory: "
+                                           f"{reason}".split())) from None
+    except (KeyError, TypeError):
+        raise SweepDirectoryError(f"{path}/sweep.json is not a sweep's") from None
+    if tuple(axes) != sweep.axes or not sweep.axes:
+        raise SweepDirectoryError(f"{path}/results.csv's axes are not those of its sweep.json")
+    if len(columns["index"]) == 0:
+        raise SweepDirectoryError(f"{path}/results.csv holds no scenes")
+    return sweep, columns
+
+
+def _key(value) -> float | str:
+    """A value as a comparable key: numbers as floats, anything else as its text in the table."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
+        return str(value).lower() if isinstance(value, (bool, np.bool_)) else str(value)
+    return float(value)
+
+
+def _positions(values) -> tuple[np.ndarray, list | None]:
+    """Numeric values as they are; others at 0, 1, ... in order of appearance, with labels."""
+    keys = [_key(v) for v in values]
+    if all(isinstance(k, float) for k in keys):
+        return np.asarray(keys, dtype=float), None
+    labels = list(dict.fromkeys(keys))
+    return np.array([labels.index(k) for k in keys], dtype=float), labels
+
+
+def _scale(ax, which: str, values: np.ndarray, labels: list | None, name: str) -> None:
+    getattr(ax, f"set_{which}label")(name)
+    if labels is not None:
+        getattr(ax, f"set_{which}ticks")(range(len(labels)), [str(v) for v in labels])
+    elif values.size and values.min() > 0 and values.max() / values.min() >= 100:
+        getattr(ax, f"set_{which}scale")("log")
+
+
+def _save(fig: Figure, path: Path) -> Path:
+    with replacing(path, "wb") as file:  # whole or not at all
+        fig.savefig(file, format="png", dpi=DPI)
+    return path
+
+
+def _lines(ax, x, labels, xname, y, ok, groups) -> None:
+    """The measure against x, one line per (label, rows) of ``groups``, valid rows only."""
+    for label, rows in groups:
+        keep = rows & ok
+        order = np.argsort(x[keep], kind="stable") if labels is None else slice(None)
+        ax.plot(x[keep][order], y[keep][order], marker="o", label=label)
+    _scale(ax, "x", x, labels, xname)
+    if not ok.any():
+        ax.text(0.5, 0.5, "no complete scene", transform=ax.transAxes, ha="center")
+
+
+def _map(ax, fig, sweep, columns, name, y, ok, rows) -> None:
+    """The measure over the first two grid axes, at the rows ``rows``."""
+    first, second = [a for a in sweep.axes if sweep.design[a] == "grid"][:2]
+    xs, ys = ([_key(v) for v in sweep.grid[a]] for a in (first, second))
+    grid = np.full((len(ys), len(xs)), np.nan)
+    for r in np.flatnonzero(rows & ok):
+        grid[ys.index(_key(columns[second][r])), xs.index(_key(columns[first][r]))] = y[r]
+    finite = grid[np.isfinite(grid)]
+    low, high = (finite.min(), finite.max()) if finite.size else (0.0, 1.0)
+    image = ax.imshow(np.ma.masked_invalid(grid), origin="lower", aspect="auto",
+                      vmin=low, vmax=high, cmap="viridis")
+    for j, i in np.argwhere(~np.isfinite(grid)):
+        ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, **MISSING))
+    if grid.size <= 100:
+        for (j, i), value in np.ndenumerate(grid):
+            if np.isfinite(value):
+                light = (value - low) / ((high - low) or 1) > 0.6
+                ax.text(i, j, f"{value:.3g}", ha="center", va="center", fontsize=8,
+                        color="black" if light else "white")
+    for which, axis, values in (("x", first, sweep.grid[first]), ("y", second, sweep.grid[second])):
+        _scale(ax, which, np.array([]), values, axis)
+    fig.colorbar(image, ax=ax, label=name)
+
+
+def _scatter(ax, fig, sweep, columns, name, y, ok) -> None:
+    (x, xl), (z, zl) = (_positions(columns[a]) for a in sweep.axes[:2])
+    points = ax.scatter(x[ok], z[ok], c=y[ok], cmap="viridis", edgecolors="black")
+    ax.scatter(x[~ok], z[~ok], marker="x", color="grey", label="failed or nan")
+    _scale(ax, "x", x, xl, sweep.axes[0])
+    _scale(ax, "y", z, zl, sweep.axes[1])
+    fig.colorbar(points, ax=ax, label=name)
+    if (~ok).any():
+        ax.legend(loc="best")
+
+
+def _figure(title: str) -> tuple[Figure, object]:
+    fig = Figure(figsize=SIZE, layout="constrained")
+    ax = fig.add_subplot()
+    ax.set_title(title)
+    return fig, ax
+
+
+def plot_sweep(path: Path, out: Path | None = None) -> list[Path]:
+    """Draw the figures of a sweep directory (``results.csv`` and ``sweep.json``).
+
+    Args:
+        path: the directory written by ``rodfem sweep``; read and checked first.
+        out: the figure directory, created if need be (default: ``path/figures``).
+
+    Returns:
+        The files written: per measure (in the table's order) ``sweep_<measure>.png``, then
+        ``sweep_<measure>_lines.png`` if there is one.
+
+    Raises:
+        SweepDirectoryError: the directory is not a readable sweep directory (nothing written).
+    """
+    path = Path(path)
+    sweep, columns = load_sweep(path)
+    out = Path(out) if out is not None else path / "figures"
+    out.mkdir(parents=True, exist_ok=True)  # an OSError is a write error (exit code 4)
+    complete = columns["status"] == "complete"
+    axes, grid_axes = sweep.axes, [a for a in sweep.axes if sweep.design[a] == "grid"]
+    others = [a for a in axes if a not in grid_axes[:2]]
+    at = np.ones(len(complete), dtype=bool)
+    for axis in others if len(grid_axes) >= 2 else ():
+        at &= np.array([_key(v) == _key(columns[axis][0]) for v in columns[axis]])
+    where = ", ".join(f"{a} = {columns[a][0]}" for a in others)
+    written = []
+    for measure in MEASURES:
+        name, y = measure.name, np.asarray(columns[measure.name], dtype=float)
+        ok = complete & np.isfinite(y)
+        if name == "t_final" and len(np.unique(y[np.isfinite(y)])) <= 1:
+            continue
+        if len(axes) == 1:
+            fig, ax = _figure(f"{name} against {axes[0]}")
+            _lines(ax, *_positions(columns[axes[0]]), axes[0], y, ok, [(None, at)])
+            ax.set_ylabel(name)
+        elif len(grid_axes) >= 2:
+            fig, ax = _figure(f"{name} over {grid_axes[0]} and {grid_axes[1]}"
+                              + (f"\nat {where}" if others else ""))
+            _map(ax, fig, sweep, columns, name, y, ok, at)
+        else:
+            fig, ax = _figure(f"{name} over {axes[0]} and {axes[1]}")
+            _scatter(ax, fig, sweep, columns, name, y, ok)
+        written.append(_save(fig, out / f"sweep_{name}.png"))
+        if len(axes) == 2 and len(grid_axes) == 2:
+            fig, ax = _figure(f"{name} against {axes[0]}")
+            keys = [_key(v) for v in columns[axes[1]]]
+            groups = [(f"{axes[1]} = {v}", np.array([k == _key(v) for k in keys]))
+                      for v in sweep.grid[axes[1]]]
+            _lines(ax, *_positions(columns[axes[0]]), axes[0], y, ok, groups)
+            ax.set_ylabel(name)
+            ax.legend(loc="best")
+            written.append(_save(fig, out / f"sweep_{name}_lines.png"))
+    return written

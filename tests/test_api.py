@@ -1,0 +1,111 @@
+"""The Python API: rodfem.simulate and rodfem.load give what `rodfem run` writes, the physical
+temperature, named columns, and the CLI's one-line errors as SceneError."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+import rodfem
+from conftest import COMM, serial_only
+from rodfem.cli import main
+
+SHORT = {"time.end": 0.5, "mesh.cells": 40}
+
+
+def test_history_has_named_columns_and_fields_the_physical_temperature():
+    r = rodfem.simulate("paper1", SHORT)
+    assert r.status == "complete" and r.history.dtype.names == (
+        "t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
+    assert len(r.history) == 501 and r.history["t"][-1] == 0.5
+    assert r.scene["mesh.cells"] == 40 and r.path is None
+    if COMM.rank == 0:
+        f = r.fields
+        np.testing.assert_array_equal(f.t, np.arange(0, 501, 50) * 1e-3)  # n Δt
+        assert f.theta.shape == (11, 41) and f.sigma.shape == (11, 40)
+        np.testing.assert_array_equal(f.theta[:, 0], 10.0)  # θ(0, t) = θ_A, not Θ = 0
+        np.testing.assert_array_equal(f.u[-1, -1], r.history["u_1"][-1])
+    else:
+        assert r.fields is None
+
+
+def test_api_returns_what_the_cli_writes(shared_dir):
+    out = shared_dir / "cli"
+    assert main(["run", "paper1", "--out", str(out), "--quiet", "--set", "time.end=0.5",
+                 "--set", "mesh.cells=40"]) == 0
+    written = rodfem.load(out)
+    memory = rodfem.simulate("paper1", SHORT)
+    np.testing.assert_array_equal(written.history, memory.history)
+    assert written.status == "complete" and written.summary["steps"] == 500
+    assert written.scene == memory.scene
+    if COMM.rank == 0:
+        for name in ("t", "x", "x_cells", "theta", "u", "sigma"):
+            np.testing.assert_allclose(getattr(written.fields, name),
+                                       getattr(memory.fields, name), rtol=0, atol=1e-13)
+    again = rodfem.simulate("paper1", SHORT, out=shared_dir / "api")
+    np.testing.assert_array_equal(again.history, memory.history)
+    assert again.path == shared_dir / "api"
+    with pytest.raises(rodfem.OutputError, match="exists"):
+        rodfem.simulate("paper1", SHORT, out=shared_dir / "api")
+
+
+def test_scene_forms_all_give_the_same_scene(tmp_path):
+    # tmp_path is per process: each rank writes its own
+    path = tmp_path / "s.toml"
+    path.write_text("[model]\nk = 3.0\n")
+    by_dict = rodfem.api.scene_of({"model": {"k": 3.0}})  # the defaults, k = 3
+    assert by_dict["model.k"] == 3.0 and by_dict["solver.method"] == "direct"
+    assert rodfem.api.scene_of(by_dict).values == by_dict.values
+    assert rodfem.api.scene_of(path).values == by_dict.values
+    paper = rodfem.api.scene_of("paper1", {"model.k": 3})
+    assert paper["solver.method"] == "picard" and paper["model.k"] == 3.0
+    assert rodfem.api.scene_of("paper1", ["model.k=3"]).values == paper.values
+
+
+@pytest.mark.parametrize("scene, overrides, message", [
+    ("paper1", "time.end=2", "overrides: must be a dict"),
+    ("paper1", {"model.kk": 1}, "unknown key 'model.kk': did you mean 'k'?"),
+    ("paper1", {"k": 1}, "must be section.key"),
+    ("paper1", {"model.k": "ten"}, 'model.k: must be a number, got "ten"'),
+    ("nonesuch", None, "not a built-in scene"),
+    (3, None, "scene: must be a built-in name"),
+    ({"model": {"k": -1}}, None, "model.k: must be >= 0"),
+])
+def test_mistakes_raise_scene_error_with_the_cli_line(scene, overrides, message):
+    with pytest.raises(rodfem.SceneError, match=message.replace("?", r"\?")) as info:
+        rodfem.simulate(scene, overrides)
+    assert "\n" not in str(info.value)
+
+
+def test_load_reads_a_failed_run(shared_dir):
+    out = shared_dir / "failed"
+    r = rodfem.simulate("paper1", {**SHORT, "obstacle.epsilon": 1e-7}, out=out)
+    assert r.status == "failed" and "did not converge" in r.summary["error"]
+    assert 0 < len(r.history) < 501 and r.fields is not None
+    assert r.measures["t_final"] == r.history["t"][-1]
+
+
+@serial_only
+def test_api_demo_runs_under_mpirun():
+    demo = Path(__file__).resolve().parents[1] / "demos" / "demo_sweep.py"
+    env = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+    import os
+
+    done = subprocess.run(["mpirun", "-n", "2", sys.executable, str(demo)],
+                          env={**os.environ, **env}, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert "12 scenes, 12 complete" in done.stdout
+    assert done.stdout.count("scene 7 alone: the same") == 1  # rank 0 prints
+
+
+def test_import_rodfem_is_light():
+    code = ("import sys, rodfem; assert rodfem.__version__; "
+            "print('dolfinx' in sys.modules, 'petsc4py' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    assert done.stdout.split() == ["False", "False"]
+    assert MPI.COMM_WORLD.size >= 1
