@@ -155,6 +155,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
              else None)
     rows_out = files.history if files is not None else InMemory()
     kept = FieldFile(None, disc) if files is None and keep_fields else None
+    saving = files is not None or kept is not None
     energy = EnergyMonitor(**meta.get("energy", {}))
     iterations = Iterations(**meta.get("iterations", {}))
     steps, every, dt = scene.steps, scene["output.every"], scene["time.dt"]
@@ -233,10 +234,12 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
                     n += 1
                     observe()
                 else:
-                    # As many steps as fit before the next saved fields, the end of the history's
-                    # block and the next check for a request to stop, in one compiled call.
-                    chunk = min(steps - n, every - n % every, history.free,
-                                STOP_EVERY - n % STOP_EVERY)
+                    # As many steps as fit before the next saved fields (if any are), the end
+                    # of the history's block and the next check the ranks agree on for a request
+                    # to stop (under MPI), in one compiled call.
+                    chunk = min(steps - n, history.free,
+                                every - n % every if saving else steps,
+                                STOP_EVERY - n % STOP_EVERY if comm.size > 1 else steps)
                     since = history.count
                     try:
                         kernel.advance(chunk, history.reserve(chunk))

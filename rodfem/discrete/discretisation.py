@@ -85,7 +85,8 @@ class Discretisation:
         self.r = copetti.robin_shift(ufl.SpatialCoordinate(self.mesh), self.const.k)
         self.nodes = NodeOrder(self.V)
         self._symbols: dict[str, fem.Function] = {}
-        self._forms: dict[str, fem.Form] = {}
+        self._forms: dict[str, fem.Form] = {}  # by the UFL expression's repr
+        self._keyed: dict[tuple, fem.Form] = {}  # by a caller's name for it
 
     STRUCTURE = ("mesh.cells", "discretisation.mass")  # what load() cannot change
 
@@ -117,40 +118,60 @@ class Discretisation:
             self._symbols[name] = self.function(name)
         return self._symbols[name]
 
-    def form(self, a: ufl.Form) -> fem.Form:
+    def form(self, a, key: tuple | None = None) -> fem.Form:
         """``a`` compiled: once per expression (its ``repr``), for every scene :meth:`load`
-        takes."""
-        key = repr(a)
-        if key not in self._forms:
-            self._forms[key] = fem.form(a)
-        return self._forms[key]
+        takes. ``a`` may be a function that makes the UFL form, and ``key`` a name for it (the
+        same key must mean the same form): then it is made only the first time."""
+        if key is not None and key in self._keyed:
+            return self._keyed[key]
+        a = a() if callable(a) else a
+        text = repr(a)
+        if text not in self._forms:
+            self._forms[text] = fem.form(a)
+        if key is not None:
+            self._keyed[key] = self._forms[text]
+        return self._forms[text]
 
-    def affine_operator(self, F: ufl.Form, x: fem.Function, y: dict[str, fem.Function],
-                        loads: tuple[str, ...] = ()):
+    def affine_operator(self, F, x: fem.Function, y: dict[str, fem.Function],
+                        loads: tuple[str, ...] = (), key: tuple | None = None):
         """Read A, N_k and b off the residual F(x; y), which must be affine in x and each y_k.
 
         Every function in F must be zero when this is called, so that F itself is F(0; 0) (the
-        symbols of :meth:`symbol` are). The
-        y_k named in ``loads`` are data on all of I, not functions of S_E (a source f, whose value
-        at x = 0 counts): their N_k keep the column of x = 0.
+        symbols of :meth:`symbol` are). The y_k named in ``loads`` are data on all of I, not
+        functions of S_E (a source f, whose value at x = 0 counts): their N_k keep the column of
+        x = 0. ``F`` may be a function that makes the residual, and ``key`` its name, as for
+        :meth:`form`: a scene that :meth:`load` took then only assembles.
         """
         du = ufl.TrialFunction(self.V)
-        A = self.matrix(ufl.derivative(F, x, du), diagonal=1.0)
-        N = {name: self.matrix(-ufl.derivative(F, yk, du), rows_only=name in loads)
-             for name, yk in y.items()}
-        return AffineOperator(A, N, self.vector(-F))
+        made = []
 
-    def matrix(self, a: ufl.Form, diagonal: float = 0.0, rows_only: bool = False) -> PETSc.Mat:
+        def residual():
+            if not made:
+                made.append(F() if callable(F) else F)
+            return made[0]
+
+        part = (lambda name: None) if key is None else (lambda name: (*key, name))
+        A = self.matrix(lambda: ufl.derivative(residual(), x, du), diagonal=1.0, key=part("A"))
+        N = {name: self.matrix(lambda yk=yk: -ufl.derivative(residual(), yk, du),
+                               rows_only=name in loads, key=part(name))
+             for name, yk in y.items()}
+        return AffineOperator(A, N, self.vector(lambda: -residual(), key=part("b")))
+
+    def matrix(self, a, diagonal: float = 0.0, rows_only: bool = False,
+               key: tuple | None = None) -> PETSc.Mat:
         """The matrix of a bilinear form on S_E (``diagonal`` in the row of x = 0), node order.
-        With ``rows_only`` the column of x = 0 is kept and only its row is zero."""
+        With ``rows_only`` the column of x = 0 is kept and only its row is zero. ``a`` and
+        ``key`` as for :meth:`form`."""
+        form = self.form(a, key)
         if not rows_only:
-            return self.nodes.matrix(compat.assemble_matrix(self.form(a), self.bcs, diagonal))
-        B = self.nodes.matrix(compat.assemble_matrix(self.form(a), [], 0.0))
+            return self.nodes.matrix(compat.assemble_matrix(form, self.bcs, diagonal))
+        B = self.nodes.matrix(compat.assemble_matrix(form, [], 0.0))
         B.zeroRows(np.flatnonzero(self.nodes.x == 0.0).astype(PETSc.IntType), diag=0.0)
         return B
 
-    def vector(self, L: ufl.Form) -> PETSc.Vec:
-        """The vector of a linear form on S_E (0 in the row of x = 0), node order."""
-        b = compat.assemble_vector(self.form(L))
+    def vector(self, L, key: tuple | None = None) -> PETSc.Vec:
+        """The vector of a linear form on S_E (0 in the row of x = 0), node order. ``L`` and
+        ``key`` as for :meth:`form`."""
+        b = compat.assemble_vector(self.form(L, key))
         compat.set_bc(b, self.bcs)
         return self.nodes.vector(b)

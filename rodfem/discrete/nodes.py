@@ -43,12 +43,15 @@ class NodeOrder:
     def size(self) -> int:
         return self.x.size
 
+    def _gathered(self, part):
+        return [part] if self.comm.size == 1 else self.comm.allgather(part)
+
     def matrix(self, A: PETSc.Mat) -> PETSc.Mat:
         """A sequential copy of the distributed matrix A, rows and columns in node order."""
         rstart, rend = A.getOwnershipRange()
         indptr, cols, values = A.getValuesCSR()
         rows = np.repeat(np.arange(rstart, rend), np.diff(indptr))
-        parts = self.comm.allgather((rows, cols, values))
+        parts = self._gathered((rows, cols, values))
         r = self.position[np.concatenate([p[0] for p in parts])]
         c = self.position[np.concatenate([p[1] for p in parts])]
         v = np.concatenate([p[2] for p in parts])
@@ -65,7 +68,7 @@ class NodeOrder:
     def vector(self, b: PETSc.Vec) -> PETSc.Vec:
         """A sequential copy of the distributed vector b, in node order."""
         rstart, rend = b.getOwnershipRange()
-        parts = self.comm.allgather((np.arange(rstart, rend), b.array_r.copy()))
+        parts = self._gathered((np.arange(rstart, rend), b.array_r.copy()))
         values = np.empty(self.size)
         for g, v in parts:
             values[self.position[g]] = v

@@ -30,12 +30,13 @@ class Energy:
     def __init__(self, disc: Discretisation):
         scene = disc.scene
         u, v = ufl.TrialFunction(disc.V), ufl.TestFunction(disc.V)
-        M = disc.matrix(copetti.mass(u, v, disc.dx_m))
-        K = disc.matrix(copetti.stiffness(u, v, disc.dx))
+        M = disc.matrix(lambda: copetti.mass(u, v, disc.dx_m), key=("mass",))
+        K = disc.matrix(lambda: copetti.stiffness(u, v, disc.dx), key=("stiffness",))
         kinetic = M.copy()
         kinetic.scale(scene["model.b"] / scene["time.dt"] ** 2)
         self.E = block_diagonal([M, kinetic, K])
-        self.z = disc.vector(copetti.thermal_load(disc.r, v, disc.dx))
+        self.z = disc.vector(lambda: copetti.thermal_load(disc.r, v, disc.dx),
+                             key=("thermal load",))
         self.a_theta_A = scene["model.a"] * scene["model.theta_A"]
         n = disc.nodes.size
         # ½ sᵀE s + a θ_A zᵀU = ½ (E s + 2w)ᵀs with w = [0; 0; a θ_A z]: one product, one dot

@@ -66,14 +66,6 @@ class Method:
         dx_m, dx, ds_1 = disc.dx_m, disc.dx, disc.ds_1
 
         weight = self.time_scheme.weight
-        # (3.1) for ΔΘⁿ, given the displacement increment (ΔU_other: ΔUⁿ, or in Picard's (3.3)
-        # the previous iterate's).
-        F_heat = copetti.heat_increment(ΔΘ, Θ_prev, ΔU_other, w, dt, a, k, dx_m, dx, ds_1, weight)
-        # (3.2) for ΔUⁿ, given the temperature increment ΔΘⁿ, less its contact term (a load,
-        # below). Dⁿ⁻¹ is the velocity's displacement over a step: ΔUⁿ⁻¹ in the paper's scheme
-        # (δⁿ⁻¹ = ΔUⁿ⁻¹/Δt), Δt Vⁿ⁻¹ in Crank–Nicolson's.
-        F_momentum = copetti.momentum_increment(ΔU, D_prev, U_prev, Θ_prev + weight * ΔΘ_other, w,
-                                                dt, b, zeta, a, theta_A, disc.r, dx_m, dx, weight)
         # Sources only where the scene has them (a manufactured solution): their loads are
         # N_f f with f interpolated at the nodes at the scheme's time of the step.
         self.sources = {name: scene.source_term(name) for name in ("heat", "momentum")}
@@ -83,14 +75,36 @@ class Method:
         for name, F_y in (("heat", heat_y), ("momentum", momentum_y)):
             if self.sources[name] is not None:
                 F_y["source"] = f(f"f_{name}")
-        if self.sources["heat"] is not None:
-            F_heat += copetti.source(heat_y["source"], w, dx)
-        if self.sources["momentum"] is not None:
-            F_momentum += copetti.source(momentum_y["source"], w, dx)
-        self.heat = disc.affine_operator(F_heat, ΔΘ, heat_y, loads=("source",))
-        self.momentum = disc.affine_operator(F_momentum, ΔU, momentum_y, loads=("source",))
+
+        def heat():
+            """(3.1) for ΔΘⁿ, given the displacement increment (ΔU_other: ΔUⁿ, or in Picard's
+            (3.3) the previous iterate's)."""
+            F = copetti.heat_increment(ΔΘ, Θ_prev, ΔU_other, w, dt, a, k, dx_m, dx, ds_1, weight)
+            if "source" in heat_y:
+                F += copetti.source(heat_y["source"], w, dx)
+            return F
+
+        def momentum():
+            """(3.2) for ΔUⁿ, given the temperature increment ΔΘⁿ, less its contact term (a
+            load, below). Dⁿ⁻¹ is the velocity's displacement over a step: ΔUⁿ⁻¹ in the paper's
+            scheme (δⁿ⁻¹ = ΔUⁿ⁻¹/Δt), Δt Vⁿ⁻¹ in Crank–Nicolson's."""
+            F = copetti.momentum_increment(ΔU, D_prev, U_prev, Θ_prev + weight * ΔΘ_other, w, dt,
+                                           b, zeta, a, theta_A, disc.r, dx_m, dx, weight)
+            if "source" in momentum_y:
+                F += copetti.source(momentum_y["source"], w, dx)
+            return F
+
+        # The residuals are named by all they depend on beyond the discretisation's own symbols
+        # and constants: a scene of the same discretisation, time scheme and sources reuses
+        # their compiled forms (Discretisation.load).
+        sourced = tuple(self.sources[name] is not None for name in ("heat", "momentum"))
+        self.heat = disc.affine_operator(heat, ΔΘ, heat_y, loads=("source",),
+                                         key=("heat", weight, sourced))
+        self.momentum = disc.affine_operator(momentum, ΔU, momentum_y, loads=("source",),
+                                             key=("momentum", weight, sourced))
         # The contact term p v(1) for p = 1: the load e of a unit force at x = 1.
-        self.contact_load = disc.vector(copetti.contact(1.0, w, ds_1))
+        self.contact_load = disc.vector(lambda: copetti.contact(1.0, w, ds_1), key=("contact",))
+        self._coupled = None  # coupled_operator(), once made
         self.last = disc.nodes.size - 1  # the node x = 1
         self._index = disc.nodes.size + self.last  # of ΔU(1) in the unknowns [ΔΘ; ΔU]
 
@@ -141,11 +155,14 @@ class Method:
         self.pressure = float(saved["pressure"][0])
 
     def coupled_operator(self) -> PETSc.Mat:
-        """[[A_h, −N_U], [−N_Θ, A_m]]: (3.1)–(3.2) for [ΔΘⁿ; ΔUⁿ] without the contact term."""
-        N_u, N_theta = self.heat.N["du"].copy(), self.momentum.N["dtheta"].copy()
-        N_u.scale(-1.0)
-        N_theta.scale(-1.0)
-        return block_matrix([[self.heat.A, N_u], [N_theta, self.momentum.A]])
+        """[[A_h, −N_U], [−N_Θ, A_m]]: (3.1)–(3.2) for [ΔΘⁿ; ΔUⁿ] without the contact term
+        (made once; not to be changed)."""
+        if self._coupled is None:
+            N_u, N_theta = self.heat.N["du"].copy(), self.momentum.N["dtheta"].copy()
+            N_u.scale(-1.0)
+            N_theta.scale(-1.0)
+            self._coupled = block_matrix([[self.heat.A, N_u], [N_theta, self.momentum.A]])
+        return self._coupled
 
     def _set_initial_state(self) -> None:
         """Θ⁰ = P(θ₀ + θ_A r), U⁰ = P u₀ and P u₁, P the H¹_E projection: in 1D with P1, nodal
