@@ -139,9 +139,18 @@ def _sweep_report(result, out: Path, quiet: bool) -> int:
 
     from mpi4py import MPI
 
-    summary = json.loads((out / "summary.json").read_text()) if MPI.COMM_WORLD.rank == 0 else {}
+    summary = {}
+    if MPI.COMM_WORLD.rank == 0:
+        try:
+            summary = json.loads((out / "summary.json").read_text())
+        except (OSError, ValueError):
+            pass
     summary = MPI.COMM_WORLD.bcast(summary, root=0)
     failed, total = summary.get("scenes_failed", 0), summary.get("scenes", len(result))
+    if result.error is not None:
+        say(f"rodfem: error: {result.error}. The scenes finished before are kept in {out}; once "
+            f"its files can be written again, 'rodfem resume {out}' runs the rest.")
+        return EXIT_IO
     if result.status != "complete":
         import signal
 

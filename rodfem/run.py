@@ -26,6 +26,7 @@ from rodfem.output.progress import Progress
 from rodfem.scene import Scene
 from rodfem.solver.compiled import compiled_loop
 from rodfem.solver.errors import NotConverged, NotFinite
+from rodfem.solver.linalg import free_garbage
 from rodfem.solver.methods import make_method
 
 # Êⁿ is non-increasing in exact arithmetic (Remark 4.4). An increase counts only if it exceeds the
@@ -145,6 +146,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     Signals (Ctrl-C, SIGTERM, SIGHUP, SIGUSR1) stop the run at the end of a step, with its files
     whole and a checkpoint to resume from (:mod:`rodfem.output.interrupts`)."""
     started = time.perf_counter()
+    free_garbage(comm)  # the PETSc objects of the runs before (a sweep runs thousands)
     if out is not None and resume is None:
         write_text(out / "scene.toml", scene.to_toml(), comm)
     disc = setups.discretisation(scene, comm) if setups else Discretisation(scene, comm)

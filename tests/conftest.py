@@ -2,7 +2,9 @@
 fixtures that create files agree on one directory across ranks."""
 
 import shutil
+import subprocess
 import tempfile
+import uuid
 from pathlib import Path
 
 import pytest
@@ -41,3 +43,16 @@ def simulate(shared_dir):
         return run(prepared, out, COMM, progress=False), out
 
     return _simulate
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 1 MiB tmpfs (CI runs as root); skipped where mounting is refused (a container)."""
+    disk = tmp_path / f"disk-{uuid.uuid4().hex[:6]}"
+    disk.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(disk)],
+                             capture_output=True, text=True)
+    if mounted.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here ({mounted.stderr.strip()})")
+    yield disk
+    subprocess.run(["umount", "-l", str(disk)], check=False)

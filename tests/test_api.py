@@ -109,3 +109,28 @@ def test_import_rodfem_is_light():
                           check=True)
     assert done.stdout.split() == ["False", "False"]
     assert MPI.COMM_WORLD.size >= 1
+
+
+def test_load_reads_a_killed_run_as_gone(shared_dir):
+    """A run killed before its end (its marker says running, no process holds it, no
+    summary.json): load gives what its files hold."""
+    import json
+
+    out = shared_dir / "killed"
+    rodfem.simulate("paper1", SHORT, out=out)
+    COMM.barrier()
+    if COMM.rank == 0:
+        marker = json.loads((out / "rodfem.json").read_text())
+        (out / "rodfem.json").write_text(json.dumps({**marker, "status": "running"}))
+        (out / "summary.json").unlink()
+    COMM.barrier()
+    r = rodfem.load(out)
+    assert r.status == "gone" and len(r.history) == 501
+    assert r.measures["t_final"] == 0.5
+
+
+def test_load_refuses_what_is_not_a_run(tmp_path):
+    from rodfem.post.runs import RunDirectoryError
+
+    with pytest.raises(RunDirectoryError, match="not a rodfem run directory"):
+        rodfem.load(tmp_path)

@@ -6,7 +6,6 @@ import json
 import os
 import subprocess
 import sys
-import uuid
 from pathlib import Path
 
 import numpy as np
@@ -114,19 +113,6 @@ def test_a_run_larger_than_the_disk_is_refused_unless_asked(tmp_path):
                   "time.end=100", "--set", "output.every=1", "--set", "mesh.cells=100000")
     one_line(done, 2, "would write about", "--no-size-check")
     assert not out.exists()
-
-
-@pytest.fixture
-def small_disk(tmp_path):
-    """A 1 MiB tmpfs (CI runs as root); skipped where mounting is refused (a container)."""
-    disk = tmp_path / f"disk-{uuid.uuid4().hex[:6]}"
-    disk.mkdir()
-    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(disk)],
-                             capture_output=True, text=True)
-    if mounted.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here ({mounted.stderr.strip()})")
-    yield disk
-    subprocess.run(["umount", "-l", str(disk)], check=False)
 
 
 @serial_only

@@ -264,6 +264,11 @@ def test_stopped_sweep_resumes_to_the_same_table(how, ranks, uninterrupted, tmp_
     before = {i for i, r in journal.read(out).items()
               if table.status(r.line, ("model.k", "model.zeta")) in ("complete", "failed")}
     assert 5 <= len(before) < 36
+    if how == "SIGKILL" and ranks == 1:  # the figures of the rows so far
+        from rodfem.post.sweep import plot_sweep
+
+        drawn = plot_sweep(out)
+        assert (out / "figures" / "sweep_u_1_final.png") in drawn
     done = subprocess.run(rodfem_command("resume", out), env=ENV, capture_output=True, text=True,
                           timeout=600)
     assert done.returncode == 0, done.stderr
@@ -309,3 +314,32 @@ def test_cut_journal_record_is_run_again(shared_dir):
         assert list(journal.read(out)) == [3]
         log.path.write_bytes(data[:20] + b"\xff" + data[21:])
         assert list(journal.read(out)) == []
+
+
+def test_every_measure_is_documented_with_its_meaning():
+    from rodfem.output.measures import MEASURES as TABLE
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "sweeps.md").read_text()
+    for measure in TABLE:
+        assert f"| `{measure.name}` | {measure.meaning} |" in text, measure.name
+
+
+@serial_only
+def test_a_full_disk_stops_the_sweep_with_exit_4_and_resume_completes_it(small_disk):
+    spec = ('scene = "paper1"\n[set]\n"mesh.cells" = 30\n"time.end" = 2.0\n'
+            '"solver.method" = "direct"\n[grid]\n"model.k" = [0.1, 1, 10]\n'
+            '"model.zeta" = [0.2, 0.6, 1.0]\n')
+    sweep = write(small_disk.parent / "full.toml", spec)
+    out = small_disk / "sweep"
+    done = subprocess.run(rodfem_command("sweep", sweep, "--out", out, "--histories"), env=ENV,
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 4, done.stderr
+    assert done.stderr.count("\n") == 1 and "No space left on device" in done.stderr
+    assert "rodfem resume" in done.stderr and "Traceback" not in done.stderr
+    subprocess.run(["mount", "-o", "remount,size=64m", str(small_disk)], check=True)
+    again = subprocess.run(rodfem_command("resume", out), env=ENV, capture_output=True,
+                           text=True, timeout=600)
+    assert again.returncode == 0, again.stderr
+    assert_same_table(load_sweep(out), run_sweep(sweep, comm=MPI.COMM_SELF))
+    np.testing.assert_array_equal(load_sweep(out).history(8)["u_1"][-1],
+                                  load_sweep(out)["u_1_final"][8])

@@ -20,6 +20,7 @@ draws with matplotlib, off-screen (its figures are not pyplot's: nothing to clos
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -27,34 +28,50 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from rodfem.output import results
+from rodfem.output import journal, results
 from rodfem.output.atomic import replacing
 from rodfem.output.measures import MEASURES
 from rodfem.post.runs import PlotError
-from rodfem.scene import SceneError
-from rodfem.studies import design
 
 SIZE, DPI = (6.4, 4.8), 100
 MISSING = dict(facecolor="lightgrey", edgecolor="grey", hatch="//", linewidth=0)
+
+
+@dataclasses.dataclass(frozen=True)
+class Layout:
+    """What sweep.json says of a sweep's axes: their order, how each was swept ("grid", "zip",
+    "sample"), and the grid's values per grid axis."""
+
+    axes: tuple[str, ...]
+    design: dict[str, str]
+    grid: dict[str, list]
 
 
 class SweepDirectoryError(PlotError):
     """A path given to ``rodfem plot`` is not a readable sweep directory."""
 
 
-def load_sweep(path: Path) -> tuple[design.Sweep, dict[str, np.ndarray]]:
-    """The sweep of ``sweep.json`` and the columns of ``results.csv``, checked against it."""
+def load_sweep(path: Path) -> tuple[Layout, dict[str, np.ndarray]]:
+    """The axes of ``sweep.json`` and the columns of ``results.csv``, checked against them."""
     try:
         meta = json.loads((path / "sweep.json").read_text(encoding="utf-8"))
-        sweep = design.parse(meta["sweep"], meta["name"], base=(meta["base"], meta["source"]))
-        axes, columns = results.read(path / results.NAME)
-    except (OSError, ValueError, SceneError) as err:  # ResultsError and json's are ValueErrors
+        sweep = Layout(tuple(meta["axes"]), dict(meta["design"]),
+                       {key: list(values) for key, values in meta["grid"].items()})
+        if (path / journal.DIRECTORY).is_dir():  # a stopped sweep: its rows so far
+            records = journal.read(path)
+            axes, columns = results.parse(results.text(
+                sweep.axes, [records[i].line for i in sorted(records)]))
+        else:
+            axes, columns = results.read(path / results.NAME)
+    except (OSError, ValueError) as err:  # ResultsError and json's are ValueErrors
         reason = getattr(err, "strerror", None) or err
         raise SweepDirectoryError(" ".join(f"{path} is not a readable sweep directory: "
                                            f"{reason}".split())) from None
     except (KeyError, TypeError):
         raise SweepDirectoryError(f"{path}/sweep.json is not a sweep's") from None
-    if tuple(axes) != sweep.axes or not sweep.axes:
+    if not sweep.axes:
+        raise SweepDirectoryError(f"{path} is a sweep without swept keys: nothing to draw over")
+    if tuple(axes) != sweep.axes:
         raise SweepDirectoryError(f"{path}/results.csv's axes are not those of its sweep.json")
     if len(columns["index"]) == 0:
         raise SweepDirectoryError(f"{path}/results.csv holds no scenes")

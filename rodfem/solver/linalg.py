@@ -42,3 +42,15 @@ def stacked(parts: int, n: int) -> tuple[PETSc.Vec, list[PETSc.Vec]]:
     array = np.zeros(parts * n)
     wrap = lambda a: PETSc.Vec().createWithArray(a, comm=PETSc.COMM_SELF)  # noqa: E731
     return wrap(array), [wrap(array[i * n:(i + 1) * n]) for i in range(parts)]
+
+
+
+def free_garbage(comm) -> None:
+    """Destroy now the PETSc objects of ``comm`` (and of this process alone) that nothing
+    references any more. petsc4py (3.18 on) does not destroy an object when its last reference
+    goes, since destroying a parallel object is collective: it keeps it for a collective
+    ``garbage_cleanup``. Without one, a sweep of 10⁴ paper1 scenes grew to 5 GB. Collective on
+    ``comm``."""
+    PETSc.garbage_cleanup(PETSc.COMM_SELF)
+    if comm.size > 1:
+        PETSc.garbage_cleanup(comm)

@@ -153,6 +153,8 @@ def _work(sweep: Sweep, todo: list[int], comm: MPI.Comm, record, keep_history: b
                     break
                 if comm.rank == 0:
                     progress.update(started + min(counter.take(0), len(todo)))
+            if interrupts.signal_received() is not None or error is not None:
+                counter.take(len(todo))  # the other ranks stop after their current scene too
     finally:
         comm.barrier()  # every rank has stopped taking scenes before the window goes
         counter.free()
@@ -168,7 +170,8 @@ class SweepResult:
     Attributes:
         columns: every column of results.csv by name.
         axes: the swept keys.
-        status: complete, or interrupted (a sweep that was stopped; resume continues it).
+        status: complete, or interrupted (a sweep that was stopped; resume continues it), or
+            failed (a file could not be written: ``error`` says which).
         path: the sweep directory, or None for a sweep run in memory.
     """
 
@@ -177,6 +180,7 @@ class SweepResult:
     status: str
     path: Path | None = None
     _histories: dict[int, np.ndarray] | None = None
+    error: str | None = None  # a file that could not be written, which stopped the sweep
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.columns[name]
@@ -255,14 +259,20 @@ def run_sweep(spec, out: str | Path | None = None, comm: MPI.Comm | None = None,
     from rodfem.output.directories import prepare_directory
     from rodfem.output.files import write_json, write_text
 
-    prepare_directory(out, force, comm, command="sweep", files=FILES)
     if text is None and isinstance(spec, (str, Path)):
         text = Path(spec).read_text(encoding="utf-8")
-    if text is not None:
-        write_text(out / "sweep.toml", text, comm)
-    write_json(out / "sweep.json", {"format": FORMAT, "name": sweep.name, "sweep": sweep.data,
-                                    "base": sweep.base, "source": sweep.source,
-                                    "histories": histories, "scenes": len(sweep)}, comm)
+    # A directory marked is one with its sweep.json, which resume reads: a signal between the
+    # two is taken after both.
+    with interrupts.deferred():
+        prepare_directory(out, force, comm, command="sweep", files=FILES)
+        if text is not None:
+            write_text(out / "sweep.toml", text, comm)
+        write_json(out / "sweep.json", {
+            "format": FORMAT, "name": sweep.name, "sweep": sweep.data, "base": sweep.base,
+            "source": sweep.source, "axes": list(sweep.axes), "design": sweep.design,
+            "grid": sweep.grid, "histories": histories, "scenes": len(sweep)}, comm)
+    if interrupts.signal_received() is not None:
+        raise interrupts.Interrupted(interrupts.signal_received())
     return _run_into(out, sweep, comm, histories, 0, {}, progress_line)
 
 
@@ -312,11 +322,13 @@ def _run_into(out: Path, sweep: Sweep, comm: MPI.Comm, histories: bool, session:
         message = errors[0]
         status = "failed"
     finish(out, status, comm)
-    result = load_sweep(out) if comm.rank == 0 else None
-    result = comm.bcast(result, root=0)
-    if message:
-        raise OSError(message)
-    return result
+    result = None
+    if comm.rank == 0:
+        try:
+            result = dataclasses.replace(load_sweep(out), error=message)
+        except (OSError, table.ResultsError) as err:  # results.csv itself could not be written
+            result = SweepResult({}, sweep.axes, "failed", out, error=message or str(err))
+    return comm.bcast(result, root=0)
 
 
 def _write_table(out: Path, sweep: Sweep, histories: bool, ran: int, seconds: float,
@@ -348,8 +360,16 @@ def _write_table(out: Path, sweep: Sweep, histories: bool, ran: int, seconds: fl
 
 
 def _write_histories(path: Path, records: dict[int, journal.Record]) -> None:
+    """histories.h5, whole or not at all. HDF5 closing a file on a full disk can crash the
+    process (h5py 3.7: a segmentation fault in H5F__close_cb), so the room is checked first and
+    a disk without it is the OSError any full disk is."""
+    import errno
+
     import h5py
 
+    need = sum(8 * r.rows * r.columns + 4096 for r in records.values()) + 2**20
+    if shutil.disk_usage(path.parent).free < need:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
     part = path.with_name(f".{path.name}.{os.getpid()}")
     try:
         with h5py.File(part, "w") as file:
