@@ -82,6 +82,9 @@ def scene_of(scene: str | Path | Mapping | Scene, overrides=None) -> Scene:
         SceneError: the message ``rodfem run`` would print, on one line.
     """
     if isinstance(overrides, (list, tuple)):
+        if not all(isinstance(item, str) for item in overrides):
+            raise SceneError('overrides: a list holds "section.key=value" strings; give a dict '
+                             '({"model.k": 10}) for values')
         if not isinstance(scene, (str, Path)):
             raise SceneError("overrides: a list of section.key=value goes with a scene name or "
                              'path; give a dict ({"model.k": 10}) otherwise')
@@ -99,7 +102,9 @@ def scene_of(scene: str | Path | Mapping | Scene, overrides=None) -> Scene:
     else:
         raise SceneError("scene: must be a built-in name, a TOML path or a dict of sections, not "
                          f"{type(scene).__name__}")
-    return validate(with_values(data, dict(overrides or {}), "overrides"), source)
+    values = {key: value.item() if isinstance(value, np.generic) else value  # NumPy scalars
+              for key, value in dict(overrides or {}).items()}
+    return validate(with_values(data, values, "overrides"), source)
 
 
 def simulate(scene: str | Path | Mapping | Scene, overrides=None, out: str | Path | None = None,

@@ -194,7 +194,8 @@ def _release(status: str) -> None:
     """Mark the directories still held with ``status`` (if rodfem got as far as holding any)."""
     directories = sys.modules.get("rodfem.output.directories")
     if directories is not None:
-        directories.release_all(status)
+        with interrupts.deferred():  # a second signal (mpirun's SIGTERM) waits for the marker
+            directories.release_all(status)
 
 
 def main(argv: list[str] | None = None) -> int:

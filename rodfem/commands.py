@@ -156,8 +156,12 @@ def _sweep_report(result, out: Path, quiet: bool) -> int:
 
         from rodfem.output import interrupts
 
-        code = interrupts.exit_code()
         done = summary.get("scenes_complete", 0) + failed
+        if interrupts.signal_received() is None:
+            say(f"rodfem: error: {done} of {total} scenes are in {out / 'results.csv'}, but the "
+                "sweep is not complete")
+            return EXIT_DIVERGED
+        code = interrupts.exit_code()
         say(f"rodfem: interrupted by {signal.Signals(code - 128).name}; {done} of {total} scenes "
             f"are in {out / 'results.csv'}, and 'rodfem resume {out}' runs the rest.")
         return code
@@ -239,6 +243,15 @@ INCOMPLETE = {
 }
 
 
+SWEEP_INCOMPLETE = {
+    "gone": "is an incomplete sweep: the process is gone (killed before it finished); the "
+            "figures show the scenes it finished, and 'rodfem resume {path}' runs the rest",
+    "running": "is a sweep still running; the figures show the scenes finished so far",
+    "interrupted": "is an interrupted sweep ('rodfem resume {path}' runs the rest)",
+    "failed": "is a sweep stopped by a failed write ('rodfem resume {path}' runs the rest)",
+}
+
+
 def plot(args: argparse.Namespace) -> int:
     """Draw the figures on rank 0 (the others wait), then list the files written."""
     from mpi4py import MPI
@@ -252,7 +265,9 @@ def plot(args: argparse.Namespace) -> int:
         from rodfem.post import plot as draw
 
         for path in args.dirs:
-            note = INCOMPLETE.get(state(path) if path.is_dir() else None)
+            sweep = (read_marker(path) or {}).get("command") == "sweep" if path.is_dir() else False
+            notes = SWEEP_INCOMPLETE if sweep else INCOMPLETE
+            note = notes.get(state(path) if path.is_dir() else None)
             if note:
                 say(f"rodfem: note: {path} {note.format(path=path)}")
         try:

@@ -105,7 +105,12 @@ BAD = {
     "not a list": ('[grid]\n"model.k" = 3\n', "grid model.k: must be a list"),
     "zip lengths": ('[zip]\n"model.k" = [1, 2]\n"model.a" = [0, 0.1, 0.2]\n', "one length"),
     "sample count": ('[sample]\ncount = 0\n[sample.ranges]\n"model.k" = [1, 2]\n',
-                     "sample.count must be a positive integer"),
+                     "sample.count must be an integer from 1 to 1000000"),
+    "huge axis": ('[grid]\n"model.k" = {linspace = [0, 1, 1000000000]}\n',
+                  "count must be an integer from 1 to 1000000"),
+    "huge sample": ('[sample]\ncount = 1000000000\n[sample.ranges]\n"model.k" = [1, 2]\n',
+                    "sample.count must be an integer from 1 to 1000000"),
+    "overflowing axis": ('[grid]\n"model.k" = {linspace = [1e308, -1e308, 3]}\n', "overflows"),
     "fixed and swept": ('[set]\n"model.k" = 1\n[grid]\n"model.k" = [1, 2]\n',
                         "model.k is both set"),
     "swept twice": ('[grid]\n"model.k" = [1, 2]\n[zip]\n"model.k" = [1, 2]\n', "swept twice"),
@@ -261,6 +266,8 @@ def test_stopped_sweep_resumes_to_the_same_table(how, ranks, uninterrupted, tmp_
             assert process.returncode == 128 + getattr(signal, how), err
         assert "rodfem resume" in err and "Traceback" not in err, err
         assert load_sweep(out).status in ("interrupted", "gone")
+    if how == "SIGINT":
+        (out / journal.DIRECTORY / "notes.txt").write_text("mine")
     before = {i for i, r in journal.read(out).items()
               if table.status(r.line, ("model.k", "model.zeta")) in ("complete", "failed")}
     assert 5 <= len(before) < 36
@@ -279,7 +286,9 @@ def test_stopped_sweep_resumes_to_the_same_table(how, ranks, uninterrupted, tmp_
 
     ran = json.loads((out / "summary.json").read_text())["ran_this_time"]
     assert ran == 36 - len(before)  # no scene run twice
-    assert not (out / journal.DIRECTORY).exists()
+    assert not (out / journal.DIRECTORY).exists() or how == "SIGINT"
+    if how == "SIGINT":  # a user's file in journal/ stays, and so does journal/
+        assert (out / journal.DIRECTORY / "notes.txt").read_text() == "mine"
     again = subprocess.run(rodfem_command("resume", out), env=ENV, capture_output=True,
                            text=True, timeout=600)
     assert again.returncode == 0 and "complete sweep" in again.stdout
@@ -343,3 +352,44 @@ def test_a_full_disk_stops_the_sweep_with_exit_4_and_resume_completes_it(small_d
     assert_same_table(load_sweep(out), run_sweep(sweep, comm=MPI.COMM_SELF))
     np.testing.assert_array_equal(load_sweep(out).history(8)["u_1"][-1],
                                   load_sweep(out)["u_1_final"][8])
+
+
+@serial_only
+def test_resume_refuses_an_edited_sweep_json_with_one_line(uninterrupted, tmp_path, capsys):
+    import json
+
+    sweep, _ = uninterrupted
+    out = tmp_path / "edited"
+    process = subprocess.Popen(rodfem_command("sweep", sweep, "--out", out), env=ENV,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    wait_for_records(out, 8, process)
+    process.kill()
+    process.communicate()
+    meta = json.loads((out / "sweep.json").read_text())
+    shorter = {**meta, "sweep": {**meta["sweep"], "grid": {
+        **meta["sweep"]["grid"], "model.k": {"logspace": [0.1, 10, 2]}}}}
+    (out / "sweep.json").write_text(json.dumps(shorter))
+    assert main(["resume", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "not sweep.json's" in err and err.count("\n") == 1, err
+    (out / "sweep.json").write_text(json.dumps({k: v for k, v in meta.items() if k != "base"}))
+    assert main(["resume", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "'base' is missing" in err and err.count("\n") == 1, err
+
+
+@pytest.mark.parametrize("spec", [5, [1, 2]])
+def test_sweep_of_what_is_not_a_sweep_is_a_scene_error(spec):
+    with pytest.raises(rodfem.SceneError, match="must be a sweep file's path"):
+        rodfem.sweep(spec)
+
+
+def test_python_values_for_axes_and_overrides():
+    sweep = design.parse({"scene": "paper1", "grid": {"model.k": (1.0, np.float64(2.0)),
+                                                      "mesh.cells": np.array([10, 20])}}, "p")
+    assert [p["mesh.cells"] for p in sweep.points][:2] == [10, 20]
+    assert type(sweep.points[0]["mesh.cells"]) is int
+    scene = rodfem.api.scene_of("paper1", {"mesh.cells": np.int64(20)})
+    assert scene["mesh.cells"] == 20
+    with pytest.raises(rodfem.SceneError, match="a list holds"):
+        rodfem.api.scene_of("paper1", [5])

@@ -139,6 +139,27 @@ def read(out: Path) -> dict[int, Record]:
     return latest
 
 
+def exists(out: Path) -> bool:
+    """Whether ``out`` has a journal: part files, which a complete sweep has removed."""
+    directory = out / DIRECTORY
+    return directory.is_dir() and any(PART.match(p.name) for p in directory.iterdir())
+
+
+def remove(out: Path) -> None:
+    """Delete the journal's part files, and its directory if that leaves it empty (a file a
+    user put there stays, and so does the directory)."""
+    directory = out / DIRECTORY
+    if not directory.is_dir():
+        return
+    for path in directory.iterdir():
+        if PART.match(path.name) and path.is_file() and not path.is_symlink():
+            path.unlink()
+    try:
+        directory.rmdir()
+    except OSError:
+        pass
+
+
 def sessions(out: Path) -> int:
     """How many sessions have written the journal: the next one's number."""
     directory = out / DIRECTORY

@@ -57,7 +57,7 @@ def load_sweep(path: Path) -> tuple[Layout, dict[str, np.ndarray]]:
         meta = json.loads((path / "sweep.json").read_text(encoding="utf-8"))
         sweep = Layout(tuple(meta["axes"]), dict(meta["design"]),
                        {key: list(values) for key, values in meta["grid"].items()})
-        if (path / journal.DIRECTORY).is_dir():  # a stopped sweep: its rows so far
+        if journal.exists(path):  # a stopped sweep: its rows so far
             records = journal.read(path)
             axes, columns = results.parse(results.text(
                 sweep.axes, [records[i].line for i in sorted(records)]))

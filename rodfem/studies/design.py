@@ -119,6 +119,8 @@ def _as_kind(key: str, values, what: str) -> list:
 
 def _axis(key: str, spec, what: str) -> list:
     """The values of one grid or zip axis: a list, or {linspace|logspace = [start, stop, n]}."""
+    if isinstance(spec, (tuple, np.ndarray)):  # from Python, not TOML
+        spec = [v.item() if isinstance(v, np.generic) else v for v in spec]
     if isinstance(spec, list):
         if not spec:
             raise SceneError(f"{what}: empty; list at least one value")
@@ -130,16 +132,20 @@ def _axis(key: str, spec, what: str) -> list:
                              f"{_toml_value(args) if not isinstance(args, dict) else args}")
         start, stop = (_number(v, f"{what} {how}") for v in args[:2])
         count = args[2]
-        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-            raise SceneError(f"{what}: {how} count must be a positive integer, got "
-                             f"{_toml_value(count)}")
+        if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= MAX_SCENES:
+            raise SceneError(f"{what}: {how} count must be an integer from 1 to {MAX_SCENES}, "
+                             f"got {_toml_value(count)}")
         if how == "logspace":
             if start <= 0 or stop <= 0:
                 raise SceneError(f"{what}: logspace needs start and stop > 0 (they are the "
                                  f"ends, not exponents), got {start:g}, {stop:g}")
-            values = np.geomspace(start, stop, count)
+            with np.errstate(all="ignore"):
+                values = np.geomspace(start, stop, count)
         else:
-            values = np.linspace(start, stop, count)
+            with np.errstate(all="ignore"):
+                values = np.linspace(start, stop, count)
+        if not np.isfinite(values).all():
+            raise SceneError(f"{what}: {how} from {start:g} to {stop:g} overflows")
         return _as_kind(key, values, what)
     raise SceneError(f"{what}: must be a list of values or {{linspace = [start, stop, count]}} "
                      f"or {{logspace = [start, stop, count]}}, got {_toml_value(spec)}"
@@ -160,8 +166,8 @@ def _samples(table, name: str) -> tuple[list[str], list[list]]:
         raise SceneError(f"{name}: sample.method must be one of "
                          f"{' | '.join(repr(s) for s in SAMPLERS)}, got {_toml_value(method)}")
     count = table.get("count")
-    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-        raise SceneError(f"{name}: sample.count must be a positive integer, got "
+    if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= MAX_SCENES:
+        raise SceneError(f"{name}: sample.count must be an integer from 1 to {MAX_SCENES}, got "
                          f"{_toml_value(count) if count is not None else 'nothing'}")
     seed = table.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
@@ -198,8 +204,11 @@ def _samples(table, name: str) -> tuple[list[str], list[list]]:
     columns = []
     for j, (key, (low, high, log)) in enumerate(zip(keys, bounds, strict=True)):
         u = unit[:, j]
-        values = (np.exp(np.log(low) + u * (np.log(high) - np.log(low))) if log
-                  else low + u * (high - low))
+        with np.errstate(all="ignore"):
+            values = (np.exp(np.log(low) + u * (np.log(high) - np.log(low))) if log
+                      else low + u * (high - low))
+        if not np.isfinite(values).all():
+            raise SceneError(f"{name}: sample.ranges {key}: [{low:g}, {high:g}] overflows")
         columns.append(_as_kind(key, np.clip(values, low, high), f"{name}: sample.ranges {key}"))
     return keys, columns
 

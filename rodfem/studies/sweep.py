@@ -25,6 +25,7 @@ complete.
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import json
 import os
@@ -132,12 +133,12 @@ class Progress:
 
 
 def _work(sweep: Sweep, todo: list[int], comm: MPI.Comm, record, keep_history: bool,
-          progress: Progress) -> str | None:
+          progress: Progress) -> tuple[str | None, int]:
     """Deal ``todo`` among the ranks; ``record(outcome)`` keeps each. Returns the line of a
-    failed write, if one stopped this rank."""
+    failed write, if one stopped this rank, and how many scenes this rank recorded."""
     from rodfem.run import SetUps
 
-    counter, setups, error = Counter(comm), SetUps(), None
+    counter, setups, error, ran = Counter(comm), SetUps(), None, 0
     started = progress.done_before
     try:
         with interrupts.deferred():
@@ -151,6 +152,7 @@ def _work(sweep: Sweep, todo: list[int], comm: MPI.Comm, record, keep_history: b
                 except OSError as err:
                     error = io_line(err)
                     break
+                ran += 1
                 if comm.rank == 0:
                     progress.update(started + min(counter.take(0), len(todo)))
             if interrupts.signal_received() is not None or error is not None:
@@ -158,7 +160,7 @@ def _work(sweep: Sweep, todo: list[int], comm: MPI.Comm, record, keep_history: b
     finally:
         comm.barrier()  # every rank has stopped taking scenes before the window goes
         counter.free()
-    return error
+    return error, ran
 
 
 @dataclasses.dataclass(frozen=True)
@@ -219,6 +221,9 @@ def _as_sweep(spec) -> Sweep:
         return spec
     if isinstance(spec, dict):
         return design.parse(spec, "<dict>")
+    if not isinstance(spec, (str, Path)):
+        raise SceneError("sweep: must be a sweep file's path or its data as a dict, not "
+                         f"{type(spec).__name__}")
     return design.load(spec)
 
 
@@ -299,9 +304,9 @@ def _run_into(out: Path, sweep: Sweep, comm: MPI.Comm, histories: bool, session:
     def record(outcome: Outcome) -> None:
         log.append(outcome.index, outcome.line, outcome.history)
 
-    started = time.perf_counter()
+    started, ran = time.perf_counter(), 0
     try:
-        error = _work(sweep, todo, comm, record, histories, progress)
+        error, ran = _work(sweep, todo, comm, record, histories, progress)
     finally:
         try:
             log.close()
@@ -309,11 +314,11 @@ def _run_into(out: Path, sweep: Sweep, comm: MPI.Comm, histories: bool, session:
             error = io_line(err)
     seconds = time.perf_counter() - started
     errors = [e for e in comm.allgather(error) if e]
-    comm.barrier()  # every journal is closed
+    ran = comm.allreduce(ran)  # every journal is closed
     status, message = "interrupted", None
     if comm.rank == 0:
         try:
-            status = _write_table(out, sweep, histories, len(todo), seconds, comm.size,
+            status = _write_table(out, sweep, histories, ran, seconds, comm.size,
                                   failed_write=bool(errors))
         except OSError as err:
             errors.append(io_line(err))
@@ -355,7 +360,7 @@ def _write_table(out: Path, sweep: Sweep, histories: bool, ran: int, seconds: fl
         json.dump(summary, file, indent=2)
         file.write("\n")
     if complete:
-        shutil.rmtree(out / journal.DIRECTORY, ignore_errors=True)  # all of it is in the table
+        journal.remove(out)  # all of it is in the table
     return status
 
 
@@ -392,15 +397,16 @@ def load_sweep(path: str | Path) -> SweepResult:
     from rodfem.output.directories import state
 
     path = Path(path)
-    if (path / journal.DIRECTORY).is_dir():  # stopped: its rows are in the journal
-        meta = _meta(path)
-        axes = tuple(design.parse(meta["sweep"], meta["name"],
-                                  base=(meta["base"], meta["source"])).axes)
+    if journal.exists(path):  # stopped: its rows are in the journal
+        axes = _parsed(path, _meta(path)).axes
         records = journal.read(path)
         return _result_from({i: r.line for i, r in records.items()}, axes,
                             state(path) or "interrupted", path)
     axes, columns = table.read(path / table.NAME)
     return SweepResult(columns, axes, state(path) or "complete", path)
+
+
+KEYS = {"name": str, "sweep": dict, "base": dict, "source": str, "histories": bool}
 
 
 def _meta(out: Path) -> dict[str, Any]:
@@ -410,7 +416,20 @@ def _meta(out: Path) -> dict[str, Any]:
         raise SceneError(f"{out}: no readable sweep.json ({err})") from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise SceneError(f"{out}/sweep.json is not one this version of rodfem reads")
+    for key, kind in KEYS.items():
+        if not isinstance(meta.get(key), kind):
+            raise SceneError(f"{out}/sweep.json: '{key}' is missing or not a {kind.__name__} "
+                             "(was it edited?)")
     return meta
+
+
+def _parsed(out: Path, meta: dict) -> Sweep:
+    """The sweep of a directory's sweep.json (SceneError, one line, if it is not one)."""
+    try:
+        return design.parse(meta["sweep"], meta["name"], base=(meta["base"], meta["source"]))
+    except (KeyError, TypeError, AttributeError, IndexError) as err:
+        raise SceneError(f"{out}/sweep.json is not a sweep's ({type(err).__name__}: {err})") \
+            from None
 
 
 def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SweepResult:
@@ -419,9 +438,16 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SweepResult:
     from rodfem.output.directories import mark_running
 
     meta = _meta(out)
-    sweep = design.parse(meta["sweep"], meta["name"], base=(meta["base"], meta["source"]))
+    sweep = _parsed(out, meta)
+    _validate_all(sweep, comm)
     records = journal.read(out) if comm.rank == 0 else None
     records = comm.bcast(records, root=0)
+    for i, record in records.items():  # each what sweep.json says it is
+        expected = table.line(i, sweep.points[i], sweep.axes, "", {}) if i < len(sweep) else ""
+        cells = len(sweep.axes) + 1
+        if next(csv.reader([record.line]))[:cells] != next(csv.reader([expected]))[:cells]:
+            raise SceneError(f"{out}: its journal holds a scene {i} that is not sweep.json's "
+                             "(was it edited?); run the sweep again with --force")
     done = {i: r for i, r in records.items()
             if table.status(r.line, sweep.axes) in ("complete", "failed")}
     session = comm.bcast(journal.sessions(out) if comm.rank == 0 else None, root=0)
