@@ -59,7 +59,9 @@ class Result:
     @property
     def measures(self) -> dict[str, float | int]:
         """The run's measures by name (:mod:`rodfem.output.measures`), as a sweep records
-        them."""
+        them; empty for a run with no step on the disk."""
+        if len(self.history) == 0:
+            return {}
         columns = {name: self.history[name] for name in self.history.dtype.names}
         return _measures(columns, self.scene, self.summary)
 
@@ -160,20 +162,23 @@ def load(path: str | Path) -> Result:
     Raises:
         rodfem.post.runs.RunDirectoryError: ``path`` is not a readable run directory.
     """
-    from rodfem.output.directories import state
+    from rodfem.output.directories import read_marker, state
     from rodfem.post.fields import FieldsError, read_fields
     from rodfem.post.runs import RunDirectoryError, read_history
 
     path = Path(path)
-    for name in ("history.csv", "scene.toml"):
-        if not (path / name).is_file():
-            raise RunDirectoryError(f"{path} is not a rodfem run directory (it has no {name})")
+    if not (path / "scene.toml").is_file() or read_marker(path) is None:
+        raise RunDirectoryError(f"{path} is not a rodfem run directory (it has no scene.toml "
+                                "or rodfem.json)")
     try:
         scene = load_scene(str(path / "scene.toml"))
     except SceneError as err:
         raise RunDirectoryError(f"{path / 'scene.toml'}: {err}") from None
-    history = read_history(path / "history.csv")
-    rows = np.column_stack([history[c.name] for c in COLUMNS])
+    if _steps_written(path / "history.csv"):
+        history = read_history(path / "history.csv")
+        rows = np.column_stack([history[c.name] for c in COLUMNS])
+    else:  # killed before its first checkpoint: no step on the disk yet
+        rows = np.zeros((0, len(COLUMNS)))
     try:
         summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -191,3 +196,13 @@ def load(path: str | Path) -> Result:
             raise RunDirectoryError(str(err)) from None
     return Result(scene, summary, named_history(rows), fields, path)
 
+
+
+def _steps_written(path: Path) -> bool:
+    """Whether a history.csv exists with at least one row after its header."""
+    try:
+        with open(path, encoding="utf-8") as file:
+            file.readline()
+            return bool(file.readline().strip())
+    except (OSError, UnicodeDecodeError):
+        return path.exists()  # read_history says what is wrong

@@ -134,3 +134,20 @@ def test_load_refuses_what_is_not_a_run(tmp_path):
 
     with pytest.raises(RunDirectoryError, match="not a rodfem run directory"):
         rodfem.load(tmp_path)
+
+
+def test_load_reads_a_run_killed_before_its_first_checkpoint(shared_dir):
+    out = shared_dir / "early"
+    rodfem.simulate("paper1", SHORT, out=out)
+    COMM.barrier()
+    if COMM.rank == 0:
+        import json
+
+        marker = json.loads((out / "rodfem.json").read_text())
+        (out / "rodfem.json").write_text(json.dumps({**marker, "status": "running"}))
+        for name in ("summary.json", "history.csv", "fields.xdmf"):
+            (out / name).unlink()
+    COMM.barrier()
+    r = rodfem.load(out)
+    assert r.status == "gone" and len(r.history) == 0 and r.fields is None
+    assert r.measures == {} and r.scene["mesh.cells"] == 40
