@@ -128,15 +128,21 @@ def test_force_never_replaces_the_current_directory_or_its_parent(shared_dir, wh
 def test_a_held_directory_is_refused_naming_its_holder(shared_dir, capsys):
     out = shared_dir / "run"
     assert run(out)[0] == 0
-    fd = os.open(out / LOCK, os.O_RDWR)
-    fcntl.flock(fd, fcntl.LOCK_EX)  # as a run in progress holds it
+    assert (out / LOCK).read_bytes() == b""  # a finished command's name is wiped
+    holder = subprocess.Popen([RODFEM, "run", "paper1", "--out", str(out), "--force", "--quiet",
+                               "--set", "time.end=1e5", "--no-size-check"])
     try:
+        deadline = time.monotonic() + 120
+        while (out / LOCK).stat().st_size == 0 or not (out / MARKER).exists():
+            assert time.monotonic() < deadline and holder.poll() is None
+            time.sleep(0.05)
         code, err = run(out, "--force", capsys=capsys)
     finally:
-        os.close(fd)
-    assert code == 2 and f"is in use by rodfem run (pid {os.getpid()} on" in err
+        holder.kill()
+        holder.wait()
+    assert code == 2 and f"is in use by rodfem run (pid {holder.pid} on" in err, err
     assert err.count("\n") == 1
-    assert run(out, "--force")[0] == 0  # released: replaced
+    assert run(out, "--force")[0] == 0  # killed: its lock is free, and replaced
 
 
 HOLD = """
@@ -198,7 +204,9 @@ def test_two_runs_at_once_never_mix(shared_dir):
         codes.append(process.returncode)
         errors.append(err)
     assert set(codes) <= {0, 2} and 0 in codes, errors
-    assert all("in use by rodfem run" in e or "no rodfem.json" in e
+    # the holder is named from its lock file, even while its marker is being replaced
+    assert all("in use by rodfem run (pid" in e or "in use by another rodfem command" in e
+               or "no rodfem.json" in e
                for c, e in zip(codes, errors, strict=True) if c == 2), errors
     marker = json.loads((out / MARKER).read_text())
     summary = json.loads((out / "summary.json").read_text())

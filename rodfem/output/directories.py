@@ -132,18 +132,43 @@ def _foreign(path: Path, mounts: list[Path] | None = None) -> str | None:
     return None
 
 
-def _lock(path: Path) -> int:
-    """Take the lock of ``path``; OutputError naming the holder if another process has it."""
+def _holder(command: str) -> bytes:
+    """What the lock file says of the process that holds it."""
+    return (f"rodfem {command} (pid {os.getpid()} on {socket.gethostname()}, since "
+            f"{time.strftime('%Y-%m-%dT%H:%M:%S%z')})").encode()
+
+
+def _lock(path: Path, command: str) -> int:
+    """Take the lock of ``path`` for ``command`` and write who holds it into the lock file;
+    OutputError naming the holder if another process has it."""
     fd = os.open(path / LOCK, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
-        os.close(fd)
-        marker = read_marker(path) or {}
-        holder = (f"rodfem {marker.get('command', '?')} (pid {marker.get('pid', '?')} on "
-                  f"{marker.get('host', '?')}, since {marker.get('started', '?')})")
+        try:
+            holder = os.read(fd, 512).decode("utf-8", "replace").strip()
+        finally:
+            os.close(fd)
+        # empty only in the instant between the holder's flock and its write
+        holder = holder if holder.startswith("rodfem ") else "another rodfem command"
         raise OutputError(f"{path} is in use by {holder}; wait for it to end, or stop it") from None
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, _holder(command), 0)
+    except BaseException:
+        os.close(fd)
+        raise
     return fd
+
+
+def _unlock(fd: int) -> None:
+    """Release a lock taken by :func:`_lock`, its holder's name wiped first."""
+    try:
+        os.ftruncate(fd, 0)
+    except OSError:
+        pass  # the name of a holder that is gone is never shown: its lock is free
+    finally:
+        os.close(fd)
 
 
 def _inside(path: Path) -> bool:
@@ -164,11 +189,11 @@ def _unmarked_claim(path: Path) -> bool:
     return bool(entries) and all(ours(e) for e in entries)
 
 
-def _claim(path: Path, force: bool, keep: Path | None) -> int:
+def _claim(path: Path, force: bool, keep: Path | None, command: str) -> int:
     """Create ``path``, or (with ``force``) empty the rodfem directory it is; return its lock."""
     try:
         path.mkdir(parents=True)
-        return _lock(path)
+        return _lock(path, command)
     except FileExistsError:
         pass
     if not force:
@@ -184,7 +209,7 @@ def _claim(path: Path, force: bool, keep: Path | None) -> int:
         # taking its lock would write into a directory not ours
         raise OutputError(f"{path} is not a rodfem output directory (it has no {MARKER}); not "
                           "replacing it, even with --force")
-    fd = _lock(path)
+    fd = _lock(path, command)
     try:
         why = None if _unmarked_claim(path) else _foreign(path)
         if why is not None:
@@ -226,7 +251,7 @@ def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None
     error = None
     if comm.rank == 0:
         try:
-            _hold(path, _claim(path, force, keep),
+            _hold(path, _claim(path, force, keep, command),
                   {"rodfem": rodfem.__version__, "command": command, "status": "running",
                    "pid": os.getpid(), "host": socket.gethostname(),
                    "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": list(files)})
@@ -252,7 +277,7 @@ def finish(path: Path, status: str, comm: MPI.Comm) -> None:
         _write_marker(path, {**marker, "status": status,
                              "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
     finally:
-        os.close(fd)
+        _unlock(fd)
 
 
 def reopen(path: Path, comm: MPI.Comm) -> dict:
@@ -272,7 +297,7 @@ def reopen(path: Path, comm: MPI.Comm) -> dict:
             if before is None or before.get("command") not in ("run", "sweep"):
                 raise OutputError(f"{path} is not a directory of 'rodfem run' or 'rodfem sweep' "
                                   f"(no {MARKER} of a run or a sweep)")
-            _held[path.resolve()] = (_lock(path), before)
+            _held[path.resolve()] = (_lock(path, "resume"), before)
         except OSError as err:
             error = f"cannot resume {path}: {err.strerror or err}"
         except OutputError as err:
@@ -300,7 +325,7 @@ def release(path: Path, comm: MPI.Comm) -> None:
     if comm.rank == 0:
         held = _held.pop(path.resolve(), None)
         if held is not None:
-            os.close(held[0])
+            _unlock(held[0])
 
 
 def state(path: Path) -> str | None:
