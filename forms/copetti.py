@@ -13,6 +13,8 @@ the discretisation, not of the equations:
   quadrature gives the consistent mass matrix M; vertex quadrature gives the paper's lumped M.
 * ``dx``: every other integral over I (all are exact for P1 with any rule of degree ≥ 2).
 * ``ds_1``: the boundary point x = 1, so that ``f * ds_1`` is f(1).
+* ``dx_b``: the inertia's product b (u_tt, v), where it differs from ``dx_m``: a mass
+  redistributed away from x = 1 (:func:`inertia`). None is ``dx_m``.
 """
 
 import ufl
@@ -30,6 +32,15 @@ def robin_shift(x, k):
     return c * x[0] - 1.0
 
 
+def inertia(f, v, dx_b):
+    """(f, v) in the inertia's inner product: ``f * v * dx_b`` for a measure, or for a mass
+    redistributed away from the contact node (Khenous, Laborde & Renard) a sum of weighted
+    integrals, ``dx_b`` a sequence of (density ρ, measure) pairs: Σ ∫ ρ f v."""
+    if isinstance(dx_b, ufl.Measure):
+        return f * v * dx_b
+    return sum(ρ * f * v * measure for ρ, measure in dx_b)
+
+
 def heat(Θ, Θ_prev, U, U_prev, w, dt, a, k, dx_m, dx, ds_1):
     """Residual of (3.1), tested with w:
 
@@ -44,14 +55,14 @@ def heat(Θ, Θ_prev, U, U_prev, w, dt, a, k, dx_m, dx, ds_1):
     )
 
 
-def momentum(U, U_prev, U_prev2, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx):
+def momentum(U, U_prev, U_prev2, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx, dx_b=None):
     """Residual of (3.2) without its contact term, tested with v:
 
         b (Uⁿ − 2Uⁿ⁻¹ + Uⁿ⁻², v)/Δt² + (Uⁿ_x − aΘⁿ + aθ_A r, v_x) + ζ (Uⁿ_x − Uⁿ⁻¹_x, v_x)/Δt.
 
     With Θ = Θ^{n,l} and U = U^{n,l} this is (3.4) less its contact term."""
     return (
-        b * (U - 2.0 * U_prev + U_prev2) / dt**2 * v * dx_m
+        inertia(b * (U - 2.0 * U_prev + U_prev2) / dt**2, v, dx_m if dx_b is None else dx_b)
         + (U.dx(0) - a * Θ + a * theta_A * r) * v.dx(0) * dx
         + zeta / dt * (U.dx(0) - U_prev.dx(0)) * v.dx(0) * dx
     )
@@ -84,7 +95,7 @@ def heat_increment(ΔΘ, Θ_prev, ΔU, w, dt, a, k, dx_m, dx, ds_1, weight=1.0):
 
 
 def momentum_increment(ΔU, D_prev, U_prev, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx,
-                       weight=1.0):
+                       weight=1.0, dx_b=None):
     """(3.2) at tⁿ⁻¹ + weight·Δt without its contact term, with U = Uⁿ⁻¹ + weight·ΔUⁿ, Θ the
     temperature there and Dⁿ⁻¹ the velocity's displacement over the last step (Uⁿ⁻¹ − Uⁿ⁻² in
     the paper's scheme):
@@ -92,7 +103,7 @@ def momentum_increment(ΔU, D_prev, U_prev, Θ, v, dt, b, zeta, a, theta_A, r, d
         b (ΔUⁿ − Dⁿ⁻¹, v)/(weight Δt²) + (U_x − aΘ + aθ_A r, v_x) + ζ (ΔUⁿ_x, v_x)/Δt."""
     U = U_prev + weight * ΔU
     return (
-        b / weight * (ΔU - D_prev) / dt**2 * v * dx_m
+        inertia(b / weight * (ΔU - D_prev) / dt**2, v, dx_m if dx_b is None else dx_b)
         + (U.dx(0) - a * Θ + a * theta_A * r) * v.dx(0) * dx
         + zeta / dt * ΔU.dx(0) * v.dx(0) * dx
     )
@@ -116,7 +127,8 @@ def contact(p, v, ds_1):
     return p * v * ds_1
 
 
-def energy(Θ, U, U_prev, dt, b, a, theta_A, r, epsilon, gap, dx_m, dx, ds_1, exponent=1.0):
+def energy(Θ, U, U_prev, dt, b, a, theta_A, r, epsilon, gap, dx_m, dx, ds_1, exponent=1.0,
+           dx_b=None):
     """Êⁿ of Remark 4.4, with δⁿ = (Uⁿ − Uⁿ⁻¹)/Δt and the norms of the scheme's inner product:
 
         ½ (‖Θⁿ‖² + b‖δⁿ‖² + ‖Uⁿ_x‖²) + [Uⁿ(1) − g]_+^{m+1}/((m + 1)ε) + a θ_A (r, Uⁿ_x),
@@ -126,7 +138,7 @@ def energy(Θ, U, U_prev, dt, b, a, theta_A, r, epsilon, gap, dx_m, dx, ds_1, ex
     m1 = exponent + 1.0
     return 0.5 * (
         Θ**2 * dx_m
-        + b * δ**2 * dx_m
+        + (b * δ**2 * dx_m if dx_b is None else inertia(b * δ, δ, dx_b))
         + U.dx(0) ** 2 * dx
     ) + positive_part(U - gap) ** m1 / (m1 * epsilon) * ds_1 + a * theta_A * r * U.dx(0) * dx
 

@@ -71,10 +71,11 @@ class Discretisation:
         self.dx = ufl.dx(domain=self.mesh)
         # The paper's lumped M: 2-point Gauss–Lobatto on each cell is the vertex (trapezoidal)
         # rule, which makes (η_i, η_j) diagonal. Exact quadrature gives the consistent M.
-        if scene["discretisation.mass"] == "lumped":
-            self.dx_m = ufl.dx(domain=self.mesh, scheme="GLL", degree=1)
-        else:
-            self.dx_m = self.dx
+        mass = scene["discretisation.mass"]
+        vertices = ufl.dx(domain=self.mesh, scheme="GLL", degree=1)
+        self.dx_m = vertices if mass in ("lumped", "redistributed-lumped") else self.dx
+        self.redistributed = mass.startswith("redistributed")
+        self.dx_b = self._redistributed(vertices) if self.redistributed else None
         # The parameters are constants of the forms, not literals in them: one compiled form
         # serves every value, and no value of a scene is ever written into C code.
         values = {"dt": scene["time.dt"], **{p: scene[f"model.{p}"] for p in
@@ -87,6 +88,22 @@ class Discretisation:
         self._symbols: dict[str, fem.Function] = {}
         self._forms: dict[str, fem.Form] = {}  # by the UFL expression's repr
         self._keyed: dict[tuple, fem.Form] = {}  # by a caller's name for it
+
+    def _redistributed(self, vertices) -> tuple:
+        """The inertia with the contact node's mass moved to its neighbour (Khenous, Laborde
+        & Renard): on the last cell the vertex rule with the density ρ = 2(1 − x)/h, whose
+        weights are h at x = 1 − h and 0 at x = 1, so that the node x = 1 has no mass and the
+        total mass is kept; elsewhere the base mass, lumped or consistent. (density, measure)
+        pairs for ``forms.copetti.inertia``; χ marks the last cell."""
+        h = 1.0 / self.scene["mesh.cells"]
+        W = self.W
+        χ = fem.Function(W)
+        χ.interpolate(lambda x: (x[0] > 1.0 - h).astype(PETSc.ScalarType))  # at its midpoint
+        x = ufl.SpatialCoordinate(self.mesh)[0]
+        last = χ * 2.0 * (1.0 - x) / ufl.CellVolume(self.mesh)
+        if self.dx_m is vertices:
+            return ((1.0 - χ + last, vertices),)
+        return ((1.0 - χ, self.dx), (last, vertices))
 
     STRUCTURE = ("mesh.cells", "discretisation.mass")  # what load() cannot change
 

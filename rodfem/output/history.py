@@ -32,7 +32,8 @@ class Energy:
         u, v = ufl.TrialFunction(disc.V), ufl.TestFunction(disc.V)
         M = disc.matrix(lambda: copetti.mass(u, v, disc.dx_m), key=("mass",))
         K = disc.matrix(lambda: copetti.stiffness(u, v, disc.dx), key=("stiffness",))
-        kinetic = M.copy()
+        kinetic = M.copy() if disc.dx_b is None else disc.matrix(
+            lambda: copetti.inertia(u, v, disc.dx_b), key=("inertia",))
         kinetic.scale(scene["model.b"] / scene["time.dt"] ** 2)
         self.E = block_diagonal([M, kinetic, K])
         self.z = disc.vector(lambda: copetti.thermal_load(disc.r, v, disc.dx),

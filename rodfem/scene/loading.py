@@ -210,11 +210,21 @@ def _check_consistency(scene: Scene) -> None:
             "model.zeta > 0): with b = zeta = 0 the momentum equation has no time derivative and "
             'the midpoint rule makes U oscillate from step to step; use "paper"'
         )
-    if scene["time.scheme"] == "crank-nicolson" and scene["obstacle.kind"] == "rigid":
+    redistributed = scene["discretisation.mass"].startswith("redistributed")
+    if (scene["time.scheme"] == "crank-nicolson" and scene["obstacle.kind"] == "rigid"
+            and not redistributed):
         raise SceneError(
-            'time.scheme: "crank-nicolson" cannot model obstacle.kind = "rigid": while the rod '
-            "rests on the obstacle its velocity there flips sign every step (the midpoint rule "
-            'with U(1) held at g) and the contact force with it; use "paper"'
+            'time.scheme: "crank-nicolson" models obstacle.kind = "rigid" only with '
+            'discretisation.mass = "redistributed" or "redistributed-lumped": with mass at x = 1 '
+            "its velocity there flips sign every step while the rod rests on the obstacle (the "
+            'midpoint rule with U(1) held at g), and the contact force with it; or use "paper"'
+        )
+    if (redistributed and scene["time.scheme"] == "crank-nicolson" and scene["model.zeta"] == 0.0
+            and scene["model.b"] > 0.0 and scene.source_term("momentum") is not None):
+        raise SceneError(
+            f'source.momentum: not with discretisation.mass = "{scene["discretisation.mass"]}", '
+            'time.scheme = "crank-nicolson" and model.zeta = 0 (the end x = 1 is then in '
+            "equilibrium and eliminated, without a source); use model.zeta > 0 or another mass"
         )
     dt, end = scene["time.dt"], scene["time.end"]
     if dt > end:

@@ -41,6 +41,7 @@ MAX_CELLS, MAX_STEPS = 10_000_000, 100_000_000
 # The methods that solve each step of (3.1)–(3.2): the fastest exact one is the default.
 METHODS = ("direct", "newton", "picard")
 TIME_SCHEMES = ("paper", "crank-nicolson")
+MASSES = ("lumped", "consistent", "redistributed", "redistributed-lumped")
 
 
 SCHEMA: dict[str, dict[str, Key]] = {
@@ -80,7 +81,13 @@ SCHEMA: dict[str, dict[str, Key]] = {
                       help="paper: the scheme (3.1)-(3.2), first order; crank-nicolson: the "
                       "midpoint rule, second order (docs/time-schemes.md)"),
     },
-    "discretisation": {"mass": Key("choice", "lumped", choices=("lumped", "consistent"))},
+    "discretisation": {
+        "mass": Key("choice", "lumped", choices=MASSES,
+                    help="lumped: the paper's (vertex quadrature); consistent: exact; "
+                    "redistributed: consistent, with the mass of the contact node x = 1 moved "
+                    "to its neighbour (for stiff and rigid contact, docs/time-schemes.md); "
+                    "redistributed-lumped: the same from the lumped mass"),
+    },
     "solver": {
         "method": Key("choice", "direct", choices=METHODS,
                       help="direct: one solve per step, exact; newton: SNES semismooth Newton; "

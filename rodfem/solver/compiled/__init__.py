@@ -25,7 +25,7 @@ def compiled_loop(method, history):
     with a = 0 or a rigid obstacle."""
     if os.environ.get("RODFEM_KERNEL", "1") == "0":
         return None
-    if any(f is not None for f in method.sources.values()):
+    if any(f is not None for f in method.sources.values()) or method.disc.redistributed:
         return None
     if method.name == "direct":
         from rodfem.solver.compiled import direct as module

@@ -33,6 +33,7 @@ from rodfem.model import contact
 from rodfem.model.robin import robin_shift
 from rodfem.solver.errors import SourceNotFinite
 from rodfem.solver.linalg import lu_factor, stacked
+from rodfem.solver.methods import massless
 from rodfem.solver.time_schemes import TIME_SCHEMES
 
 
@@ -89,7 +90,8 @@ class Method:
             load, below). Dⁿ⁻¹ is the velocity's displacement over a step: ΔUⁿ⁻¹ in the paper's
             scheme (δⁿ⁻¹ = ΔUⁿ⁻¹/Δt), Δt Vⁿ⁻¹ in Crank–Nicolson's."""
             F = copetti.momentum_increment(ΔU, D_prev, U_prev, Θ_prev + weight * ΔΘ_other, w, dt,
-                                           b, zeta, a, theta_A, disc.r, dx_m, dx, weight)
+                                           b, zeta, a, theta_A, disc.r, dx_m, dx, weight,
+                                           disc.dx_b)
             if "source" in momentum_y:
                 F += copetti.source(momentum_y["source"], w, dx)
             return F
@@ -134,6 +136,8 @@ class Method:
         self.n = 0
         self.iterations = 0
         self.pressure = 0.0
+        # The end x = 1 without mass nor viscosity, eliminated in Crank–Nicolson's steps
+        self.massless = massless.MasslessEnd(self) if massless.needed(self) else None
         self._set_initial_state()
 
     def saved_state(self) -> dict[str, np.ndarray]:
@@ -180,6 +184,9 @@ class Method:
         self.theta.array[:] = theta0
         self.u.array[:] = u0
         self.du.array[:] = self.dt * u1
+        if self.massless is not None:  # the end where its equation puts it
+            self.pressure = self.massless.settle(self.values, 0.0)
+            self.du.array[-1] = self.dt * u1[-1]  # D⁰ = Δt P u₁ still
         self.u_prev.waxpy(-1.0, self.du, self.u)
 
     @property
@@ -247,7 +254,9 @@ class Method:
 
     def _accept(self, dtheta: PETSc.Vec, du: PETSc.Vec) -> None:
         """Θⁿ = Θⁿ⁻¹ + ΔΘⁿ, Uⁿ = Uⁿ⁻¹ + ΔUⁿ, and Dⁿ: ΔUⁿ in the paper's scheme, Dⁿ = 2ΔUⁿ − Dⁿ⁻¹
-        (the midpoint rule for the velocity) in Crank–Nicolson's."""
+        (the midpoint rule for the velocity) in Crank–Nicolson's. An end without mass has
+        Dⁿ(1) = ΔUⁿ(1); one eliminated (:mod:`.massless`) is settled, and its force replaces
+        ``pressure``."""
         self.theta.axpy(1.0, dtheta)
         self.u.copy(self.u_prev)
         self.u.axpy(1.0, du)
@@ -256,6 +265,11 @@ class Method:
             self.du.axpy(1.0, du)
         elif du is not self.du:
             du.copy(self.du)
+        if self.massless is not None:  # the end settled; its force is the step's
+            self.pressure = self.massless.settle(self.values, self.u_prev.getValue(self.last))
+        elif self.disc.redistributed:  # the end has no velocity of its own: Dⁿ(1) = ΔUⁿ(1)
+            n = self.disc.nodes.size
+            self.values[2 * n - 1] = self.values[3 * n - 1] - self.u_prev.getValue(self.last)
 
     def contact_force(self, y: float, c: float) -> float:
         """The elastic obstacle's force for Uⁿ(1) = y and Uⁿ⁻¹(1) = c, at the time scheme's

@@ -58,6 +58,8 @@ class DirectMethod(Method):
         self._solve(self.rhs, self.x)
         self.x.copy(self.response)
         self.compliance = -self.response.getValue(self._index)
+        if self.massless is not None:  # the response of the end's free position y
+            self.compliance = -self.massless.moved(self.response.array_r)
         if not self.compliance > 0.0:
             raise RuntimeError(f"the compliance at x = 1 is {self.compliance:g}, not positive")
         self.x.zeroEntries()
@@ -65,11 +67,16 @@ class DirectMethod(Method):
     def _step(self) -> None:
         self._fixed_parts(self.rhs)
         self._solve(self.rhs, self.x)
-        c = self.values[self._u_1]
-        s = c + self._x_values[self._index]
+        end = self.massless
+        if end is None:  # the end's place Uⁿ(1) = s − w p, from c = Uⁿ⁻¹(1), under the law
+            law, c = self.law, self.values[self._u_1]
+            s = c + self._x_values[self._index]
+        else:  # its free position yⁿ = s − w p, from c = yⁿ⁻¹, under the law in series
+            law, c = end.law, end.position(self.values)
+            s = c + end.moved(self._x_values)
         pressure = 0.0
-        if self.time_scheme.contact_needed(self.law, s, c):
-            pressure = self.time_scheme.contact_solve(self.law, s, self.compliance, c)
+        if self.time_scheme.contact_needed(law, s, c):
+            pressure = self.time_scheme.contact_solve(law, s, self.compliance, c)
             self.x.axpy(pressure, self.response)
         self.pressure = pressure
         self._accept(self.x_heat, self.x_momentum)

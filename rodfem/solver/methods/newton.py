@@ -56,15 +56,26 @@ class NewtonMethod(Method):
         # override them); the scene's own choices are set on the object, before the options.
         set_default_options(PREFIX, {"snes_linesearch_type": "basic", **LU_OPTIONS,
                                      "pc_factor_mat_ordering_type": "rcm"})
+        # The law of the step's contact: the obstacle's at Uⁿ(1), or for an eliminated end
+        # (massless.MasslessEnd) the obstacle in series with the last cell at its free position
+        # y, a linear function of x whose row enters the Jacobian's row of x = 1.
+        end = self.massless
+        self.step_law = self.law if end is None else end.law
+        self.rigid = self.step_law.rigid
+        if end is not None:
+            self._end_columns = np.flatnonzero(end.step_row).astype(PETSc.IntType)
+            self._end_row = end.step_row[self._end_columns]
+            self._end_base = np.array([self.C.getValue(self._index, int(j))
+                                       for j in self._end_columns])
         snes = PETSc.SNES().create(PETSc.COMM_SELF)
         snes.setOptionsPrefix(PREFIX)
-        snes.setType("vinewtonrsls" if self.law.rigid else "newtonls")
+        snes.setType("vinewtonrsls" if self.rigid else "newtonls")
         snes.setTolerances(max_it=self.max_iterations)
         self.F = self.x.duplicate()
         snes.setFunction(self._residual, self.F)
         snes.setJacobian(self._jacobian, self.J)
         snes.setConvergenceTest(self._converged)
-        if self.law.rigid:
+        if self.rigid:
             self.lower, self.upper = self.x.duplicate(), self.x.duplicate()
             self.lower.set(PETSc.NINFINITY)
             self.upper.set(PETSc.INFINITY)
@@ -85,23 +96,33 @@ class NewtonMethod(Method):
     def _residual(self, snes, x: PETSc.Vec, F: PETSc.Vec) -> None:
         self.C.mult(x, F)
         F.axpy(-1.0, self.rhs)
-        if not self.law.rigid:
+        if not self.rigid:
             pressure = self._force(x)
             if pressure:
                 F.setValue(self._index, F.getValue(self._index) + pressure)
                 F.assemble()
 
+    def _where(self, x: PETSc.Vec) -> tuple[float, float]:
+        """(y, c): where the contact law is taken for the increments x, and a step before."""
+        if self.massless is None:
+            c = self.u.getValue(self.last)
+            return c + x.getValue(self._index), c
+        c = self._end_position
+        return c + self.massless.moved(x.array_r), c
+
     def _force(self, x: PETSc.Vec) -> float:
-        c = self.u.getValue(self.last)
-        return self.contact_force(c + x.getValue(self._index), c)
+        return self.time_scheme.contact_force(self.step_law, *self._where(x))
 
     def _jacobian(self, snes, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
-        """C plus the generalized derivative of the contact force in the entry of x = 1."""
+        """C plus the generalized derivative of the contact force in the row of x = 1: in its
+        diagonal entry, or along the row of the eliminated end's free position."""
         slope = 0.0
-        if not self.law.rigid:
-            c = self.u.getValue(self.last)
-            slope = self.time_scheme.contact_slope(self.law, c + x.getValue(self._index), c)
-        J.setValue(self._index, self._index, self.C_last + slope)
+        if not self.rigid:
+            slope = self.time_scheme.contact_slope(self.step_law, *self._where(x))
+        if self.massless is None:
+            J.setValue(self._index, self._index, self.C_last + slope)
+        else:
+            J.setValues(self._index, self._end_columns, self._end_base + slope * self._end_row)
         J.assemble()
 
     def _converged(self, snes, its: int, norms) -> int:
@@ -122,7 +143,9 @@ class NewtonMethod(Method):
         self._fixed_parts(self.rhs)
         self.rhs.copy(self._abs_rhs)
         self._abs_rhs.abs()
-        if self.law.rigid:
+        if self.massless is not None:
+            self._end_position = self.massless.position(self.values)
+        if self.rigid:
             self.upper.setValue(self._index, self.law.gap - self.u.getValue(self.last))
             self.upper.assemble()
         # The first guess: the last step's increments, which x still holds.
@@ -136,7 +159,7 @@ class NewtonMethod(Method):
             raise NotConverged("newton", self.n + 1, (self.n + 1) * self.dt,
                                f"{REASONS.get(reason, reason)} after {iterations} iterations",
                                iterations)
-        if self.law.rigid:  # the multiplier, where the bound holds; off it, the rod is free
+        if self.rigid:  # the multiplier, where the bound holds; off it, the rod is free
             bound = self.upper.getValue(self._index)
             self._residual(self.snes, self.x, self.F)
             touching = self.x.getValue(self._index) >= bound

@@ -51,7 +51,10 @@ class PicardMethod(Method):
         self._fixed_parts(self._fixed)
         solve_heat, solve_momentum = self.solve_heat, self.solve_momentum
         load, last, tol, coupled = self.contact_load, self.last, self.tol, self.coupled
-        u_last = self.u.getValue(last)
+        end, law = self.massless, self.law if self.massless is None else self.massless.law
+        # The law is taken at Uⁿ(1) from Uⁿ⁻¹(1), or at an eliminated end's free position y
+        # (massless.MasslessEnd) from yⁿ⁻¹.
+        u_last = self.u.getValue(last) if end is None else end.position(self.values)
 
         dtheta_it, dtheta_new, du_it, du_new = self._work
         dtheta_it.zeroEntries()  # Θ^{n,0} = Θⁿ⁻¹
@@ -64,9 +67,10 @@ class PicardMethod(Method):
         deepest = u_last  # the largest U(1) of the iterates, for the failure's message
         for iteration in range(1, self.max_iterations + 1):  # noqa: B007 (used after the loop)
             last_pressure = pressure
-            y = u_last + du_it.getValue(last)
+            y = u_last + (du_it.getValue(last) if end is None
+                          else end.moved_by(dtheta_it.array_r, du_it.array_r))
             deepest = max(deepest, y)
-            pressure = self.contact_force(y, u_last)
+            pressure = self.time_scheme.contact_force(law, y, u_last)
             if not coupled and pressure == last_pressure:
                 # The same load as the last iteration: this iterate would equal the last one.
                 iteration, increment = iteration - 1, 0.0
@@ -99,7 +103,9 @@ class PicardMethod(Method):
             self._work = [dtheta_it, dtheta_new, du_it, du_new]
             raise PicardNotConverged(self.n + 1, (self.n + 1) * self.dt, increment, iteration,
                                      deepest)
-        self.pressure = self.contact_force(u_last + du_it.getValue(last), u_last)
+        y = u_last + (du_it.getValue(last) if end is None
+                      else end.moved_by(dtheta_it.array_r, du_it.array_r))
+        self.pressure = self.time_scheme.contact_force(law, y, u_last)
         self._accept(dtheta_it, du_it)
         self._work = [dtheta_it, dtheta_new, du_it, du_new]
         self.iterations = iteration
