@@ -116,5 +116,6 @@ MODEL_NAMES = tuple(SCHEMA["model"])
 SOURCE_NAMES = (*MODEL_NAMES, "t")
 BUILTIN = tuple(f"paper{i}" for i in range(1, 6))  # the paper's experiments
 # Other built-in scenes: a manufactured solution without contact, with sources
-# (rodfem.model.manufactured)
-EXTRA = ("manufactured",)
+# (rodfem.model.manufactured), and an impact on a rigid wall with an exact solution
+# (rodfem.model.impact)
+EXTRA = ("manufactured", "impact")

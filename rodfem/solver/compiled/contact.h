@@ -19,6 +19,20 @@ typedef struct {
                          the new step */
     double gap, epsilon, exponent;
 } rc_obstacle;
+
+/* The end x = 1 (rodfem/solver/methods/massless.py): with its mass (RC_END_MASS), without it
+ * (RC_END_MASSLESS: D^n(1) = U^n(1) - U^(n-1)(1), no velocity of its own), or without it and
+ * eliminated (RC_END_ELIMINATED, Crank-Nicolson with zeta = 0): the contact law, rc_obstacle,
+ * is then the obstacle in series with the last cell, taken at the end's free position
+ *     y = theta[0] Theta(n-2) + theta[1] Theta(n-1) + u[0] U(n-2) + u[1] U(n-1) + constant,
+ * and after the step the end is settled (rc_end_settle). */
+enum { RC_END_MASS = 0, RC_END_MASSLESS = 1, RC_END_ELIMINATED = 2 };
+
+typedef struct {
+    int kind;             /* RC_END_MASS, RC_END_MASSLESS or RC_END_ELIMINATED */
+    double theta[2], u[2], constant;  /* y's row (nodes n-2, n-1) and constant */
+    double epsilon;       /* the obstacle's own compliance (0: rigid) */
+} rc_end;
 /* cdef end */
 
 /* Python's max(x, 0.0): x unless 0.0 > x (NaN stays NaN). */
@@ -161,6 +175,30 @@ static inline double rc_solve(const rc_obstacle *O, double s, double w, double c
         return 0.0;
     const double lo = s - w * rc_gradient(O, s, c);
     return rc_gradient(O, rc_monotone_root(O, s, w, c, lo, s), c);
+}
+
+/* How far y moves for the increments (dTheta, dU) of nodes n-2 (ta, ua) and n-1 (tb, ub):
+ * MasslessEnd.moved_by, its two blocks summed apart. */
+static inline double rc_end_moved(const rc_end *E, double ta, double tb, double ua, double ub)
+{
+    return (E->theta[0] * ta + E->theta[1] * tb) + (E->u[0] * ua + E->u[1] * ub);
+}
+
+/* y of the state (Theta, U) of nodes n-2 (ta, ua) and n-1 (tb, ub): MasslessEnd.position. */
+static inline double rc_end_position(const rc_end *E, double ta, double tb, double ua, double ub)
+{
+    return rc_end_moved(E, ta, tb, ua, ub) + E->constant;
+}
+
+/* MasslessEnd.settle for the linear law and the rigid obstacle (the laws whose series with the
+ * last cell is the linear law O, in closed form; the others stay on the PETSc loop): the end's
+ * U(1) where its equation holds at the free position y, g + epsilon p where the force
+ * p = psi'(y) > 0 (exactly g for the rigid obstacle), else y. Returns p. */
+static inline double rc_end_settle(const rc_end *E, const rc_obstacle *O, double y, double *u_1)
+{
+    const double force = rc_force(O, y);
+    *u_1 = force > 0.0 ? O->gap + E->epsilon * force : y;
+    return force;
 }
 
 #endif
