@@ -27,7 +27,7 @@ from petsc4py import PETSc
 
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.solver.errors import NotConverged, NotFinite
-from rodfem.solver.linalg import LU_OPTIONS, set_default_options, stacked
+from rodfem.solver.linalg import LU_OPTIONS, lu_factor, set_default_options, stacked
 from rodfem.solver.methods.base import Method
 
 REASONS = {getattr(PETSc.SNES.ConvergedReason, name): name
@@ -81,8 +81,41 @@ class NewtonMethod(Method):
             self.upper.set(PETSc.INFINITY)
             snes.setVariableBounds(self.lower, self.upper)
         snes.setFromOptions()
+        if not self.rigid:
+            self._rank_one_solver(snes.getKSP())
         self.snes = snes
         self._floor = 0.0
+
+    def _rank_one_solver(self, ksp: PETSc.KSP) -> None:
+        """The Jacobian is C plus a rank one term in the row of x = 1, J = C + κ e rᵀ (κ the
+        contact force's slope, r the unit vector of x = 1 or the eliminated end's row): solved
+        by C's LU, factored once, and Sherman–Morrison, J⁻¹b = C⁻¹b − q (κ rᵀC⁻¹b)/(1 + κ rᵀq)
+        with q = C⁻¹e, in place of a factorisation of J at every iteration. Exact (1 + κ rᵀq ≥ 1:
+        rᵀq is the compliance w > 0)."""
+        self._c_ksp, factor = lu_factor(self.C, PREFIX + "c_", "rcm")
+        self._solve_c = factor.solve
+        unit = self.x.duplicate()
+        unit.setValue(self._index, 1.0)
+        unit.assemble()
+        self._q = self.x.duplicate()
+        self._solve_c(unit, self._q)
+        if self.massless is None:
+            self._r_dot = lambda v: v.getValue(self._index)
+        else:
+            row = self.massless.step_row
+            self._r_dot = lambda v: float(row @ v.array_r)
+        self._r_q = self._r_dot(self._q)
+        self._slope = 0.0
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        pc.setType("python")
+        pc.setPythonContext(self)
+
+    def apply(self, pc, b: PETSc.Vec, y: PETSc.Vec) -> None:
+        """J⁻¹b (PETSc's python preconditioner, with KSP preonly: the linear solve)."""
+        self._solve_c(b, y)
+        if self._slope:
+            y.axpy(-self._slope * self._r_dot(y) / (1.0 + self._slope * self._r_q), self._q)
 
     def saved_state(self) -> dict[str, np.ndarray]:
         """The base state and Newton's first guess for the next step: the last increments."""
@@ -118,7 +151,7 @@ class NewtonMethod(Method):
         diagonal entry, or along the row of the eliminated end's free position."""
         slope = 0.0
         if not self.rigid:
-            slope = self.time_scheme.contact_slope(self.step_law, *self._where(x))
+            slope = self._slope = self.time_scheme.contact_slope(self.step_law, *self._where(x))
         if self.massless is None:
             J.setValue(self._index, self._index, self.C_last + slope)
         else:
