@@ -158,9 +158,10 @@ def parser() -> argparse.ArgumentParser:
         help="observed orders of convergence in h and Δt",
         description="Run ladders of refinements in h and in Δt of paper1, paper5 and a scene "
         "without contact (and the manufactured solution), for every method and time scheme, "
-        "against finer reference runs, and write orders.csv, orders.md, orders.json, errors.csv "
-        "and figures/orders_<scene>.png (log-log, with slopes 1 and 2). Ladders are dealt "
-        "among MPI ranks, the costliest first.",
+        "against finer reference runs, and a ladder refining h = Δt together of the impact "
+        "benchmark against its exact solution, and write orders.csv, orders.md, orders.json, "
+        "errors.csv and figures/orders_<scene>.png (log-log, with reference slopes). Ladders are "
+        "dealt among MPI ranks, the costliest first.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     work = sub.add_parser(
@@ -168,18 +169,22 @@ def parser() -> argparse.ArgumentParser:
         help="accuracy against wall time, per method and time scheme",
         description="For each (method, time scheme) run a ladder of (cells, Δt) refinements of "
         "paper1 and paper5, measure the error of u(1, ·) against a fine reference and the wall "
-        "time, and write workprecision.csv, workprecision.json (with the time at which each "
-        "choice reaches an error of 1e-3 on paper5) and figures/workprecision_<scene>.png.",
+        "time; for each (mass, time scheme, method) a ladder h = Δt of the impact benchmark, "
+        "its L1 error of u(1, ·) against the exact solution; and write workprecision.csv, "
+        "workprecision.json (with the time at which each choice reaches an error of 1e-3 on "
+        "paper5, and the choices the impact rejects) and figures/workprecision_<scene>.png.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    for command, default in ((verify, "results/verify"), (work, "results/work-precision")):
+    for command, default, methods in (
+            (verify, "results/verify", "the direct method only"),
+            (work, "results/work-precision", "the direct method only on paper1 and paper5")):
         _output(command, default, "output directory",
                 "replace an earlier result of this command in --out")
         command.add_argument("--quick", action="store_true",
-                             help="small ladders, the direct method only (seconds)")
+                             help=f"small ladders, {methods} (seconds)")
         _progress(command, "a line per ladder even when output is not a terminal")
-    verify.add_argument("--scenes", help="scenes to verify (default: paper1, paper5, no-contact "
-                        "and, where rodfem.model.manufactured exists, manufactured)")
+    verify.add_argument("--scenes", help="scenes to verify (default: paper1, paper5, no-contact, "
+                        "manufactured where rodfem.model.manufactured exists, and impact)")
     return parser
 
 

@@ -5,11 +5,14 @@ import csv
 import json
 import math
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 from conftest import COMM
 from rodfem.cli import main
+from rodfem.output.columns import INDEX
 from rodfem.studies import convergence as cv
 from rodfem.studies.verify import schemes
 
@@ -59,14 +62,49 @@ def test_l2_difference_needs_nested_meshes():
 def test_time_errors_and_the_sampling_check():
     t_fine, t_coarse = np.linspace(0, 1, 9), np.linspace(0, 1, 5)
     c = 3e-3  # y_c − y_f = c t at the coarse times
-    e_max, e_l2 = cv.time_errors(t_coarse, t_coarse * (1 + c), t_fine, t_fine)
+    e_max, e_l1, e_l2 = cv.time_errors(t_coarse, t_coarse * (1 + c), t_fine, t_fine)
     assert e_max == pytest.approx(c, rel=4 * EPS)
+    # Σ_{n≥1} ¼ c tₙ = c ¼ (1/4 + 1/2 + 3/4 + 1) = 5c/8
+    assert e_l1 == pytest.approx(5 * c / 8, rel=8 * EPS)
     # (Σ_{n≥1} ¼ (c tₙ)²)^½ = c (¼ (1/16 + 1/4 + 9/16 + 1))^½ = c √(15/32)
     assert e_l2 == pytest.approx(c * math.sqrt(15 / 32), rel=8 * EPS)
     with pytest.raises(ValueError, match="not one of the fine run's times"):
         cv.time_errors(np.linspace(0, 1, 4), np.zeros(4), t_fine, np.zeros(9))  # Δt 1/3 vs 1/8
     with pytest.raises(ValueError, match="not one of the fine run's times"):
         cv.time_errors(t_coarse, np.zeros(5), t_fine[:5], np.zeros(5))  # fine run ends at 0.5
+
+
+def _history(t, u_1):
+    """A run's history with only t and u(1, ·) filled in."""
+    rows = np.zeros((len(t), len(INDEX)))
+    rows[:, INDEX["t"]], rows[:, INDEX["u_1"]] = t, u_1
+    return rows
+
+
+def test_u1_l1_is_the_sum_of_dt_times_the_error():
+    """A hand-made pair of runs, the coarse one off the fine one at its times by
+    e = (5, −1, 2, −3, 4)·10⁻³ with Δt = 1/4: u1_l1 = Σ_{n≥1} Δt |eₙ| = (1 + 2 + 3 + 4)/4·10⁻³,
+    the start left out and the signs not cancelling; the max takes the start in, the L² norm
+    not; the end fields equal, so no error at T."""
+    t_fine, t_coarse = np.linspace(0, 1, 9), np.linspace(0, 1, 5)
+    y_fine = np.sin(3 * t_fine)
+    e = np.array([5, -1, 2, -3, 4]) * 1e-3
+    x = np.linspace(0, 1, 5)
+    coarse = SimpleNamespace(history=_history(t_coarse, y_fine[::2] + e), x=x, u=x**2,
+                             theta=np.cos(x))
+    fine = SimpleNamespace(history=_history(t_fine, y_fine), x=np.linspace(0, 1, 9),
+                           u=np.interp(np.linspace(0, 1, 9), x, x**2),
+                           theta=np.interp(np.linspace(0, 1, 9), x, np.cos(x)))
+    errors = cv.errors_against(coarse, fine)
+    assert set(errors) == set(cv.MEASURES)
+    assert errors["u1_l1"] == pytest.approx(10e-3 / 4, rel=8 * EPS)
+    assert errors["u1_max"] == pytest.approx(5e-3, rel=4 * EPS)
+    assert errors["u1_l2"] == pytest.approx(math.sqrt(30e-6 / 4), rel=8 * EPS)
+    assert errors["u_T"] == 0.0 and errors["theta_T"] == 0.0
+    # the same sum from the norms of an error alone, whatever the steps
+    t = np.array([0.0, 0.1, 0.3, 0.4])
+    assert cv.time_norms(t, [9.0, -1.0, 2.0, -4.0])[1] == pytest.approx(0.1 + 0.4 + 0.4,
+                                                                        rel=8 * EPS)
 
 
 def test_rate_is_the_slope_of_power_laws():
@@ -137,13 +175,18 @@ def test_verify_quick_orders(shared_dir, capsys):
 
 
 def test_work_precision_quick(shared_dir, capsys):
+    """The paper scenes' quick ladders against their references (the impact's are
+    tests/test_verify_impact.py's)."""
     out = shared_dir / "wp"
     assert main(["work-precision", "--quick", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "paper5: time to reach" in printed or COMM.rank > 0
+    assert "impact: smallest L¹ error of u(1,·)" in printed or COMM.rank > 0
     data = json.loads((out / "workprecision.json").read_text())
-    rows = _csv(out / "workprecision.csv")
+    rows = [r for r in _csv(out / "workprecision.csv") if r["scene"] != "impact"]
     assert len(rows) == 2 * 3 * len(schemes())
+    assert all(r["mass"] == "lumped" for r in rows)  # the paper scenes' own
+    assert (out / "figures" / "workprecision_impact.png").stat().st_size > 20_000
     for scene in ("paper1", "paper5"):
         assert (out / "figures" / f"workprecision_{scene}.png").stat().st_size > 20_000
         for s in schemes():  # each rung of a ladder is more accurate than the last

@@ -1,9 +1,13 @@
 """Log–log figures of ``rodfem verify`` and ``rodfem work-precision``, from their JSON files.
 
 ``orders_<scene>.png``: a row per error measure, the error against h (left) and against Δt
-(right), a line per (method, time scheme), with reference slopes 1 and 2.
+(right), a line per (method, time scheme), with reference slopes 1 and 2; for a scene whose
+ladder refines h and Δt together (the impact), one column, against h = Δt, with slopes 1/2 and 1
+(its solution has kinks: orders below 1).
 ``workprecision_<scene>.png``: the error of u(1, ·) against the wall time of the run, a line per
-(method, time scheme). Reads the commands' files only; imports nothing from the solver side.
+(method, time scheme); for the impact, whose ladders also differ in the mass matrix, a line per
+(mass, time scheme, method): the colour the mass, the line style the scheme, the marker the
+method. Reads the commands' files only; imports nothing from the solver side.
 """
 
 from __future__ import annotations
@@ -20,10 +24,15 @@ from rodfem.post.runs import PlotError
 
 # No "|" in a label: VTK's mathtext reads it as a column separator.
 LABELS = {"u1_max": r"$\max_t \vert u(1,t) - u_{ref}(1,t)\vert$",
+          "u1_l1": r"$\Vert u(1,\cdot) - u_{ref}(1,\cdot)\Vert_{L^1(0,T)}$",
           "u1_l2": r"$\Vert u(1,\cdot) - u_{ref}(1,\cdot)\Vert_{L^2(0,T)}$",
           "u_T": r"$\Vert u(\cdot,T) - u_{ref}(\cdot,T)\Vert_{L^2}$",
           "theta_T": r"$\Vert\theta(\cdot,T) - \theta_{ref}(\cdot,T)\Vert_{L^2}$"}
-ROWS = ("u1_max", "u_T", "theta_T")
+ROWS = ("u1_max", "u1_l1", "u_T", "theta_T")
+# The ladders' directions, in the order of the figure's columns, and their axes.
+DIRECTIONS = ("h", "dt", "h=dt")
+X_LABELS = {"h": "$h$", "dt": r"$\Delta t$", "h=dt": r"$h = \Delta t$"}
+NAMES = {"h": "h", "dt": "Δt", "h=dt": "h = Δt"}
 LINE_STYLES = {"paper": "-", "crank-nicolson": "--"}
 # The methods solve the same scheme, so their lines coincide: their markers differ in shape and
 # size, the largest below, so that all show.
@@ -83,25 +92,26 @@ def _series(chart: pv.Chart2D, x: np.ndarray, y: np.ndarray, i: int, method: str
     chart.scatter(x[keep], y[keep], color=style.colour(i), size=size, style=marker)
 
 
-def _slopes(chart: pv.Chart2D, x_range: tuple[float, float], anchor: float) -> None:
-    """Reference lines C x^p, p = 1, 2, through (largest x, ``anchor``)."""
+def _slopes(chart: pv.Chart2D, x_range: tuple[float, float], anchor: float,
+            powers: tuple[float, float] = (1, 2)) -> None:
+    """Reference lines C x^p, p in ``powers``, through (largest x, ``anchor``)."""
     x = np.array(x_range)
-    for p, dash, colour in ((1, ":", "black"), (2, "-.", "gray")):
+    for p, dash, colour in zip(powers, (":", "-."), ("black", "gray"), strict=True):
         chart.line(x, anchor * (x / x[1]) ** p, color=colour, width=2.0, style=dash,
-                   label=f"slope {p}")
+                   label=f"slope {'1/2' if p == 0.5 else f'{p:g}'}")
 
 
 def _panel(points: list[dict], measure: str, refined: str, legend: bool, title: str,
            exact: bool) -> pv.Chart2D | None:
     points = [p for p in points if p["refined"] == refined]
-    steps = lambda ps: np.array([1.0 / p["cells"] if refined == "h" else p["dt"]  # noqa: E731
+    steps = lambda ps: np.array([p["dt"] if refined == "dt" else 1.0 / p["cells"]  # noqa: E731
                                  for p in ps])
     y_range = _range([p[measure] for p in points], 3.0)
     if not points or y_range is None:
         return None
     x_all = steps(points)
     x_range = (float(x_all.min()) / 1.3, float(x_all.max()) * 1.3)
-    x_label = "$h$" if refined == "h" else r"$\Delta t$"
+    x_label = X_LABELS[refined]
     y_label = LABELS[measure].replace("{ref}", "{exact}") if exact else LABELS[measure]
     chart = style.chart(title, x_label, y_label)
     style.use_font(chart.GetTitleProperties())
@@ -112,7 +122,7 @@ def _panel(points: list[dict], measure: str, refined: str, legend: bool, title: 
     coarsest = [p[measure] for p in points if steps([p])[0] == x_all.max()
                 and math.isfinite(p[measure])]
     if coarsest:
-        _slopes(chart, x_range, 1.5 * max(coarsest))
+        _slopes(chart, x_range, 1.5 * max(coarsest), (0.5, 1) if refined == "h=dt" else (1, 2))
     _log_axis(chart.x_axis, *x_range)
     _log_axis(chart.y_axis, *y_range)
     chart.legend_visible = legend
@@ -123,19 +133,23 @@ def _panel(points: list[dict], measure: str, refined: str, legend: bool, title: 
 
 
 def orders_figure(data: dict, scene: str, path: Path) -> Path:
-    """A scene's errors against h and Δt, a row per measure."""
+    """A scene's errors against h and Δt (or h = Δt), a row per measure."""
     points = [p for p in data["points"] if p["scene"] == scene and p["status"] == "complete"]
-    rows = [m for m in ROWS if any(math.isfinite(p[m]) for p in points)]
-    plotter = pv.Plotter(shape=(len(rows), 2), window_size=(2 * PANEL[0], len(rows) * PANEL[1]),
+    rows = [m for m in ROWS if any(math.isfinite(p.get(m, math.nan)) for p in points)]
+    columns = [d for d in DIRECTIONS if any(p["refined"] == d for p in points)]
+    plotter = pv.Plotter(shape=(len(rows), len(columns)),
+                         window_size=(len(columns) * PANEL[0], len(rows) * PANEL[1]),
                          off_screen=True)
-    plan, exact = data["plan"], scene == "manufactured"
-    if exact:
+    plan = data["plan"]
+    exact = scene in data.get("exact", ["manufactured"])
+    if scene == "manufactured":
         fixed = {"h": f"Δt = {plan['mms_h_dt']:g}", "dt": f"{plan['mms_dt_cells']} cells"}
     else:
         fixed = {"h": f"Δt = {plan['h_dt']:g}", "dt": f"{plan['dt_cells']} cells"}
+    fixed["h=dt"] = f"T = {plan.get('impact_end', plan['end']):g}, exact solution"
     for i, measure in enumerate(rows):
-        for j, refined in enumerate(("h", "dt")):
-            title = f"{scene}: refining {'h' if refined == 'h' else 'Δt'}, {fixed[refined]}"
+        for j, refined in enumerate(columns):
+            title = f"{scene}: refining {NAMES[refined]}, {fixed[refined]}"
             chart = _panel(points, measure, refined, (i, j) == (0, 0), title, exact)
             if chart is not None:
                 plotter.subplot(i, j)
@@ -176,6 +190,53 @@ def work_precision_figure(data: dict, scene: str, path: Path) -> Path:
     return path
 
 
+# The impact's mass matrices, each a colour of its own (where the file does not list them).
+MASSES = ("lumped", "consistent", "redistributed", "redistributed-lumped")
+
+
+def impact_work_precision_figure(data: dict, path: Path) -> Path:
+    """The impact's error u(1, ·) in L¹(0, T) against its exact solution, against wall time, a
+    line per (mass, scheme, method): the colour the mass, the line style the scheme, the marker
+    the method."""
+    points = [p for p in data["points"] if p["scene"] == "impact" and p["status"] == "complete"]
+    x_range = _range([p["seconds"] for p in points], 1.4)
+    y_range = _range([p["u1_l1"] for p in points], 2.0)
+    if x_range is None or y_range is None:
+        raise PlotError("no completed run of impact to draw")
+    # a legend of a dozen lines: the data in the top 3/5 of the plot, the legend below them
+    y_range = (y_range[1] * (y_range[0] / y_range[1]) ** (5 / 3), y_range[1])
+    end = data.get("plan", {}).get("impact_end", 3.0)
+    chart = style.chart(f"impact, T = {end:g}, h = Δt: error of u(1, ·) against wall time\n"
+                        "colour: mass; line: scheme; marker: method (● direct, ■ newton, "
+                        "◆ picard)",
+                        "wall time of the run (s): set-up + time loop",
+                        LABELS["u1_l1"].replace("{ref}", "{exact}"))
+    style.use_font(chart.GetTitleProperties())
+    masses = list(data.get("plan", {}).get("impact_masses", MASSES))
+    choice = lambda p: (p["mass"], p["scheme"], p["method"])  # noqa: E731
+    for mass, scheme, method in dict.fromkeys(choice(p) for p in points):
+        mine = [p for p in points if choice(p) == (mass, scheme, method)]
+        colour = masses.index(mass) if mass in masses else len(masses)
+        _series(chart, np.array([p["seconds"] for p in mine]),
+                np.array([p["u1_l1"] for p in mine]), colour, method, scheme,
+                f"{mass}, {scheme}, {method}")
+    _log_axis(chart.x_axis, *x_range)
+    _log_axis(chart.y_axis, *y_range)
+    chart.GetLegend().SetVerticalAlignment(chart.GetLegend().BOTTOM)
+    chart.GetLegend().SetHorizontalAlignment(chart.GetLegend().LEFT)
+    plotter = pv.Plotter(window_size=(1300, 950), off_screen=True)
+    plotter.add_chart(chart)
+    backend.save_image(plotter, path)
+    plotter.close()
+    return path
+
+
+def _work_precision(data: dict, scene: str, path: Path) -> Path:
+    if scene == "impact":
+        return impact_work_precision_figure(data, path)
+    return work_precision_figure(data, scene, path)
+
+
 def _figures(directory: Path, name: str, draw, prefix: str) -> list[Path]:
     data = read(Path(directory) / name)
     out = Path(directory) / "figures"
@@ -192,4 +253,4 @@ def plot_orders(directory: Path) -> list[Path]:
 
 def plot_work_precision(directory: Path) -> list[Path]:
     """workprecision_<scene>.png for every scene in ``directory``/workprecision.json."""
-    return _figures(directory, "workprecision.json", work_precision_figure, "workprecision")
+    return _figures(directory, "workprecision.json", _work_precision, "workprecision")

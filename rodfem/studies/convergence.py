@@ -8,7 +8,9 @@ that divide the coarse one:
   interpolated at the fine nodes, is itself; the difference is P1 on the fine mesh, whose square
   integrates to h/3 (a² + ab + b²) per cell of end values a, b);
 * in time, u(1, ·) over [0, T]: the largest difference at the coarse run's times, and its discrete
-  L² norm over them, (Σₙ Δtₙ eₙ²)^½, n ≥ 1;
+  L¹ and L² norms over them, Σₙ Δtₙ |eₙ| and (Σₙ Δtₙ eₙ²)^½, n ≥ 1 (the L¹ norm is GetFEM's
+  measure of its dynamic contact benchmark, :mod:`rodfem.model.impact`, kept for every scene so
+  that its figures compare with rodfem's on any of them);
 * the observed order: the least-squares slope of log error against log h (or log Δt).
 
 :func:`run_ladder` runs a ladder of (cells, Δt) refinements of a scene against a reference run.
@@ -29,8 +31,9 @@ if TYPE_CHECKING:
     from rodfem.run import RunResult
     from rodfem.scene import Scene
 
-# The error measures of a ladder point: u(1, ·) over [0, T] (max, L² in time), u and θ at T (L²).
-MEASURES = ("u1_max", "u1_l2", "u_T", "theta_T")
+# The error measures of a ladder point: u(1, ·) over [0, T] (max, L¹ and L² in time), u and θ at T
+# (L²).
+MEASURES = ("u1_max", "u1_l1", "u1_l2", "u_T", "theta_T")
 # A coarse node (time) must lie on a fine one to this fraction of the span: x = i h and t = n Δt
 # are rounded in binary.
 MATCH = 1e-9
@@ -81,17 +84,26 @@ def sample_indices(t_coarse: np.ndarray, t_fine: np.ndarray) -> np.ndarray:
     return at
 
 
+def time_norms(t: np.ndarray, e: np.ndarray) -> tuple[float, float, float]:
+    """Norms over [0, T] of an error e sampled at the times t (e₀ at t₀): max_n |eₙ|,
+    Σ_{n≥1} (tₙ − tₙ₋₁) |eₙ| and (Σ_{n≥1} (tₙ − tₙ₋₁) eₙ²)^½."""
+    t, e = np.asarray(t, float), np.asarray(e, float)
+    dt = np.diff(t)
+    return (float(np.max(np.abs(e))), float(np.sum(dt * np.abs(e[1:]))),
+            math.sqrt(float(np.sum(dt * e[1:] ** 2))))
+
+
 def time_errors(t_coarse: np.ndarray, y_coarse: np.ndarray, t_fine: np.ndarray,
-                y_fine: np.ndarray) -> tuple[float, float]:
-    """max_n |y_c(tₙ) − y_f(tₙ)| and (Σ_{n≥1} (tₙ − tₙ₋₁) |y_c − y_f|²)^½ over the coarse times.
+                y_fine: np.ndarray) -> tuple[float, float, float]:
+    """max_n |y_c(tₙ) − y_f(tₙ)|, Σ_{n≥1} (tₙ − tₙ₋₁) |y_c − y_f| and
+    (Σ_{n≥1} (tₙ − tₙ₋₁) |y_c − y_f|²)^½ over the coarse times (:func:`time_norms`).
 
     Raises:
         ValueError: the coarse times are not a subset of the fine ones (:func:`sample_indices`).
     """
     t_coarse, y_coarse = np.asarray(t_coarse, float), np.asarray(y_coarse, float)
     e = y_coarse - np.asarray(y_fine, float)[sample_indices(t_coarse, t_fine)]
-    l2 = math.sqrt(float(np.sum(np.diff(t_coarse) * e[1:] ** 2)))
-    return float(np.max(np.abs(e))), l2
+    return time_norms(t_coarse, e)
 
 
 def rate(steps: Sequence[float], errors: Sequence[float]) -> float:
@@ -107,11 +119,11 @@ def rate(steps: Sequence[float], errors: Sequence[float]) -> float:
 
 
 def errors_against(run: RunResult, reference: RunResult) -> dict[str, float]:
-    """The four measures (:data:`MEASURES`) of a run against a finer reference run."""
+    """The measures (:data:`MEASURES`) of a run against a finer reference run."""
     t, u_1 = INDEX["t"], INDEX["u_1"]
-    u1_max, u1_l2 = time_errors(run.history[:, t], run.history[:, u_1], reference.history[:, t],
-                                reference.history[:, u_1])
-    return {"u1_max": u1_max, "u1_l2": u1_l2,
+    u1_max, u1_l1, u1_l2 = time_errors(run.history[:, t], run.history[:, u_1],
+                                       reference.history[:, t], reference.history[:, u_1])
+    return {"u1_max": u1_max, "u1_l1": u1_l1, "u1_l2": u1_l2,
             "u_T": l2_difference(run.x, run.u, reference.x, reference.u),
             # Θ differs from θ by θ_A r, the same function for both runs (equal k)
             "theta_T": l2_difference(run.x, run.theta, reference.x, reference.theta)}
@@ -167,11 +179,16 @@ def point(scene: Scene, errors: Callable[[RunResult], dict[str, float]], repeats
                  message=" ".join(str(result.error).split()) if result.error else "")
 
 
+def step(refined: str, cells: int, dt: float) -> float:
+    """The step a ladder refines: h for "h" and "h=dt" (h and Δt together), Δt for "dt"."""
+    return dt if refined == "dt" else 1.0 / cells
+
+
 def rates(points: Sequence[Point], by: str) -> dict[str, float]:
-    """The observed order of each measure over the completed points, against ``by`` = "h" or
-    "dt"."""
+    """The observed order of each measure over the completed points, against ``by`` = "h",
+    "dt" or "h=dt"."""
     done = [p for p in points if p.status == "complete"]
-    steps = [1.0 / p.cells if by == "h" else p.dt for p in done]
+    steps = [step(by, p.cells, p.dt) for p in done]
     return {m: rate(steps, [p.errors[m] for p in done]) for m in MEASURES}
 
 
@@ -181,7 +198,7 @@ class Ladder:
 
     points: list[Point]
     reference: RunResult
-    by: str  # "h" or "dt": the step the ladder refines
+    by: str  # "h", "dt" or "h=dt": the step the ladder refines
 
     @property
     def rates(self) -> dict[str, float]:

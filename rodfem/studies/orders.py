@@ -1,4 +1,10 @@
-"""What ``rodfem verify`` reports: orders.md and the lines it prints."""
+"""What ``rodfem verify`` reports: orders.md and the lines it prints.
+
+A scene has ladders in h and in Δt against a finer reference run, or (the impact) one ladder
+refining both together, h = Δt, against its exact solution: each kind of ladder gets its own
+columns and tables, headed by the step it refines, so that an order in h = Δt is never read as
+one in h or in Δt alone.
+"""
 
 from __future__ import annotations
 
@@ -7,52 +13,76 @@ from pathlib import Path
 
 from rodfem.studies import convergence as cv
 
-DIRECTIONS = ("h", "dt")
+DIRECTIONS = ("h", "dt", "h=dt")
+# How a direction is written: in the tables, and padded in the printed lines.
+HEADINGS = {"h": "h", "dt": "Δt", "h=dt": "h = Δt"}
+SHORT = {"h": "h", "dt": "Δt", "h=dt": "h=Δt"}
 
 
 def _g(value: float, digits: int = 3) -> str:
     return f"{value:.{digits}g}" if isinstance(value, float) and math.isfinite(value) else "—"
 
 
-LABELS = {"u1_max": "u(1,·) max", "u1_l2": "u(1,·) L²(0,T)", "u_T": "u(·,T) L²",
-          "theta_T": "θ(·,T) L²"}
+LABELS = {"u1_max": "u(1,·) max", "u1_l1": "u(1,·) L¹(0,T)", "u1_l2": "u(1,·) L²(0,T)",
+          "u_T": "u(·,T) L²", "theta_T": "θ(·,T) L²"}
 
 
-def markdown(data: dict) -> str:
-    """orders.md: per scene, the observed orders of each (method, scheme) in h and Δt, then each
-    ladder's errors."""
-    plan = data["plan"]
-    lines = ["# Observed orders of convergence (`rodfem verify`)", "",
-             f"T = {plan['end']:g}. h ladder: cells {', '.join(map(str, plan['h_cells']))} at "
-             f"Δt = {plan['h_dt']:g}, against {plan['h_reference']} cells at the same Δt. Δt "
-             f"ladder: Δt = T/{', T/'.join(map(str, plan['dt_steps']))} on {plan['dt_cells']} "
-             f"cells, against Δt = T/{plan['dt_reference']} on the same cells. References: "
-             "direct method, the ladder's time scheme. Orders: least-squares slopes of log "
-             "error against log h or log Δt, over the runs that completed.", ""]
+def _exact(data: dict) -> list[str]:
+    """The scenes measured against an exact solution (older files: the manufactured one)."""
+    return data.get("exact", ["manufactured"] if data.get("manufactured") else [])
+
+
+def _plan_lines(data: dict) -> list[str]:
+    plan, lines = data["plan"], []
+    if any(k not in _exact(data) for k in data.get("scenes", {"paper1": None})):
+        lines += [f"T = {plan['end']:g}. h ladder: cells {', '.join(map(str, plan['h_cells']))} "
+                  f"at Δt = {plan['h_dt']:g}, against {plan['h_reference']} cells at the same Δt. "
+                  f"Δt ladder: Δt = T/{', T/'.join(map(str, plan['dt_steps']))} on "
+                  f"{plan['dt_cells']} cells, against Δt = T/{plan['dt_reference']} on the same "
+                  "cells. References: direct method, the ladder's time scheme. Orders: "
+                  "least-squares slopes of log error against log h or log Δt, over the runs that "
+                  "completed.", ""]
     if data["manufactured"]:
         lines += [f"Manufactured solution (against its exact solution, T = {plan['mms_end']:g}): "
                   f"h ladder cells {', '.join(map(str, plan['mms_h_cells']))} at Δt = "
                   f"{plan['mms_h_dt']:g}; Δt ladder Δt = T/"
                   f"{', T/'.join(map(str, plan['mms_dt_steps']))} on {plan['mms_dt_cells']} "
                   "cells.", ""]
-    header = "| method | scheme | " + " | ".join(f"h: {LABELS[m]}" for m in cv.MEASURES) \
-        + " | " + " | ".join(f"Δt: {LABELS[m]}" for m in cv.MEASURES) + " | runs completed |"
+    if data.get("impact"):
+        lines += [f"Impact (against its exact solution, T = {plan['impact_end']:g}, the scene's "
+                  "redistributed mass): one ladder refining h and Δt together, h = Δt = "
+                  f"{', '.join(f'{h:g}' for h in plan['impact_h'])}; its orders are slopes "
+                  "against log h = log Δt. u(1,·) L¹(0,T) is GetFEM's measure of this benchmark; "
+                  "u(1,·) max leaves out t = 0.", ""]
+    return lines
+
+
+def markdown(data: dict) -> str:
+    """orders.md: per scene, the observed orders of each (method, scheme) in each of its
+    ladders' directions, then each ladder's errors."""
+    lines = ["# Observed orders of convergence (`rodfem verify`)", "", *_plan_lines(data)]
+    exact = _exact(data)
     for scene in dict.fromkeys(r["scene"] for r in data["orders"]):
-        lines += [f"## {scene}", "", "Observed orders:", "", header,
-                  "|---|---|" + "---|" * (2 * len(cv.MEASURES) + 1)]
         rows = [r for r in data["orders"] if r["scene"] == scene]
+        present = [d for d in DIRECTIONS if any(r["refined"] == d for r in rows)]
+        against = " (against the exact solution)" if scene in exact else ""
+        header = "| method | scheme | " + " | ".join(
+            f"{HEADINGS[d]}: {LABELS[m]}" for d in present for m in cv.MEASURES) \
+            + " | runs completed |"
+        directions = " and in ".join(HEADINGS[d] for d in present)
+        lines += [f"## {scene}", "", f"Observed orders in {directions}{against}:", "", header,
+                  "|---|---|" + "---|" * (len(present) * len(cv.MEASURES) + 1)]
         for method, scheme in dict.fromkeys((r["method"], r["scheme"]) for r in rows):
             by = {r["refined"]: r for r in rows if (r["method"], r["scheme"]) == (method, scheme)}
-            cells = [_g(by[d][f"rate_{m}"], 3) if d in by else "" for d in DIRECTIONS
+            cells = [_g(by[d][f"rate_{m}"], 3) if d in by else "" for d in present
                      for m in cv.MEASURES]
-            runs = ", ".join(f"{by[d]['points']} ({'h' if d == 'h' else 'Δt'})" for d in DIRECTIONS
-                             if d in by)
+            runs = ", ".join(f"{by[d]['points']} ({HEADINGS[d]})" for d in present if d in by)
             lines.append(f"| {method} | {scheme} | " + " | ".join(cells) + f" | {runs} |")
-        for refined in DIRECTIONS:
+        for refined in present:
             points = [r for r in data["points"] if r["scene"] == scene and r["refined"] == refined]
             if not points:
                 continue
-            lines += ["", f"Errors, {'h' if refined == 'h' else 'Δt'} ladder:", "",
+            lines += ["", f"Errors, {HEADINGS[refined]} ladder{against}:", "",
                       "| method | scheme | cells | Δt | status | "
                       + " | ".join(LABELS[m] for m in cv.MEASURES) + " | seconds |",
                       "|---|---|---|---|---|" + "---|" * (len(cv.MEASURES) + 1)]
@@ -68,7 +98,8 @@ def markdown(data: dict) -> str:
         lines.append("")
     if data["rejected"]:
         lines += ["Choices the scene rejects:", ""]
-        lines += [f"- {r['method']}, {r['scheme']}: {r['message']}" for r in data["rejected"]]
+        lines += [f"- {r['scene']}: {r['method']}, {r['scheme']}: {r['message']}"
+                  for r in data["rejected"]]
         lines.append("")
     spread = data["method_spread"]
     lines += ["Largest relative difference of a method's error from the direct method's at the "
@@ -78,11 +109,14 @@ def markdown(data: dict) -> str:
 
 
 def summary_lines(data: dict, out: Path) -> list[str]:
-    """What ``rodfem verify`` prints: the observed orders of u(1, ·) max, per scene and choice."""
+    """What ``rodfem verify`` prints: the observed orders of each measure, per scene, ladder and
+    choice (those against an exact solution marked so)."""
     lines = [f"verify: {len(data['points'])} runs in {data['seconds']:.0f} s -> {out}"]
+    exact = _exact(data)
     for r in data["orders"]:
         rates = ", ".join(f"{m} {_g(r[f'rate_{m}'], 3)}" for m in cv.MEASURES
                           if math.isfinite(r[f"rate_{m}"]))
-        lines.append(f"{r['scene']:<12} {'h ' if r['refined'] == 'h' else 'Δt'} "
-                     f"{r['method']:<6} {r['scheme']:<14} orders: {rates}")
+        against = " (exact solution)" if r["scene"] in exact else ""
+        lines.append(f"{r['scene']:<12} {SHORT[r['refined']]:<4} {r['method']:<6} "
+                     f"{r['scheme']:<14} orders{against}: {rates}")
     return lines

@@ -9,9 +9,15 @@ with the obstacle out of reach), each time scheme and each method, two ladders o
 Each reference is solved by the direct method with the ladder's time scheme. Sharing the other
 step with its ladder, it has the same error in that step to first order, so the differences
 measure the refined step's error alone, and the orders are those of the refined step.
-The errors are those of :mod:`rodfem.studies.convergence`: u(1, ·) over [0, T] (max and L² in
+The errors are those of :mod:`rodfem.studies.convergence`: u(1, ·) over [0, T] (max, L¹ and L² in
 time), u and θ at T (L² in space). With :mod:`rodfem.model.manufactured` (a scene with a known exact
 solution), its ladders are measured against the exact solution.
+
+The impact benchmark (:mod:`rodfem.model.impact`: an elastic bar released against a rigid wall,
+the scene's own redistributed mass) has an exact solution too, but not a smooth one: its fronts
+and the contact's start and end are kinks that move at speed 1, so an error in h and one in Δt do
+not separate, and its one ladder refines both together, h = Δt (the direction "h=dt"), over one
+period, T = 3; every run is measured against the exact u(1, ·) and u(·, T), with no reference run.
 
 Ladders (a scene, a direction, a time scheme: the reference and every method's runs) are dealt
 to the MPI ranks, the costliest first, each run on ``MPI.COMM_SELF``; the records do not depend
@@ -29,6 +35,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
+from rodfem.model import impact
 from rodfem.scene import METHODS, SCHEMA, Scene, SceneError, load
 from rodfem.studies import convergence as cv
 from rodfem.studies.common import deal, machine, parse_choices, prepare, write_csv
@@ -44,7 +53,11 @@ SCENES: dict[str, tuple[str, tuple[str, ...]]] = {
     "no-contact": ("paper1", ("obstacle.gap=10",)),
 }
 MANUFACTURED = "manufactured"
+IMPACT = "impact"
+# the scenes measured against an exact solution: no reference runs
+EXACT = (MANUFACTURED, IMPACT)
 DIRECTIONS = ("h", "dt")
+TOGETHER = "h=dt"  # the impact's ladder: h and Δt refined together
 FILES = ("orders.csv", "orders.md", "orders.json", "errors.csv")
 ERROR_COLUMNS = ("scene", "refined", "method", "scheme", "cells", "dt", "status", *cv.MEASURES,
                  "seconds", "us_per_step", "iterations_mean", "message")
@@ -96,8 +109,13 @@ class Plan:
     mms_h_dt: float
     mms_dt_cells: int
     mms_dt_steps: tuple[int, ...]
+    # the impact's ladder h = Δt (1/h cells), to T = impact_end
+    impact_end: float
+    impact_h: tuple[float, ...]
 
     def ladder(self, direction: str, manufactured: bool = False) -> list[tuple[int, float]]:
+        if direction == TOGETHER:
+            return [(round(1.0 / h), 1.0 / round(1.0 / h)) for h in self.impact_h]
         if manufactured:
             if direction == "h":
                 return [(c, self.mms_h_dt) for c in self.mms_h_cells]
@@ -118,16 +136,20 @@ class Plan:
 # T = 1 covers the first contact of paper1 and paper5 (t ≈ 0.19) and the first separation. The
 # manufactured solution: h ladder at Δt = T/5000 (the paper's time error stays below a tenth of
 # the spatial one up to 64 cells), Δt ladder on 4096 cells (the spatial error below a tenth of
-# Crank–Nicolson's time error down to Δt = T/80).
+# Crank–Nicolson's time error down to Δt = T/80). The impact: one period, h = Δt from 1e-2 to
+# 5e-4, the sizes at which tests/test_redistributed.py compares its errors with GetFEM's.
 DEFAULT = Plan(end=1.0, h_cells=(25, 50, 100, 200, 400), h_dt=1e-4, h_reference=3200,
                dt_cells=250, dt_steps=(25, 50, 100, 200, 400, 800), dt_reference=25600,
                methods=METHODS, mms_end=0.5, mms_h_cells=(8, 16, 32, 64), mms_h_dt=1e-4,
-               mms_dt_cells=4096, mms_dt_steps=(10, 20, 40, 80))
+               mms_dt_cells=4096, mms_dt_steps=(10, 20, 40, 80), impact_end=3.0,
+               impact_h=(1e-2, 2e-3, 1e-3, 5e-4))
 # Seconds: the direct method only, three runs per ladder. At these sizes the paper scheme's
-# errors on the scene without contact already fall at order 1 in Δt to within 0.05.
+# errors on the scene without contact already fall at order 1 in Δt to within 0.05, and
+# Crank–Nicolson's L¹ error of u(1, ·) on the impact at its order, 0.7.
 QUICK = Plan(end=1.0, h_cells=(8, 16, 32), h_dt=1e-3, h_reference=256, dt_cells=16,
              dt_steps=(25, 50, 100), dt_reference=3200, methods=("direct",), mms_end=0.5,
-             mms_h_cells=(8, 16, 32), mms_h_dt=1e-3, mms_dt_cells=1024, mms_dt_steps=(10, 20, 40))
+             mms_h_cells=(8, 16, 32), mms_h_dt=1e-3, mms_dt_cells=1024, mms_dt_steps=(10, 20, 40),
+             impact_end=3.0, impact_h=(2e-2, 1e-2, 5e-3))
 
 
 class VerifyError(ValueError):
@@ -135,7 +157,7 @@ class VerifyError(ValueError):
 
 
 def available_scenes() -> tuple[str, ...]:
-    return (*SCENES, *([MANUFACTURED] if manufactured() is not None else []))
+    return (*SCENES, *([MANUFACTURED] if manufactured() is not None else []), IMPACT)
 
 
 def parse_scenes(text: str | None) -> tuple[str, ...]:
@@ -155,16 +177,25 @@ class Group:
     scheme: str
 
 
+def directions(scene: str) -> tuple[str, ...]:
+    """The ladders of a scene: in h and in Δt, or for the impact in h = Δt."""
+    return (TOGETHER,) if scene == IMPACT else DIRECTIONS
+
+
 def groups(scenes: tuple[str, ...]) -> list[Group]:
-    return [Group(k, d, s) for k in scenes for s in schemes() for d in DIRECTIONS]
+    return [Group(k, d, s) for k in scenes for s in schemes() for d in directions(k)]
+
+
+def _end(scene: str, plan: Plan) -> float:
+    return {MANUFACTURED: plan.mms_end, IMPACT: plan.impact_end}.get(scene, plan.end)
 
 
 def cost(group: Group, plan: Plan) -> float:
     """The work of a group, in cell-steps: its ladder for each method, and its reference."""
     ladder = plan.ladder(group.refined, group.scene == MANUFACTURED)
-    end = plan.mms_end if group.scene == MANUFACTURED else plan.end
+    end = _end(group.scene, plan)
     work = len(plan.methods) * sum(c * end / dt for c, dt in ladder)
-    if group.scene != MANUFACTURED:
+    if group.scene not in EXACT:
         c, dt = plan.reference(group.refined)
         work += c * end / dt
     return work
@@ -178,6 +209,9 @@ def _record(group: Group, method: str, p: cv.Point) -> dict:
 
 
 def _maker(group: Group, plan: Plan, method: str) -> Callable[[int, float], Scene]:
+    if group.scene == IMPACT:  # Δt = h = 1/cells
+        return lambda c, dt: impact.scene(1.0 / c, end=plan.impact_end, overrides=[
+            f"solver.method={method}", *scheme_overrides(group.scheme)])
     if group.scene == MANUFACTURED:
         mms = manufactured()
         return lambda c, dt: mms.scene(c, dt, end=plan.mms_end, overrides=[
@@ -194,7 +228,7 @@ def run_group(group: Group, plan: Plan) -> tuple[list[dict], list[dict], dict]:
     """
     records, rejected, reference = [], [], {}
     ladder = plan.ladder(group.refined, group.scene == MANUFACTURED)
-    if group.scene != MANUFACTURED:
+    if group.scene not in EXACT:
         cells, dt = plan.reference(group.refined)
         run, seconds = cv.timed_run(_maker(group, plan, "direct")(cells, dt))
         if run.status == "interrupted":
@@ -210,11 +244,12 @@ def run_group(group: Group, plan: Plan) -> tuple[list[dict], list[dict], dict]:
             rejected.append({"scene": group.scene, "method": method, "scheme": group.scheme,
                              "message": str(err)})
             continue
-        if group.scene == MANUFACTURED:
+        if group.scene in EXACT:
+            measure = _manufactured_errors if group.scene == MANUFACTURED else impact_errors
             points = []
             for cells, dt in ladder:
                 scene = make(cells, dt)
-                points.append(cv.point(scene, _manufactured_errors(scene)))
+                points.append(cv.point(scene, measure(scene)))
                 if points[-1].status == "interrupted":
                     break
         else:
@@ -228,7 +263,29 @@ def run_group(group: Group, plan: Plan) -> tuple[list[dict], list[dict], dict]:
 def _manufactured_errors(scene: Scene) -> Callable:
     def errors(result) -> dict[str, float]:
         e = manufactured().errors(result, scene)
-        return {"u1_max": math.nan, "u1_l2": math.nan, "u_T": e["u"], "theta_T": e["theta"]}
+        return {"u1_max": math.nan, "u1_l1": math.nan, "u1_l2": math.nan, "u_T": e["u"],
+                "theta_T": e["theta"]}
+
+    return errors
+
+
+def impact_errors(scene: Scene) -> Callable:
+    """The measures of a run of the impact scene against its exact solution: u(1, ·) over the
+    steps n ≥ 1 (the max as :func:`rodfem.model.impact.errors` takes it, without the start,
+    where a redistributed mass puts the end off the exact one by construction; L¹ and L² as for
+    every scene), u(·, T) in L² by quadrature (the exact u has kinks inside cells); no heat, so
+    no θ."""
+    from rodfem.model.manufactured import l2_error
+    from rodfem.output.columns import INDEX
+
+    def errors(result) -> dict[str, float]:
+        t, u_1 = result.history[:, INDEX["t"]], result.history[:, INDEX["u_1"]]
+        e = u_1 - impact.end_displacement(t)
+        _, u1_l1, u1_l2 = cv.time_norms(t, e)
+        end = float(t[-1])
+        return {"u1_max": float(np.max(np.abs(e[1:]))), "u1_l1": u1_l1, "u1_l2": u1_l2,
+                "u_T": l2_error(result.x, result.u, lambda x: impact.displacement(x, end)),
+                "theta_T": math.nan}
 
     return errors
 
@@ -242,7 +299,7 @@ def orders(records: list[dict]) -> list[dict]:
         mine = [r for r in records if (r["scene"], r["refined"], r["method"], r["scheme"])
                 == (scene, refined, method, scheme)]
         done = [r for r in mine if r["status"] == "complete"]
-        steps = [1.0 / r["cells"] if refined == "h" else r["dt"] for r in done]
+        steps = [cv.step(refined, r["cells"], r["dt"]) for r in done]
         row = {"scene": scene, "refined": refined, "method": method, "scheme": scheme,
                "points": f"{len(done)}/{len(mine)}"}
         for m in cv.MEASURES:
@@ -316,10 +373,13 @@ def run_verify(out: Path, plan: Plan, scenes: tuple[str, ...], force: bool, prog
         return None
     records, rejected, references = swept
     data = {
-        "plan": plan.as_dict(), "scenes": {k: {"scene": b, "overrides": list(o)}
-                                           for k, (b, o) in SCENES.items() if k in scenes},
+        "plan": plan.as_dict(),
+        "scenes": {**{k: {"scene": b, "overrides": list(o)} for k, (b, o) in SCENES.items()
+                      if k in scenes},
+                   **({IMPACT: {"scene": IMPACT, "overrides": []}} if IMPACT in scenes else {})},
         "schemes": list(schemes()), "methods": list(plan.methods),
-        "manufactured": MANUFACTURED in scenes,
+        "manufactured": MANUFACTURED in scenes, "impact": IMPACT in scenes,
+        "exact": [k for k in EXACT if k in scenes],  # against an exact solution
         "reference_method": "direct", "references": references,
         "orders": orders(records), "method_spread": method_spread(records),
         "rejected": rejected, "points": records, "seconds": seconds, "machine": machine(comm),

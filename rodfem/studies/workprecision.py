@@ -7,6 +7,16 @@ run, fine in both h and Δt (the direct method, Crank–Nicolson). The first-ord
 by 8 for each halving of h, the second-order one by 2. On paper5 the wall time at which each
 choice first reaches an error of 1e-3 in u(1, ·) (max over [0, T]) is interpolated log–log
 between its ladder's points, and set against (picard, paper), the paper's own choice.
+
+The impact benchmark (:mod:`rodfem.model.impact`, an elastic bar released against a rigid wall)
+is measured against its exact solution instead, over one period T = 3, for each mass matrix as
+well (``discretisation.mass``): that is where the choices differ most, since the mass at the
+contact node decides how the end behaves while it rests on the wall. Its ladders refine h and Δt
+together (h = Δt, the scene's own choice: the solution's kinks move at speed 1, so neither error
+falls alone), and its error is GetFEM's measure, the L¹ norm of u(1, ·) − u_exact(1, ·) over the
+steps. The choices the scene rejects (Crank–Nicolson with the rigid obstacle needs a
+redistributed mass; picard cannot solve the rigid obstacle) are reported as such, with the
+scene's reason.
 """
 
 from __future__ import annotations
@@ -18,10 +28,12 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rodfem.scene import METHODS, SceneError
+from rodfem.model import impact
+from rodfem.scene import METHODS, Scene, SceneError
+from rodfem.scene.schema import MASSES
 from rodfem.studies import convergence as cv
 from rodfem.studies.common import deal, machine, prepare, write_csv
-from rodfem.studies.verify import ERROR_COLUMNS, scene_at, schemes
+from rodfem.studies.verify import ERROR_COLUMNS, IMPACT, TOGETHER, impact_errors, scene_at, schemes
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -29,6 +41,10 @@ if TYPE_CHECKING:
 FILES = ("workprecision.csv", "workprecision.json")
 TARGET, TARGET_SCENE = 1e-3, "paper5"
 PAPER_CHOICE = ("picard", "paper")
+IMPACT_MEASURE = "u1_l1"  # GetFEM's: Σₙ Δt |Uⁿ(1) − u(1, tⁿ)|
+# verify's columns and the mass matrix of the run
+COLUMNS = (*ERROR_COLUMNS[:ERROR_COLUMNS.index("scheme") + 1], "mass",
+           *ERROR_COLUMNS[ERROR_COLUMNS.index("scheme") + 1:])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -43,6 +59,11 @@ class Plan:
     methods: tuple[str, ...] = METHODS
     repeats: int = 3  # timing repeats of a run, while they take less than budget seconds
     budget: float = 1.0
+    # the impact, against its exact solution: h = Δt, to impact_end, each mass, scheme and method
+    impact_h: tuple[float, ...] = ()
+    impact_end: float = 3.0
+    impact_masses: tuple[str, ...] = MASSES
+    impact_methods: tuple[str, ...] = METHODS
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -60,16 +81,59 @@ SECOND_ORDER = ((25, 25), (50, 50), (100, 100), (200, 200), (400, 400), (800, 80
 
 def default_plan(quick: bool = False) -> Plan:
     """The default ladders to the paper scenes' own end, T = 8 (or, ``quick``, three short runs
-    each, T = 1, the direct method only). The reference is Crank–Nicolson where it exists."""
+    each, T = 1, the direct method only), and the impact's, h = Δt from 1e-2 to 1e-3 (``quick``:
+    three coarse rungs), every method. The reference is Crank–Nicolson where it exists."""
     second = "crank-nicolson" if "crank-nicolson" in schemes() else "paper"
     if quick:
         ladders = {s: ((8, 10), (16, 40), (32, 160)) if s == "paper"
                    else ((8, 10), (16, 20), (32, 40)) for s in schemes()}
         return Plan(end=1.0, scenes=("paper1", "paper5"), ladders=ladders, reference=(128, 640),
-                    reference_scheme=second, methods=("direct",), repeats=1)
+                    reference_scheme=second, methods=("direct",), repeats=1,
+                    impact_h=(2e-2, 1e-2, 5e-3))
     ladders = {s: FIRST_ORDER if s == "paper" else SECOND_ORDER for s in schemes()}
     return Plan(end=8.0, scenes=("paper1", "paper5"), ladders=ladders, reference=(3200, 25600),
-                reference_scheme=second)
+                reference_scheme=second, impact_h=(1e-2, 5e-3, 2e-3, 1e-3))
+
+
+@dataclasses.dataclass(frozen=True)
+class Task:
+    """One ladder: a scene with a (method, time scheme), and for the impact a mass."""
+
+    scene: str
+    method: str
+    scheme: str
+    mass: str | None = None  # None: the scene's own
+
+    def ladder(self, plan: Plan) -> list[tuple[int, float]]:
+        """(cells, Δt) of each rung."""
+        if self.scene == IMPACT:
+            return [(round(1.0 / h), 1.0 / round(1.0 / h)) for h in plan.impact_h]
+        return [(cells, 1.0 / n) for cells, n in plan.ladders[self.scheme]]
+
+    def make(self, plan: Plan, cells: int, dt: float) -> Scene:
+        """The rung's scene (validated: a SceneError for a choice the scene rejects)."""
+        if self.scene == IMPACT:
+            return impact.scene(1.0 / cells, end=plan.impact_end, overrides=[
+                f"discretisation.mass={self.mass}", f"time.scheme={self.scheme}",
+                f"solver.method={self.method}"])
+        return scene_at(self.scene, cells, dt, plan.end, self.method, self.scheme)
+
+    def cost(self, plan: Plan) -> float:
+        """Its work in cell-steps (an iterative method's step about thrice the direct one's)."""
+        end = plan.impact_end if self.scene == IMPACT else plan.end
+        return sum(c * end / dt for c, dt in self.ladder(plan)) \
+            * (1 if self.method == "direct" else 3)
+
+    def name(self) -> str:
+        return ", ".join(x for x in (self.scene, self.mass, self.method, self.scheme) if x)
+
+
+def tasks(plan: Plan) -> list[Task]:
+    """The paper scenes' ladders, then the impact's, mass by mass."""
+    return [*(Task(scene, method, scheme) for scene in plan.scenes for scheme in plan.ladders
+              for method in plan.methods),
+            *(Task(IMPACT, method, scheme, mass) for mass in plan.impact_masses if plan.impact_h
+              for scheme in plan.ladders for method in plan.impact_methods)]
 
 
 def _reference(scene: str, plan: Plan) -> tuple:
@@ -85,36 +149,44 @@ def _reference(scene: str, plan: Plan) -> tuple:
     return run, seconds, cv.errors_against(coarser, run)["u1_max"]
 
 
+def _measure(task: Task, scene: Scene, references: dict):
+    """The errors of a run of ``task``: against the impact's exact solution, or the scene's
+    reference run."""
+    if task.scene == IMPACT:
+        return impact_errors(scene)
+    reference = references[task.scene][0]
+    return lambda run: cv.errors_against(run, reference)
+
+
 def sweep(plan: Plan, comm: MPI.Comm, report=None) -> tuple[list[dict], list[dict], dict] | None:
-    """The references (a scene per rank, then shared), then every (scene, method, scheme) ladder,
-    dealt among the ranks; the records on every rank, or None if a run was interrupted."""
+    """The references (a scene per rank, then shared), then every ladder (:func:`tasks`), dealt
+    among the ranks; the records and the rejected choices on every rank, or None if a run was
+    interrupted."""
     references = {}
     for i in range(comm.rank, len(plan.scenes), comm.size):
         references[plan.scenes[i]] = _reference(plan.scenes[i], plan)
     references = {k: v for part in comm.allgather(references) for k, v in part.items()}
-    todo = [(scene, method, scheme) for scene in plan.scenes for scheme in plan.ladders
-            for method in plan.methods]
+    todo = tasks(plan)
     mine, rejected, stopped = [], [], False
-    costs = [sum(c * n for c, n in plan.ladders[scheme]) * (1 if method == "direct" else 3)
-             for _, method, scheme in todo]
-    for index in deal(costs, comm.size)[comm.rank]:
-        scene, method, scheme = todo[index]
-        ladder = plan.ladders[scheme]
+    for index in deal([task.cost(plan) for task in todo], comm.size)[comm.rank]:
+        task = todo[index]
+        ladder = task.ladder(plan)
         try:
-            scene_at(scene, ladder[0][0], 1.0 / ladder[0][1], plan.end, method, scheme)
+            task.make(plan, *ladder[0])
         except SceneError as err:
-            rejected.append({"scene": scene, "method": method, "scheme": scheme,
-                             "message": str(err)})
+            rejected.append({"scene": task.scene, "method": task.method, "scheme": task.scheme,
+                             "mass": task.mass, "message": str(err)})
             continue
-        started, reference = time.perf_counter(), references[scene][0]
-        for cells, n in ladder:
-            p = cv.point(scene_at(scene, cells, 1.0 / n, plan.end, method, scheme),
-                         lambda r, ref=reference: cv.errors_against(r, ref), plan.repeats,
-                         plan.budget)
-            mine.append((index, {"scene": scene, "refined": "both", "method": method,
-                                 "scheme": scheme, "cells": p.cells, "dt": p.dt,
-                                 "status": p.status, **p.errors, "seconds": p.seconds,
-                                 "us_per_step": p.us_per_step,
+        started = time.perf_counter()
+        for cells, dt in ladder:
+            scene = task.make(plan, cells, dt)
+            p = cv.point(scene, _measure(task, scene, references), plan.repeats, plan.budget)
+            mine.append((index, {"scene": task.scene,
+                                 "refined": TOGETHER if task.scene == IMPACT else "both",
+                                 "method": task.method, "scheme": task.scheme,
+                                 "mass": scene["discretisation.mass"], "cells": p.cells,
+                                 "dt": p.dt, "status": p.status, **p.errors,
+                                 "seconds": p.seconds, "us_per_step": p.us_per_step,
                                  "iterations_mean": p.iterations_mean, "message": p.message}))
             stopped = p.status == "interrupted"
             if stopped:
@@ -122,14 +194,16 @@ def sweep(plan: Plan, comm: MPI.Comm, report=None) -> tuple[list[dict], list[dic
         if stopped:
             break
         if report is not None:
-            report(f"[{index + 1}/{len(todo)}] {scene}, {method}, {scheme}: "
-                   f"{len(ladder)} runs in {time.perf_counter() - started:.1f} s")
+            report(f"[{index + 1}/{len(todo)}] {task.name()}: {len(ladder)} runs in "
+                   f"{time.perf_counter() - started:.1f} s")
     gathered = comm.allgather((stopped, mine, rejected))
     if any(s for s, _, _ in gathered):
         return None
     records = [r for _, r in sorted((pair for _, part, _ in gathered for pair in part),
                                     key=lambda p: p[0])]
-    rejected = [r for _, _, part in gathered for r in part]
+    order = {(t.scene, t.method, t.scheme, t.mass): i for i, t in enumerate(todo)}
+    rejected = sorted((r for _, _, part in gathered for r in part),
+                      key=lambda r: order[r["scene"], r["method"], r["scheme"], r["mass"]])
     info = {s: {"cells": plan.reference[0], "dt": 1.0 / plan.reference[1],
                 "scheme": plan.reference_scheme, "seconds": references[s][1],
                 "u1_max_against_half_resolution": references[s][2]}
@@ -157,6 +231,24 @@ def reach(records: list[dict], scene: str = TARGET_SCENE, target: float = TARGET
             "ratio": ratio, "goal": 0.2, "meets_goal": bool(math.isfinite(ratio) and ratio <= 0.2)}
 
 
+def impact_summary(records: list[dict], rejected: list[dict]) -> dict | None:
+    """The impact's choices at their finest h = Δt: the error (:data:`IMPACT_MEASURE`) and wall
+    time of each (mass, scheme, method), the most accurate, and how many the scene rejects."""
+    mine = [r for r in records if r["scene"] == IMPACT]
+    if not mine:
+        return None
+    finest = {}
+    for r in mine:
+        key = f"{r['mass']}, {r['scheme']}, {r['method']}"
+        if r["status"] == "complete" and math.isfinite(r[IMPACT_MEASURE]) \
+                and (key not in finest or r["dt"] < finest[key]["dt"]):
+            finest[key] = {"dt": r["dt"], "error": r[IMPACT_MEASURE], "seconds": r["seconds"]}
+    best = min(finest, key=lambda k: finest[k]["error"]) if finest else None
+    return {"measure": IMPACT_MEASURE, "against": "exact solution (rodfem.model.impact)",
+            "finest": finest, "best": best,
+            "rejected": len([r for r in rejected if r["scene"] == IMPACT])}
+
+
 def run_work_precision(out: Path, plan: Plan, force: bool, progress: bool, comm: MPI.Comm
                        ) -> dict | None:
     """Prepare ``out``, run the ladders, write workprecision.csv/json (rank 0); the data, or None
@@ -176,10 +268,11 @@ def run_work_precision(out: Path, plan: Plan, force: bool, progress: bool, comm:
     data = {"end": plan.end, "plan": plan.as_dict(), "reference_method": "direct",
             "references": references, "target": TARGET, "target_scenes": [TARGET_SCENE],
             "reach": reach(records) if TARGET_SCENE in plan.scenes else None,
+            "impact": impact_summary(records, rejected),
             "rejected": rejected, "points": records, "seconds": seconds,
             "machine": machine(comm)}
     if comm.rank == 0:
-        write_csv(out / FILES[0], ERROR_COLUMNS, records)
+        write_csv(out / FILES[0], COLUMNS, records)
     write_json(out / FILES[1], data, comm)
     comm.barrier()
     return data
@@ -195,4 +288,10 @@ def summary_lines(data: dict, out: Path) -> list[str]:
         if r["fastest"]:
             lines.append(f"fastest: {r['fastest']}, {r['ratio']:.3g} of {r['paper_choice']}'s "
                          f"time (goal <= {r['goal']:g})")
+    i = data.get("impact")
+    if i and i["best"]:
+        b = i["finest"][i["best"]]
+        lines.append(f"impact: smallest L¹ error of u(1,·) against the exact solution at "
+                     f"h = Δt = {b['dt']:g}: {b['error']:.3g} ({i['best']}, {b['seconds']:.3g} s); "
+                     f"{i['rejected']} choices the scene rejects")
     return lines
