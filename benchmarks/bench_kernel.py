@@ -9,6 +9,12 @@ alone takes about a minute and 5 GB there). Each is repeated and the fastest kep
 shared machines drift by tens of percent between runs, so only numbers taken together compare.
 
     .venv/bin/python benchmarks/bench_kernel.py [--cells 250,10000,100000,1000000] [--repeats 5]
+
+``--shapes`` instead times the kernel alone on the band shapes that direct.c gives constant loop
+bounds, at ``--cells`` (default 1000), Δt = 1e-3 to t = 3, in one session: paper1 (a ≠ 0) and
+the impact scene (a = 0, the decoupled case, narrower band) with each mass.
+
+    .venv/bin/python benchmarks/bench_kernel.py --shapes [--cells 1000] [--repeats 5]
 """
 
 from __future__ import annotations
@@ -62,6 +68,53 @@ def kernel_loop(cells: int, end: float, repeats: int) -> dict:
             "setup_seconds": setup, "band": k.band, "blocked": k.blocked, "classes": k.classes}
 
 
+# (label, scene, overrides) of --shapes: a ≠ 0 and a = 0, each mass.
+SHAPES = [
+    ("paper1", "paper1", []),
+    ("paper1 consistent", "paper1", ["discretisation.mass=consistent"]),
+    ("paper1 cn redistributed zeta=0", "paper1", ["time.scheme=crank-nicolson", "model.zeta=0",
+                                                  "discretisation.mass=redistributed"]),
+    ("impact (a=0, rigid, cn redistributed)", "impact", []),
+    ("impact redistributed-lumped", "impact", ["discretisation.mass=redistributed-lumped"]),
+    ("impact lumped, paper", "impact", ["discretisation.mass=lumped", "time.scheme=paper"]),
+    ("impact consistent, paper", "impact", ["discretisation.mass=consistent",
+                                            "time.scheme=paper"]),
+]
+
+
+def shape_loop(scene_name: str, overrides: list[str], cells: int, repeats: int) -> dict:
+    """µs per step of the kernel alone (the fastest of ``repeats`` runs of t = 0 .. 3)."""
+    scene = rodfem.scene.load(scene_name, ["solver.method=direct", f"mesh.cells={cells}",
+                                           "time.dt=0.001", "time.end=3", *overrides])
+    disc = Discretisation(scene, MPI.COMM_SELF)
+    scheme, history = DirectMethod(disc), History(disc)
+    k = kernel.DirectKernel(scheme, history)
+    scheme.advance()
+    state, u_prev, pressure = scheme.values.copy(), scheme.u_prev.array.copy(), scheme.pressure
+    steps = scene.steps - 1
+    rows = np.zeros((steps, len(RAW_INDEX)))
+    runs = []
+    for _ in range(repeats):
+        scheme.values[:] = state
+        scheme.u_prev.array[:] = u_prev
+        scheme.n, scheme.pressure = 1, pressure
+        t = time.perf_counter()
+        k.advance(steps, rows)
+        runs.append(1e6 * (time.perf_counter() - t) / steps)
+    return {"us_per_step": min(runs), "us_per_step_runs": runs, "steps": steps,
+            "contact_steps": int(np.count_nonzero(rows[:, RAW_INDEX["pressure"]])),
+            "band": k.band, "r_slots": list(k._problem.r_slots),
+            "e_slots": list(k._problem.e_slots)}
+
+
+def shapes(cells: int, repeats: int) -> None:
+    for label, name, overrides in SHAPES:
+        r = shape_loop(name, overrides, cells, repeats)
+        print(f"{label:40s} {r['us_per_step']:7.2f} µs/step at {cells} cells (kl = "
+              f"{r['band']['kl_kept']}, R slots {r['r_slots']}, E slots {r['e_slots']}; "
+              f"{r['contact_steps']} of {r['steps']} steps in contact)", flush=True)
+
+
 def c_loop(binary: Path, cells: int, end: float, repeats: int) -> dict:
     done = subprocess.run([str(binary), str(cells), "0.001", str(end), "0.01", "1", "0.2",
                            "lumped", "1e-10", "100"], check=True, capture_output=True, text=True,
@@ -74,7 +127,12 @@ def main() -> None:
     parser.add_argument("--cells", default="250,10000,100000,1000000")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--out", type=Path, default=HERE / "results")
+    parser.add_argument("--shapes", action="store_true",
+                        help="time the kernel alone on its band shapes (a != 0, a = 0)")
     args = parser.parse_args()
+    if args.shapes:
+        cells = 1000 if args.cells == parser.get_default("cells") else int(args.cells)
+        return shapes(cells, args.repeats)
     cc = shutil.which("cc")
     if cc is None or not kernel.available():
         raise SystemExit(f"bench_kernel: needs cc and the kernel ({kernel.unavailable_reason()})")

@@ -40,6 +40,22 @@ CASES += [("paper1", "paper", ("obstacle.kind=rigid",)),
           ("paper1", "crank-nicolson", ("discretisation.mass=consistent",)),
           ("paper1", "paper", ("model.a=0",)),
           ("paper1", "paper", ("model.b=0",))]
+# The redistributed masses (rodfem.solver.methods.massless): the end without mass, and with
+# Crank–Nicolson and ζ = 0 eliminated, its law in series with the last cell; the impact scene
+# (a = 0, the rigid obstacle or an elastic one) and a ≠ 0 (paper1 with ζ = 0).
+REDISTRIBUTED = [(name, scheme, (f"discretisation.mass={mass}", f"model.zeta={zeta}"))
+                 for name in ("paper1", "paper5")
+                 for mass in ("redistributed", "redistributed-lumped")
+                 for scheme in ("paper", "crank-nicolson") for zeta in (0.2, 0)]
+REDISTRIBUTED += [("impact", "crank-nicolson", (f"discretisation.mass={mass}", *obstacle))
+                  for mass in ("redistributed", "redistributed-lumped")
+                  for obstacle in ((), ("obstacle.kind=elastic", "obstacle.epsilon=1e-2"))]
+CASES += REDISTRIBUTED
+
+
+def ids(value) -> str:
+    """A parameter's test id: overrides as they read."""
+    return " ".join(value) or "-" if isinstance(value, tuple) else str(value)
 
 
 def relative(a: np.ndarray, b: np.ndarray, scale=None) -> np.ndarray:
@@ -96,7 +112,7 @@ def test_available():
     assert kernel.available(), kernel.unavailable_reason()
 
 
-@pytest.mark.parametrize("name,time_scheme,overrides", CASES)
+@pytest.mark.parametrize("name,time_scheme,overrides", CASES, ids=ids)
 def test_agrees_with_petsc_loop(name, time_scheme, overrides):
     steps, petsc, rows, compiled, rows_k, k = run_both(name, time_scheme, overrides)
     tol = PER_STEP * steps
@@ -121,13 +137,58 @@ def test_agrees_with_petsc_loop(name, time_scheme, overrides):
                     column_scales(rows, petsc)[4]) <= tol
 
 
-@pytest.mark.parametrize("overrides", [(), ("discretisation.mass=consistent",),
-                                       ("obstacle.kind=rigid",), ("model.a=0",)])
-def test_dgbtrs_path(overrides):
+@pytest.mark.parametrize("name,time_scheme,overrides", [
+    ("paper1", "paper", ()), ("paper1", "paper", ("discretisation.mass=consistent",)),
+    ("paper1", "paper", ("obstacle.kind=rigid",)), ("paper1", "paper", ("model.a=0",)),
+    ("paper1", "crank-nicolson", ("discretisation.mass=redistributed",)),
+    ("paper1", "crank-nicolson", ("discretisation.mass=redistributed", "model.zeta=0")),
+    ("impact", "crank-nicolson", ())], ids=ids)
+def test_dgbtrs_path(name, time_scheme, overrides):
     """The plain dgbtrs substitutions (what the kernel does when dgbtrf pivots)."""
-    steps, petsc, rows, _, rows_k, k = run_both("paper1", "paper", overrides, blocked=False)
+    steps, petsc, rows, _, rows_k, k = run_both(name, time_scheme, overrides, blocked=False)
     assert not k.blocked
     assert np.all(relative(rows_k, rows, column_scales(rows, petsc)) <= PER_STEP * steps)
+    np.testing.assert_array_equal(rows_k[:, 4] != 0, rows[:, 4] != 0)
+
+
+@pytest.mark.parametrize("name,overrides,kind", [
+    ("paper1", ("discretisation.mass=redistributed",), "RC_END_MASS"),
+    ("paper1", ("discretisation.mass=redistributed", "model.zeta=0"), "RC_END_MASSLESS"),
+    ("impact", (), "RC_END_MASSLESS")], ids=ids)
+def test_detects_a_wrong_end(name, overrides, kind):
+    """The comparison sees how the end is treated: the kernel told that the end has its mass
+    (the midpoint rule for D(1)), or that an eliminated end is merely massless (no settling, the
+    law in series taken at U(1)), is caught."""
+    scene, petsc, hp, compiled, _, k = pair(name, "crank-nicolson", overrides)
+    k._problem.end.kind = getattr(k._lib, kind)
+    steps = scene.steps
+    rows = np.zeros((steps, 7))
+    k.advance(steps, rows)
+    for _ in range(steps):
+        petsc.advance()
+        hp.record(petsc)
+    expected = hp._rows[:steps]
+    assert np.max(relative(rows, expected, column_scales(expected, petsc))) > 100 * PER_STEP * steps
+
+
+@pytest.mark.parametrize("overrides,loop", [
+    ((), kernel.DirectKernel),
+    (("discretisation.mass=redistributed-lumped", "obstacle.kind=elastic"), kernel.DirectKernel),
+    (("obstacle.kind=elastic", "obstacle.law=power", "obstacle.exponent=1.5"), None)], ids=ids)
+def test_compiled_loop_of_a_redistributed_mass(overrides, loop):
+    """compiled_loop runs the redistributed masses in the kernel, but for the eliminated end
+    with the power law (its law in series has no closed form), which the kernel refuses."""
+    from rodfem.solver.compiled import compiled_loop
+
+    scene = rodfem.scene.load("impact", ["mesh.cells=20", *overrides])
+    disc = Discretisation(scene, COMM)
+    method, history = DirectMethod(disc), History(disc)
+    assert method.massless is not None
+    chosen = compiled_loop(method, history)
+    assert type(chosen) is loop if loop else chosen is None
+    if loop is None:
+        with pytest.raises(ValueError, match="power law"):
+            kernel.DirectKernel(method, history)
 
 
 @pytest.mark.parametrize("time_scheme", ["paper", "crank-nicolson"])

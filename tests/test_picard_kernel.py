@@ -31,8 +31,18 @@ from rodfem.solver.methods.picard import PicardMethod, PicardNotConverged
 
 EPS = np.finfo(float).eps
 PER_STEP = 64 * EPS
-CASES = [(name, scheme, mass) for name in rodfem.scene.BUILTIN
+CASES = [(name, scheme, mass, ()) for name in rodfem.scene.BUILTIN
          for scheme in ("paper", "crank-nicolson") for mass in ("lumped", "consistent")]
+# The redistributed masses (rodfem.solver.methods.massless): the end without mass, and with
+# Crank–Nicolson and ζ = 0 eliminated, its law in series with the last cell.
+CASES += [(name, scheme, mass, (f"model.zeta={zeta}",)) for name in ("paper1", "paper5")
+          for scheme in ("paper", "crank-nicolson")
+          for mass in ("redistributed", "redistributed-lumped") for zeta in (0.2, 0)]
+
+
+def ids(value) -> str:
+    """A parameter's test id: overrides as they read."""
+    return " ".join(value) or "-" if isinstance(value, tuple) else str(value)
 
 
 def relative(a: np.ndarray, b: np.ndarray, scale=None) -> np.ndarray:
@@ -63,10 +73,11 @@ def test_available():
     assert picard_kernel.available(), picard_kernel.unavailable_reason()
 
 
-@pytest.mark.parametrize("name,time_scheme,mass", CASES)
-def test_agrees_with_petsc_loop(name, time_scheme, mass):
+@pytest.mark.parametrize("name,time_scheme,mass,extra", CASES, ids=ids)
+def test_agrees_with_petsc_loop(name, time_scheme, mass, extra):
     scene, petsc, h_petsc, compiled, h_compiled, kernel = pair(
-        name, ["time.end=2", f"time.scheme={time_scheme}", f"discretisation.mass={mass}"])
+        name, ["time.end=2", f"time.scheme={time_scheme}", f"discretisation.mass={mass}",
+               *extra])
     steps = scene.steps
     for _ in range(steps):
         petsc.advance()
@@ -170,6 +181,27 @@ def test_refuses():
         kernel.advance(1, history.reserve(1))
 
 
+@pytest.mark.parametrize("overrides,kind", [
+    (("discretisation.mass=redistributed",), "RC_END_MASS"),
+    (("discretisation.mass=redistributed", "model.zeta=0"), "RC_END_MASSLESS")], ids=ids)
+def test_detects_a_wrong_end(overrides, kind):
+    """The comparison sees how the end is treated: the kernel told that the end has its mass
+    (the midpoint rule for D(1)), or that an eliminated end is merely massless (no settling, the
+    law in series taken at U(1)), is caught (paper1, Crank–Nicolson)."""
+    scene, petsc, h_petsc, compiled, h_compiled, kernel = pair(
+        "paper1", ["time.end=2", "time.scheme=crank-nicolson", *overrides])
+    kernel._problem.end.kind = getattr(kernel._lib, kind)
+    steps = scene.steps
+    for _ in range(steps):
+        petsc.advance()
+        h_petsc.record(petsc)
+    kernel.advance(steps, h_compiled.reserve(steps))
+    h_compiled.commit(steps)
+    rows, rows_k = h_petsc.take(), h_compiled.take()
+    error = relative(rows_k, rows, column_scales(rows, petsc))
+    assert np.max(error) > 100 * PER_STEP * steps
+
+
 def run_kernel(name: str, overrides, compress: bool):
     """The scene's steps through the kernel (after the caller's first step): the history's raw
     rows, the state, u_prev, n, iterations, pressure, and the error raised (or None)."""
@@ -200,13 +232,14 @@ def bits(x) -> np.ndarray:
     return np.ascontiguousarray(np.asarray(x, dtype=float)).view(np.int64)
 
 
-@pytest.mark.parametrize("name,time_scheme,mass",
-                         [c for c in CASES if c[0] in ("paper1", "paper5")])
-def test_compressed_bitwise_as_uncompressed(name, time_scheme, mass):
+@pytest.mark.parametrize("name,time_scheme,mass,extra",
+                         [c for c in CASES if c[0] in ("paper1", "paper5")], ids=ids)
+def test_compressed_bitwise_as_uncompressed(name, time_scheme, mass, extra):
     """The coefficient rows tabled by class (compress=True) give the same numbers, in the same
     order, as a row per node (compress=False): the same history, iterations, state and pressure
     bit for bit."""
-    overrides = ["time.end=2", f"time.scheme={time_scheme}", f"discretisation.mass={mass}"]
+    overrides = ["time.end=2", f"time.scheme={time_scheme}", f"discretisation.mass={mass}",
+                 *extra]
     tabled, a, _ = run_kernel(name, overrides, True)
     per_node, b, _ = run_kernel(name, overrides, False)
     assert set(per_node.classes.values()) == {per_node.n}

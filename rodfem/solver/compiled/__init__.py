@@ -21,11 +21,14 @@ def compiled_loop(method, history):
     """The compiled time loop of the direct method (:mod:`.direct`) or of Picard's
     (:mod:`.picard`) where it applies and can be built, else None: the same steps, a block of
     them per C call, to round-off (Picard: the same iterations). RODFEM_KERNEL=0 in the
-    environment keeps the PETSc loop; so do sources (the manufactured scene), Newton, and Picard
-    with a = 0 or a rigid obstacle."""
+    environment keeps the PETSc loop; so do sources (the manufactured scene), Newton, Picard
+    with a = 0 or a rigid obstacle, and an eliminated massless end with the power law
+    (:func:`.loop.end_supported`)."""
+    from rodfem.solver.compiled.loop import end_supported
+
     if os.environ.get("RODFEM_KERNEL", "1") == "0":
         return None
-    if any(f is not None for f in method.sources.values()) or method.disc.redistributed:
+    if any(f is not None for f in method.sources.values()) or not end_supported(method):
         return None
     if method.name == "direct":
         from rodfem.solver.compiled import direct as module

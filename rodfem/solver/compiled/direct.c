@@ -13,6 +13,13 @@
  *
  * and the history row of the new state: U(1), D(1), U(0.5), the bulk energy 1/2 (E s + 2w).s and p.
  *
+ * A redistributed mass (rodfem/solver/methods/massless.py, contact.h's rc_end) changes the end
+ * x = 1 only: without its mass, D(1) = U^n(1) - U^(n-1)(1); eliminated (Crank-Nicolson, zeta =
+ * 0), the law (in series with the last cell) is taken at the end's free position y, a row on
+ * Theta and U of nodes n-2 and n-1: c = y of the old state, s1 = c + y's row on z, w and the
+ * law those of y (set by the caller), and after the update the end is settled (U(1), D(1)) and
+ * the force there is the step's recorded p.
+ *
  * Everything here is in *node-interleaved* order, where the operators are banded with a small
  * band: the state is packed as s[3 i + k] (k = 0 Theta, 1 D, 2 U of node i), with g ghost nodes of
  * zeros on each side so that a row never branches at the ends; [dTheta; dU] as z[2 i + c]. R and
@@ -26,7 +33,8 @@
  * the rows below j (an axpy); the backward pass is dtbsv's column-oriented upper-triangular solve,
  * which finishes z[j] at column j, highest first. Its first column is dU(1) (x = 1 is the last
  * node), so the contact force p is known after one column, and each node's x = z + p q is final,
- * and the state updated, as soon as its two columns are done. So a step is two passes over the
+ * and the state updated, as soon as its two columns are done (an eliminated end's p after the
+ * columns of nodes n-1 and n-2, whose update waits for it). So a step is two passes over the
  * nodes:
  *
  *   forward (ascending):   rows of R s + b computed just before the elimination reaches them
@@ -87,9 +95,11 @@ typedef struct {
     const int *e_offset;
     const double *e_value; /* e classes x (e_slots[0] + e_slots[1] + e_slots[2]) */
     const double *two_w;   /* e classes x 3 */
-    /* the contact: the compliance w and the obstacle (contact.h) */
+    /* the contact: the compliance w and the obstacle (contact.h); an eliminated end's w and law
+     * are those of its free position y */
     double w;
     rc_obstacle obstacle;
+    rc_end end;            /* the end x = 1: with mass, without, or eliminated (contact.h) */
     int midpoint_inertia;  /* D = 2 dU - D (Crank-Nicolson with inertia), else D = dU */
     /* positions in the packed state (ghosts not counted) of U(1), D(1) and around x = 0.5 */
     int u_1, du_1, half_i, half_j;
@@ -175,20 +185,33 @@ RK_INLINE void forward(const rk_problem *P, const double *sp, double *z, const s
     }
 }
 
-/* The state update of node i by x = z + p q, and (lagged) the energy rows of node i + e_ghost. */
-RK_INLINE void accept_node(const rk_problem *P, double *sp, double *u_prev, int i,
-                           double x_theta, double x_u, double p, double *energy, const shape S)
+/* The state update of node i by x = z + p q. An end without mass has no velocity of its own:
+ * D(1) = U^n(1) - U^(n-1)(1) (Method._accept); `last` says whether i is that node, a constant
+ * 0 in the loops over the other nodes, so that they do not test it. */
+RK_INLINE void update_node(const rk_problem *P, double *sp, double *u_prev, int i,
+                           double x_theta, double x_u, double p, int last)
 {
     if (p != 0.0) {
         x_theta += p * P->q[2 * (size_t)i];
         x_u += p * P->q[2 * (size_t)i + 1];
     }
     double *si = sp + 3 * (ptrdiff_t)i;
+    const double u_old = si[2];
     si[0] += x_theta;
     if (u_prev)
-        u_prev[i] = si[2];
+        u_prev[i] = u_old;
     si[2] += x_u;
     si[1] = P->midpoint_inertia ? (x_u - si[1]) + x_u : x_u;
+    if (last && P->end.kind != RC_END_MASS)
+        si[1] = si[2] - u_old;
+}
+
+/* The state update of node i, and (lagged) the energy rows of node i + e_ghost. */
+RK_INLINE void accept_node(const rk_problem *P, double *sp, double *u_prev, int i,
+                           double x_theta, double x_u, double p, int last, double *energy,
+                           const shape S)
+{
+    update_node(P, sp, u_prev, i, x_theta, x_u, p, last);
     if (i + P->e_ghost < P->n)
         *energy += energy_rows(P, sp, i + P->e_ghost, S);
 }
@@ -201,19 +224,72 @@ RK_INLINE double contact(const rk_problem *P, const double *sp, double z_u_1)
     return 0.0;
 }
 
+/* A node's two unknowns, (dTheta, dU), returned by value: nothing of the loops' takes an address,
+ * so that all of it stays in registers. */
+typedef struct {
+    double theta, u;
+} node_pair;
+
+/* The eliminated end (contact.h's rc_end; DirectMethod._step with a MasslessEnd), in two parts
+ * around the update of nodes n-1 and n-2, which wait for each other. First the step's p: the
+ * law in series at y, from c = y of the old state and the free increments zb of node n-1 and za
+ * of node n-2. */
+RK_INLINE double end_contact(const rk_problem *P, const double *sp, node_pair zb, node_pair za)
+{
+    const rc_end *E = &P->end;
+    const double *sa = sp + 3 * (ptrdiff_t)(P->n - 2), *sb = sa + 3;
+    const double c = rc_end_position(E, sa[0], sb[0], sa[2], sb[2]);
+    const double s1 = c + rc_end_moved(E, za.theta, zb.theta, za.u, zb.u);
+    return rc_contact_needed(&P->obstacle, s1, c) ? rc_solve(&P->obstacle, s1, P->w, c) : 0.0;
+}
+
+/* Then, once both are updated (U(1) was u_old), the end settled, and the energy rows that the
+ * update of both would have summed, now that they read the settled end. Returns the settled
+ * force, the step's recorded p. */
+RK_INLINE double end_settle(const rk_problem *P, double *sp, double u_old, double *energy,
+                            const shape S)
+{
+    const rc_end *E = &P->end;
+    const int n = P->n;
+    double *sa = sp + 3 * (ptrdiff_t)(n - 2), *sb = sa + 3;
+    double u_1;
+    const double y = rc_end_position(E, sa[0], sb[0], sa[2], sb[2]);
+    const double force = rc_end_settle(E, &P->obstacle, y, &u_1);
+    sb[2] = u_1;
+    sb[1] = u_1 - u_old;
+    for (int i = n - 1; i >= n - 2; i--)
+        if (i + P->e_ghost < n)
+            *energy += energy_rows(P, sp, i + P->e_ghost, S);
+    return force;
+}
+
+/* The update of nodes n-1 (zb) and n-2 (za) by x = z + p q, p = end_contact's, and end_settle.
+ * Returns the recorded p. */
+RK_INLINE double eliminated_end(const rk_problem *P, double *sp, double *u_prev, node_pair zb,
+                                node_pair za, double p, double *energy, const shape S)
+{
+    const int n = P->n;
+    const double u_old = sp[3 * (ptrdiff_t)(n - 1) + 2];
+    update_node(P, sp, u_prev, n - 1, zb.theta, zb.u, p, 1);
+    update_node(P, sp, u_prev, n - 2, za.theta, za.u, p, 0);
+    return end_settle(P, sp, u_old, energy, S);
+}
+
 RK_INLINE void energy_tail(const rk_problem *P, const double *sp, double *energy, const shape S)
 {
     for (int m = (P->e_ghost < P->n ? P->e_ghost : P->n) - 1; m >= 0; m--)
         *energy += energy_rows(P, sp, m, S);
 }
 
-/* dtbsv's backward pass, then the state update: returns p, and the new state's energy. */
+/* dtbsv's backward pass, then the state update: returns the step's recorded p, and the new
+ * state's energy. An eliminated end's p needs the nodes n-1 and n-2 solved, and their update
+ * waits for it. */
 RK_INLINE double backward(const rk_problem *P, double *sp, double *z, double *u_prev,
                           double *energy, const shape S)
 {
     const int ku = S.ku;
-    const int N = 2 * P->n;
-    double p = 0.0;
+    const int N = 2 * P->n, eliminated = P->end.kind == RC_END_ELIMINATED;
+    double p = 0.0, recorded = 0.0;
     *energy = 0.0;
     for (int j = N - 1; j >= 0; j--) {
         const double t = z[j] * P->rdiag[j];
@@ -222,13 +298,21 @@ RK_INLINE double backward(const rk_problem *P, double *sp, double *z, double *u_
         const double *col = P->upper + (size_t)j * ku;
         for (int i = 0; i < top; i++)
             z[j - 1 - i] -= t * col[i];
+        if (eliminated && j >= N - 4) {
+            if (j == N - 4) {
+                const node_pair zb = {z[N - 2], z[N - 1]}, za = {z[N - 4], z[N - 3]};
+                p = end_contact(P, sp, zb, za);
+                recorded = eliminated_end(P, sp, u_prev, zb, za, p, energy, S);
+            }
+            continue;
+        }
         if (j == N - 1)
-            p = contact(P, sp, t);
+            recorded = p = contact(P, sp, t);
         if (!(j & 1))
-            accept_node(P, sp, u_prev, j >> 1, z[j], z[j + 1], p, energy, S);
+            accept_node(P, sp, u_prev, j >> 1, z[j], z[j + 1], p, j == N - 2, energy, S);
     }
     energy_tail(P, sp, energy, S);
-    return p;
+    return recorded;
 }
 
 
@@ -264,38 +348,57 @@ RK_INLINE void forward_blocked(const rk_problem *P, const double *sp, double *z,
     }
 }
 
-/* U x = y by nodes, from the last: x_i = D_i y_i - H_i x_(2i+2 .. 2i+1+ku), D_i the inverse of
- * U's diagonal block [[d00, -d01], [0, d11]], H_i = D_i U_(i, 2i+2 .. 2i+1+ku). The contact force
- * is known after the first node, each node's state updated as soon as it is solved. */
+/* Node i of U x = y by nodes: x_i = D_i y_i - H_i x_(2i+2 .. 2i+1+ku), D_i the inverse of U's
+ * diagonal block [[d00, -d01], [0, d11]], H_i = D_i U_(i, 2i+2 .. 2i+1+ku); win holds the last
+ * ku values of x, and receives x_i. */
+RK_INLINE node_pair solve_node(const rk_problem *P, const double *z, int i, double *win,
+                               const shape S)
+{
+    const int ku = S.ku;
+    const double *h = P->bwd + (size_t)i * (2 * ku + 3);
+    const double y0 = z[2 * i], y1 = z[2 * i + 1];
+    double x0 = h[0] * y0 - h[1] * y1, x1 = h[2] * y1;
+#pragma GCC unroll 8
+    for (int t = ku - 1; t >= 0; t--) {
+        x0 -= h[3 + t] * win[2 + t];
+        x1 -= h[3 + ku + t] * win[2 + t];
+    }
+    win[0] = x0;
+    win[1] = x1;
+#pragma GCC unroll 8
+    for (int t = ku - 1; t >= 0; t--)
+        win[2 + t] = win[t];
+    const node_pair x = {x0, x1};
+    return x;
+}
+
+/* U x = y by nodes, from the last (solve_node). The contact force is known after the first node
+ * (an eliminated end's after the first two), each node's state updated as soon as it is solved
+ * and p known. Returns the step's recorded p. */
 RK_INLINE double backward_blocked(const rk_problem *P, double *sp, const double *z,
                                   double *u_prev, double *energy, const shape S)
 {
-    const int ku = S.ku;
     const int n = P->n;
-    double win[KMAX + 2], p = 0.0;
+    double win[KMAX + 2], p, recorded;
     *energy = 0.0;
-    for (int t = 0; t < ku; t++)
+    for (int t = 0; t < S.ku; t++)
         win[2 + t] = 0.0;
-    for (int i = n - 1; i >= 0; i--) {
-        const double *h = P->bwd + (size_t)i * (2 * ku + 3);
-        const double y0 = z[2 * i], y1 = z[2 * i + 1];
-        double x0 = h[0] * y0 - h[1] * y1, x1 = h[2] * y1;
-#pragma GCC unroll 8
-        for (int t = ku - 1; t >= 0; t--) {
-            x0 -= h[3 + t] * win[2 + t];
-            x1 -= h[3 + ku + t] * win[2 + t];
-        }
-        if (i == n - 1)
-            p = contact(P, sp, x1);
-        win[0] = x0;
-        win[1] = x1;
-#pragma GCC unroll 8
-        for (int t = ku - 1; t >= 0; t--)
-            win[2 + t] = win[t];
-        accept_node(P, sp, u_prev, i, x0, x1, p, energy, S);
+    int i = n - 1;
+    if (P->end.kind == RC_END_ELIMINATED) {
+        const node_pair zb = solve_node(P, z, i--, win, S), za = solve_node(P, z, i--, win, S);
+        p = end_contact(P, sp, zb, za);
+        recorded = eliminated_end(P, sp, u_prev, zb, za, p, energy, S);
+    } else {
+        const node_pair x = solve_node(P, z, i, win, S);
+        recorded = p = contact(P, sp, x.u);
+        accept_node(P, sp, u_prev, i--, x.theta, x.u, p, 1, energy, S);
+    }
+    for (; i >= 0; i--) {
+        const node_pair x = solve_node(P, z, i, win, S);
+        accept_node(P, sp, u_prev, i, x.theta, x.u, p, 0, energy, S);
     }
     energy_tail(P, sp, energy, S);
-    return p;
+    return recorded;
 }
 
 RK_INLINE void steps_loop(const rk_problem *P, double *u_prev, long n0, long steps,
@@ -342,8 +445,11 @@ int rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, lon
     for (int k = 0; k < 3; k++)
         for (int i = 0; i < n; i++)
             sp[3 * (size_t)i + k] = values[(size_t)k * n + i];
-    /* The common cases get constant loop bounds (P1 with a != 0, b != 0; lumped or consistent
-     * mass), the rest the same code with bounds read at run time. */
+    /* The common cases get constant loop bounds (P1, b != 0; a != 0 or a = 0, lumped or
+     * consistent mass, either redistributed or not), the rest the same code with bounds read at
+     * run time. With a = 0 the band is narrower (kl = ku = 2: C is block diagonal, interleaved)
+     * and the momentum rows of R read no Theta: without their own constants these cases ran the
+     * generic loop, slower than the wider a != 0 (benchmarks/bench_kernel.py --shapes). */
     const int blocked = P->fwd != NULL;
     const shape S = {blocked, P->kl, P->reach, P->ku, P->pivoting, P->r_slots[0], P->r_slots[1],
                      P->e_slots[0], P->e_slots[1], P->e_slots[2]};
@@ -355,6 +461,12 @@ int rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, lon
         steps_loop(P, u_prev, n0, steps, rows, pressure, C);
     } else if (RK_SHAPE(3, 3, 9, 3, 3, 3)) {
         const shape C = {1, 3, 3, 3, 0, 3, 9, 3, 3, 3};
+        steps_loop(P, u_prev, n0, steps, rows, pressure, C);
+    } else if (RK_SHAPE(2, 3, 4, 1, 1, 3)) {
+        const shape C = {1, 2, 2, 2, 0, 3, 4, 1, 1, 3};
+        steps_loop(P, u_prev, n0, steps, rows, pressure, C);
+    } else if (RK_SHAPE(2, 3, 6, 3, 3, 3)) {
+        const shape C = {1, 2, 2, 2, 0, 3, 6, 3, 3, 3};
         steps_loop(P, u_prev, n0, steps, rows, pressure, C);
     } else {
         steps_loop(P, u_prev, n0, steps, rows, pressure, S);

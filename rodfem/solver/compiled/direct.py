@@ -16,11 +16,20 @@ and for each new state the raw row of :data:`rodfem.solver.record.RAW` (record.h
 :meth:`rodfem.output.history.History.take` turns into rows of ``history.csv`` as it does the
 PETSc loop's.
 
+A redistributed mass (:mod:`rodfem.solver.methods.massless`) changes only the end x = 1:
+without its mass, Dⁿ(1) = Uⁿ(1) − Uⁿ⁻¹(1); eliminated (Crank–Nicolson, ζ = 0), c and s₁ are
+its free position y (a row on Θ and U of the nodes n − 2 and n − 1, so the update of the last
+node waits for the next one), w and the law are y's (``method.compliance``, the obstacle in
+series with the last cell: the linear law, for the linear law and the rigid obstacle; the power
+law is refused), and after the update the end is settled (``MasslessEnd.settle``) before the
+energy rows that read it, its force the step's p (contact.h's rc_end).
+
 **Node-interleaved order.** Interleaved by node, [Θ₀, D₀, U₀, Θ₁, …] for the state and
 [ΔΘ₀, ΔU₀, ΔΘ₁, …] for the unknowns, every operator couples only neighbouring nodes: C is banded
-(kl = ku = 3 for P1; 1 for a = 0) and a row of R or E reads nodes i − 1 .. i + 1. C is permuted
-so and factored once, by LAPACK's dgbtrf; direct.c does dgbtrs's substitutions, node-blocked
-where there are no row interchanges, with U's diagonal as reciprocals. R and E are stored as
+(kl = ku = 3 for P1; 2 kept for a = 0, where C is block diagonal) and a row of R or E reads
+nodes i − 1 .. i + 1. C is permuted so and factored once, by LAPACK's dgbtrf; direct.c does
+dgbtrs's substitutions, node-blocked where there are no row interchanges, with U's diagonal as
+reciprocals. R and E are stored as
 dense rows over "slots" (the offsets into the packed state some row uses), and each of
 [R | b] and [E | 2w] as a table of its distinct rows with a class number per node
 (:func:`rodfem.solver.compiled.loop.classes`): the same numbers, so the same results bit for bit
@@ -217,8 +226,9 @@ class DirectKernel(CompiledLoop):
         P.r_slots = r_counts
         P.e_slots = e_counts
         P.e_ghost = e_width
-        P.w = method.compliance
+        P.w = method.compliance  # an eliminated end's: that of its free position y
         self.set_obstacle(P.obstacle, method)
+        self.set_end(P.end, self._lib)
         P.midpoint_inertia = self.velocity_update
         P.u_1, P.du_1 = pack(history.u_1), pack(history.du_1)
         P.half_i, P.half_j, P.half_wi, P.half_wj = pack(i), pack(j), wi, wj

@@ -4,8 +4,10 @@ checks of the C side against the Python tables, and the tables of distinct coeff
 A loop is built on a :class:`~rodfem.solver.methods.base.Method` and the run's
 :class:`~rodfem.output.history.History`, reading only their public attributes: the state
 ``values`` = [Θ; D; U] (3n), ``u_prev``, ``n``, ``pressure``, ``iterations``, ``last`` (the node
-x = 1), ``law``, ``time_scheme``, ``inertia``, ``sources``; and the history's positions ``u_1``,
-``du_1``, ``half`` in the state and its ``energy``. :meth:`CompiledLoop.advance` does ``steps``
+x = 1), ``law``, ``time_scheme``, ``inertia``, ``sources``, ``disc.redistributed`` and
+``massless`` (the eliminated end, :mod:`rodfem.solver.methods.massless`: its ``row``,
+``constant`` and ``law``); and the history's positions ``u_1``, ``du_1``, ``half`` in the state
+and its ``energy``. :meth:`CompiledLoop.advance` does ``steps``
 steps as ``method.advance()`` followed by ``history.record(method)`` would, writing raw rows
 (:data:`rodfem.solver.record.RAW`).
 """
@@ -16,6 +18,15 @@ import numpy as np
 
 from rodfem.model.contact import LinearLaw, PowerLaw, RigidObstacle
 from rodfem.solver.record import RAW
+
+
+def end_supported(method) -> bool:
+    """Whether the compiled loops do the method's end x = 1: with its mass, without it, or
+    eliminated (:mod:`rodfem.solver.methods.massless`) with the linear law or the rigid obstacle,
+    whose series with the last cell is the linear law and whose settled end is in closed form
+    (contact.h's rc_end_settle). The power law in series (``InSeries``) is not."""
+    end = method.massless
+    return end is None or isinstance(end.law, LinearLaw)
 
 
 def check_library(lib) -> None:
@@ -63,6 +74,10 @@ class CompiledLoop:
     def __init__(self, method, history):
         if any(f is not None for f in method.sources.values()):
             raise ValueError(f"the {self.what} does not do source terms")
+        if not end_supported(method):
+            raise ValueError(f"the {self.what} does not do the eliminated end with the "
+                             f"{method.law.name} law (its series with the last cell has no "
+                             "closed form)")
         n = method.values.size // 3
         if method.last != n - 1 or history.u_1 != 3 * n - 1 or history.du_1 != 2 * n - 1:
             raise ValueError(f"the {self.what} needs x = 1 at the last node")
@@ -73,11 +88,32 @@ class CompiledLoop:
 
     @staticmethod
     def set_obstacle(target, method) -> None:
-        """Fill contact.h's rc_obstacle from the method's law and time scheme."""
-        law = method.law
+        """Fill contact.h's rc_obstacle from the law of the method's steps (the obstacle's, or an
+        eliminated end's law in series) and time scheme."""
+        law = method.law if method.massless is None else method.massless.law
         target.law = law.code
         target.gradient = int(method.time_scheme.gradient_contact and not law.rigid)
         target.gap, target.epsilon, target.exponent = law.gap, law.epsilon, law.exponent
+
+    def set_end(self, target, lib) -> None:
+        """Fill contact.h's rc_end: the end with its mass, without it (a redistributed mass), or
+        eliminated, with the row of its free position y on Θ and U of the nodes n − 2, n − 1
+        (ValueError if y reads any other entry of the state)."""
+        method, n = self.method, self.n
+        end = method.massless
+        if end is None:
+            target.kind = lib.RC_END_MASSLESS if method.disc.redistributed else lib.RC_END_MASS
+            return
+        entries = [n - 2, n - 1, 3 * n - 2, 3 * n - 1]  # Θ(n−2), Θ(n−1), U(n−2), U(n−1)
+        others = np.delete(end.row, entries)
+        if n < 2 or np.any(others != 0.0):
+            raise ValueError(f"the {self.what} needs the end's free position on Θ and U of the "
+                             "last two nodes")
+        target.kind = lib.RC_END_ELIMINATED
+        target.theta = [float(end.row[n - 2]), float(end.row[n - 1])]
+        target.u = [float(end.row[3 * n - 2]), float(end.row[3 * n - 1])]
+        target.constant = float(end.constant)
+        target.epsilon = float(method.law.epsilon)  # the obstacle's own: 0 for the rigid one
 
     def checked_steps(self, steps: int, rows: np.ndarray) -> int:
         """The arguments of :meth:`advance`, checked: ``steps`` ≥ 0 as an int, not from the paper

@@ -32,6 +32,12 @@
  * in the CSR's column order, as PETSc's MatMultAdd does; the substitutions round differently from
  * PETSc's LU (normalised factors, U L for A_m).
  *
+ * A redistributed mass (rodfem/solver/methods/massless.py, contact.h's rc_end) changes the end
+ * only: without its mass, D(1) = U^n(1) - U^(n-1)(1); eliminated (Crank-Nicolson, zeta = 0), c
+ * and the iterates' U(1) are the end's free position y (c = y of the old state, the iterate's
+ * c + y's row on (T, V)), the law is y's (in series with the last cell), and after the update
+ * the end is settled, before the rows that read it, its force the step's p.
+ *
  * The rows of R and b, of N_du, N_dtheta and e, and of E and 2w repeat bit for bit between
  * nodes: each is a table of its distinct rows and a class (row number) per node, so an iteration
  * streams per node only the factor coefficients a sweep needs (3 doubles each way), a class
@@ -48,7 +54,9 @@ typedef struct {
     int n;                 /* nodes */
     int max_iterations;
     double tol;
-    rc_obstacle obstacle;  /* the law and the time scheme's rule (contact.h) */
+    rc_obstacle obstacle;  /* the law and the time scheme's rule (contact.h); an eliminated
+                              end's law in series */
+    rc_end end;            /* the end x = 1: with mass, without, or eliminated (contact.h) */
     int midpoint_inertia;  /* D = 2 dU - D (Crank-Nicolson with inertia), else D = dU */
     /* Tables of distinct rows, with each node's row number (its class) in *_class: */
     /* rows of 20: the heat row of R (blocks Theta, D, U; each (i-1, i, i+1)), b_h, then the
@@ -147,6 +155,17 @@ static inline void energy_row(const pk_problem *P, int i, const double *th, cons
     e[2] += ROW3(E[11], E + 6, U, i) * U[i];
 }
 
+/* The update of node i by the step's increments T, V; u_prev (up) takes U first. */
+static inline void accept_node(double *restrict th, double *restrict D, double *restrict U,
+                               double *restrict up, const double *restrict T,
+                               const double *restrict V, int i, int midpoint_inertia)
+{
+    th[i] += T[i];
+    up[i] = U[i];
+    U[i] += V[i];
+    D[i] = midpoint_inertia ? (V[i] - D[i]) + V[i] : V[i];
+}
+
 long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0, long steps,
                 double *rows, double *pressure, int *iterations, double *increment,
                 double *last_u_1)
@@ -172,6 +191,8 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
     const double *restrict cpl = P->coupling;
     const int *restrict cc = P->coupling_class;
     const int midpoint_inertia = P->midpoint_inertia;
+    const rc_end *end = &P->end;
+    const int eliminated = end->kind == RC_END_ELIMINATED;
     long done = 0;
     int its = *iterations;
     double p = *pressure, inc = 0.0;
@@ -183,17 +204,22 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
             fixed_row(P, i, th, D, U, h, m, gH, &gh);
     }
     for (long k = 0; k < steps; k++) {
-        const double c = U[n - 1];
+        /* where the law is taken: U(1), or an eliminated end's free position y */
+        const double c = eliminated ? rc_end_position(end, th[n - 2], th[n - 1], U[n - 2],
+                                                      U[n - 1])
+                                    : U[n - 1];
         int l;
         int failed = 0;
         for (int i = 0; i < n; i++) {
             T[i] = 0.0;
             V[i] = 0.0;
         }
-        double deepest = c;  /* the largest U(1) of the iterates, for the failure's message */
+        double deepest = c;  /* the largest U(1) (y) of the iterates, for the failure's message */
         for (l = 1; l <= max_it; l++) {
-            deepest = c + V[n - 1] > deepest ? c + V[n - 1] : deepest;
-            const double q = -rc_contact_force(&P->obstacle, c + V[n - 1], c);
+            const double y = eliminated
+                ? c + rc_end_moved(end, T[n - 2], T[n - 1], V[n - 2], V[n - 1]) : c + V[n - 1];
+            deepest = y > deepest ? y : deepest;
+            const double q = -rc_contact_force(&P->obstacle, y, c);
             double ct, cu, bad, e;
             /* sweep B, descending: T' by A_h's substitution; momentum rhs and elimination one
              * node behind (x1 = T'(i + 1), x2 = T'(i + 2)) */
@@ -270,20 +296,27 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
             *last_u_1 = deepest;
             break;
         }
-        p = rc_contact_force(&P->obstacle, c + V[n - 1], c);
+        p = rc_contact_force(&P->obstacle, eliminated
+            ? c + rc_end_moved(end, T[n - 2], T[n - 1], V[n - 2], V[n - 1]) : c + V[n - 1], c);
         /* accept node i; then, one node behind (they read node i), the energy row of node
          * i - 1 and the next step's fixed parts there */
         double energy[3] = {0.0, 0.0, 0.0}, gh = 0.0;
-        for (int i = 0; i < n; i++) {
-            th[i] += T[i];
-            up[i] = U[i];
-            U[i] += V[i];
-            D[i] = midpoint_inertia ? (V[i] - D[i]) + V[i] : V[i];
-            if (i > 0) {
-                energy_row(P, i - 1, th, D, U, energy);
-                fixed_row(P, i - 1, th, D, U, h, m, gH, &gh);
-            }
+        accept_node(th, D, U, up, T, V, 0, midpoint_inertia);
+        for (int i = 1; i < n - 1; i++) {
+            accept_node(th, D, U, up, T, V, i, midpoint_inertia);
+            energy_row(P, i - 1, th, D, U, energy);
+            fixed_row(P, i - 1, th, D, U, h, m, gH, &gh);
         }
+        /* the end, before the rows that read it: settled if eliminated (its force is the
+         * step's), and without mass it has no velocity of its own, D(1) = U^n(1) - U^(n-1)(1) */
+        accept_node(th, D, U, up, T, V, n - 1, midpoint_inertia);
+        if (eliminated)
+            p = rc_end_settle(end, &P->obstacle, rc_end_position(end, th[n - 2], th[n - 1],
+                                                                  U[n - 2], U[n - 1]), &U[n - 1]);
+        if (end->kind != RC_END_MASS)
+            D[n - 1] = U[n - 1] - up[n - 1];
+        energy_row(P, n - 2, th, D, U, energy);
+        fixed_row(P, n - 2, th, D, U, h, m, gH, &gh);
         energy_row(P, n - 1, th, D, U, energy);
         fixed_row(P, n - 1, th, D, U, h, m, gH, &gh);
         double *row = rows + RAW_SLOTS * k;
