@@ -66,3 +66,32 @@ def test_vtk_reads_the_fields_at_full_precision(simulate):
         right = np.argmax(u.points[:, 0])
         assert u.points[right, 0] == 1.0
         assert abs(u.point_data["u"][right] - history[step, 1]) <= 1e-12
+
+
+def test_a_save_is_the_forms_expressions():
+    """A save computes θ and σ from coefficients read off the forms' expressions once: for any
+    state they are what interpolating the expressions gives, to the round-off of σ's terms
+    (ζ/Δt times the strain)."""
+    import rodfem.scene
+    from rodfem.discrete.discretisation import Discretisation
+    from rodfem.output.fields import FieldFile
+    from rodfem.solver.linalg import stacked
+
+    scene = rodfem.scene.load("paper2", ["mesh.cells=37", "model.a=0.3"])
+    disc = Discretisation(scene, COMM)
+    fields = FieldFile(None, disc)
+    _, (theta, u, u_prev) = stacked(3, disc.nodes.size)
+    rng = np.random.default_rng(7)
+    for vector in (theta, u, u_prev):
+        vector.array[:] = rng.normal(size=disc.nodes.size)
+        vector.array[disc.nodes.x == 0.0] = 0.0
+    fields.write(0, 0.0, theta, u, u_prev)
+    expected = fields._evaluate(theta, u, u_prev)
+    if COMM.rank != 0:
+        return
+    _, _, θ, _, σ = fields._pending[-1]
+    np.testing.assert_array_equal(θ, expected[0])
+    # σ's largest term: (1 + ζ/Δt) |ΔU|/h, summed over six terms
+    scale = (1 + 1.0 / 0.001) * 37 * 4 * np.max(np.abs(u.array_r))
+    assert np.max(np.abs(σ - expected[1])) <= 16 * np.finfo(float).eps * scale
+    assert np.max(np.abs(σ)) > 1e3  # a state that tests the coefficients
