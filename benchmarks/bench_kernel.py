@@ -42,30 +42,40 @@ HERE = Path(__file__).resolve().parent
 END = {250: 2.0, 10_000: 0.5, 100_000: 0.5, 1_000_000: 0.02}
 
 
-def kernel_loop(cells: int, end: float, repeats: int) -> dict:
-    scene = rodfem.scene.load("paper1", ["solver.method=direct", f"mesh.cells={cells}",
-                                         f"time.end={end}"])
+def timed_kernel(scene, repeats: int) -> dict:
+    """The direct method's compiled loop on ``scene`` from step 1 to the end, ``repeats``
+    times from the same state: µs per step (the fastest), and what the loop was."""
     started = time.perf_counter()
     disc = Discretisation(scene, MPI.COMM_SELF)
     scheme, history = DirectMethod(disc), History(disc)
     k = kernel.DirectKernel(scheme, history)
     setup = time.perf_counter() - started
     scheme.advance()
-    state, u_prev = scheme.values.copy(), scheme.u_prev.array.copy()
+    state, u_prev, pressure = scheme.values.copy(), scheme.u_prev.array.copy(), scheme.pressure
     steps = scene.steps - 1
     rows = np.zeros((steps, len(RAW_INDEX)))
     runs = []
     for _ in range(repeats):
         scheme.values[:] = state
         scheme.u_prev.array[:] = u_prev
-        scheme.n = 1
+        scheme.n, scheme.pressure = 1, pressure
         t = time.perf_counter()
         k.advance(steps, rows)
         runs.append(1e6 * (time.perf_counter() - t) / steps)
     return {"us_per_step": min(runs), "us_per_step_runs": runs, "steps": steps,
             "contact_steps": int(np.count_nonzero(rows[:, RAW_INDEX["pressure"]])),
-            "u_1_final": float(rows[-1, RAW_INDEX["u_1"]]),
-            "setup_seconds": setup, "band": k.band, "blocked": k.blocked, "classes": k.classes}
+            "u_1_final": float(rows[-1, RAW_INDEX["u_1"]]), "setup_seconds": setup,
+            "band": k.band, "blocked": k.blocked, "classes": k.classes,
+            "r_slots": list(k._problem.r_slots), "e_slots": list(k._problem.e_slots)}
+
+
+def kernel_loop(cells: int, end: float, repeats: int) -> dict:
+    scene = rodfem.scene.load("paper1", ["solver.method=direct", f"mesh.cells={cells}",
+                                         f"time.end={end}"])
+    result = timed_kernel(scene, repeats)
+    for key in ("r_slots", "e_slots"):
+        del result[key]
+    return result
 
 
 # (label, scene, overrides) of --shapes: a ≠ 0 and a = 0, each mass.
@@ -84,27 +94,9 @@ SHAPES = [
 
 def shape_loop(scene_name: str, overrides: list[str], cells: int, repeats: int) -> dict:
     """µs per step of the kernel alone (the fastest of ``repeats`` runs of t = 0 .. 3)."""
-    scene = rodfem.scene.load(scene_name, ["solver.method=direct", f"mesh.cells={cells}",
-                                           "time.dt=0.001", "time.end=3", *overrides])
-    disc = Discretisation(scene, MPI.COMM_SELF)
-    scheme, history = DirectMethod(disc), History(disc)
-    k = kernel.DirectKernel(scheme, history)
-    scheme.advance()
-    state, u_prev, pressure = scheme.values.copy(), scheme.u_prev.array.copy(), scheme.pressure
-    steps = scene.steps - 1
-    rows = np.zeros((steps, len(RAW_INDEX)))
-    runs = []
-    for _ in range(repeats):
-        scheme.values[:] = state
-        scheme.u_prev.array[:] = u_prev
-        scheme.n, scheme.pressure = 1, pressure
-        t = time.perf_counter()
-        k.advance(steps, rows)
-        runs.append(1e6 * (time.perf_counter() - t) / steps)
-    return {"us_per_step": min(runs), "us_per_step_runs": runs, "steps": steps,
-            "contact_steps": int(np.count_nonzero(rows[:, RAW_INDEX["pressure"]])),
-            "band": k.band, "r_slots": list(k._problem.r_slots),
-            "e_slots": list(k._problem.e_slots)}
+    return timed_kernel(rodfem.scene.load(scene_name, [
+        "solver.method=direct", f"mesh.cells={cells}", "time.dt=0.001", "time.end=3",
+        *overrides]), repeats)
 
 
 def shapes(cells: int, repeats: int) -> None:

@@ -183,7 +183,12 @@ def work_precision_figure(data: dict, scene: str, path: Path) -> Path:
     _log_axis(chart.y_axis, *y_range)
     chart.GetLegend().SetVerticalAlignment(chart.GetLegend().TOP)
     chart.GetLegend().SetHorizontalAlignment(chart.GetLegend().RIGHT)
-    plotter = pv.Plotter(window_size=(1100, 800), off_screen=True)
+    return _save(chart, path, (1100, 800))
+
+
+def _save(chart, path: Path, size: tuple[int, int]) -> Path:
+    """One chart drawn off-screen into ``path``."""
+    plotter = pv.Plotter(window_size=size, off_screen=True)
     plotter.add_chart(chart)
     backend.save_image(plotter, path)
     plotter.close()
@@ -224,11 +229,7 @@ def impact_work_precision_figure(data: dict, path: Path) -> Path:
     _log_axis(chart.y_axis, *y_range)
     chart.GetLegend().SetVerticalAlignment(chart.GetLegend().BOTTOM)
     chart.GetLegend().SetHorizontalAlignment(chart.GetLegend().LEFT)
-    plotter = pv.Plotter(window_size=(1300, 950), off_screen=True)
-    plotter.add_chart(chart)
-    backend.save_image(plotter, path)
-    plotter.close()
-    return path
+    return _save(chart, path, (1300, 950))
 
 
 def _work_precision(data: dict, scene: str, path: Path) -> Path:
