@@ -3,12 +3,19 @@ impact benchmark with its exact solution (rodfem.model.impact): the mass matrix,
 energy identity with the rigid obstacle, the methods' agreement, the accuracy against GetFEM's
 figures on the same benchmark, and the limit ε → 0."""
 
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 import ufl
 
 import forms.copetti as copetti
 import rodfem
+from conftest import serial_only
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.model import impact
 
@@ -166,3 +173,19 @@ def test_a_stiff_obstacle_tends_to_the_rigid_one(scheme):
                     ("u_1", "u_half", "sigma_1", "energy"))
     for name, reference in rigid.items():
         assert np.max(np.abs(stiff[name] - reference)) <= 1e-5, name
+
+
+@serial_only
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+def test_the_demo_runs_under_mpirun():
+    """demos/demo_impact.py, shortened (CI set), under mpirun -n 2: rank 0 reports once, with the
+    end never past the wall and an order in (0.5, 1)."""
+    demo = Path(__file__).resolve().parents[1] / "demos" / "demo_impact.py"
+    env = {**os.environ, "CI": "1", "OMPI_ALLOW_RUN_AS_ROOT": "1",
+           "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
+    done = subprocess.run(["mpirun", "-n", "2", sys.executable, str(demo)], env=env,
+                          capture_output=True, text=True, timeout=600, check=True)
+    assert done.stdout.count("observed order:") == 1
+    order = float(done.stdout.split("observed order:")[1].split()[0])
+    assert 0.5 < order < 1.0
+    assert "largest u(1) 0.0" in done.stdout
