@@ -85,6 +85,8 @@ class Run:
 
     def parameter(self, key: str, math: bool = True) -> str:
         """``symbol = value``, e.g. ``$\\zeta = 0.2$`` in mathtext or ``ζ = 0.2`` in Unicode."""
+        if key == "obstacle.epsilon" and self.scene.get("obstacle.kind") == "rigid":
+            return "rigid obstacle"  # ε is not used
         math_symbol, symbol = PARAMETERS[key]
         value = self.scene[key]
         value = value if isinstance(value, str) else f"{value:g}"
