@@ -33,6 +33,14 @@ def run(scene, **overrides):
     return result.history
 
 
+def dense(A) -> np.ndarray:
+    """A PETSc matrix as a NumPy array (a copy: the dense matrix's own memory goes with it)."""
+    D = A.convert("dense")
+    array = D.getDenseArray().copy()
+    D.destroy()
+    return array
+
+
 def columns(history, names=("u_1", "u_half", "ut_1", "sigma_1", "energy")):
     return {name: np.asarray(history[name], dtype=float) for name in names}
 
@@ -44,8 +52,8 @@ def test_the_contact_node_has_no_mass_and_the_rod_keeps_its_own(mass):
     scene = rodfem.scene.load("paper1", [f"discretisation.mass={mass}", "mesh.cells=8"])
     disc = Discretisation(scene)
     u, v = ufl.TrialFunction(disc.V), ufl.TestFunction(disc.V)
-    M = disc.matrix(lambda: copetti.inertia(u, v, disc.dx_b)).convert("dense").getDenseArray()
-    base = disc.matrix(lambda: copetti.mass(u, v, disc.dx_m)).convert("dense").getDenseArray()
+    M = dense(disc.matrix(lambda: copetti.inertia(u, v, disc.dx_b)))
+    base = dense(disc.matrix(lambda: copetti.mass(u, v, disc.dx_m)))
     assert np.all(M[-1] == 0.0) and np.all(M[:, -1] == 0.0)
     # the clamped node's row holds the identity's 0 in both; the full rod's mass with node 0
     h = 1.0 / 8
