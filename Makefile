@@ -4,7 +4,7 @@ PY := .venv/bin/python
 MPIRUN := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 \
   PRTE_MCA_rmaps_default_mapping_policy=:oversubscribe mpirun
 
-.PHONY: setup demo test test-serial test-mpi fuzz bench clean container-test
+.PHONY: setup demo test test-serial test-mpi fuzz bench clean container-test container-test-sid
 
 setup:
 	@scripts/setup.sh
@@ -36,3 +36,7 @@ bench: setup
 # chroot in build/, the Dockerfile's install step, then `make test` and an mpirun paper run there.
 container-test:
 	scripts/container-test.sh
+
+# The same check of containers/Dockerfile.sid (Debian unstable, dolfinx 0.11) in build/sid.
+container-test-sid:
+	CONTAINER_DOCKERFILE=containers/Dockerfile.sid scripts/container-test.sh

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Check containers/Dockerfile without a Docker engine: carry out its instructions in a Debian root
 # filesystem made by debootstrap, then run the whole test suite (`make test`) and one
-# `mpirun -n 2` paper run there.
+# `mpirun -n 2` paper run there. CONTAINER_DOCKERFILE=containers/Dockerfile.sid checks another
+# recipe (its ignore file is the one BuildKit reads: containers/Dockerfile.sid.dockerignore).
 #
 #   FROM debian:<suite>    debootstrap --variant=minbase <suite> build/<suite> (kept for the next
 #                          run; CONTAINER_FRESH=1 makes it again)
@@ -18,14 +19,16 @@ set -euo pipefail
 self=$(realpath "$0")
 cd "$(dirname "$self")/.."
 repo=$PWD
-dockerfile=containers/Dockerfile
-ignorefile=containers/Dockerfile.dockerignore
+dockerfile=${CONTAINER_DOCKERFILE:-containers/Dockerfile}
+ignorefile=$dockerfile.dockerignore # BuildKit's name for the ignore file of this Dockerfile
 mirror=${CONTAINER_MIRROR:-http://deb.debian.org/debian}
 
 say() { printf 'container-test: %s\n' "$*"; }
 die() { printf 'container-test: %s\n' "$*" >&2; exit 1; }
 
 [ "$(id -u)" = 0 ] || die "needs root (debootstrap, mount, chroot)"
+[ -f "$dockerfile" ] || die "no Dockerfile $dockerfile"
+[ -f "$ignorefile" ] || die "no ignore file $ignorefile next to $dockerfile"
 if [ -z "${RODFEM_CONTAINER_TEST_NS:-}" ]; then
   # Mounts made in a private namespace vanish with it, even if this script is killed.
   exec env RODFEM_CONTAINER_TEST_NS=1 unshare --mount --propagation private "$self" "$@"
@@ -94,9 +97,23 @@ if [ ! -d "$rootfs" ]; then
   logged() { "$@" >"$log" 2>&1; }
   timed "debootstrap $from" logged debootstrap --variant=minbase "$from" "$rootfs.partial" \
     "$mirror" || die "debootstrap failed; see ${log#"$repo/"}"
-  # The sources of Debian's image: the release, its updates and security.
+  # The sources of Debian's image: the release, its updates and security; unstable (sid) has
+  # neither updates nor security suites, and its image lists sid alone.
   rm -f "$rootfs.partial/etc/apt/sources.list"
-  cat >"$rootfs.partial/etc/apt/sources.list.d/debian.sources" <<EOF
+  case $from in
+    sid | unstable) cat >"$rootfs.partial/etc/apt/sources.list.d/debian.sources" <<EOF
+Types: deb
+URIs: $mirror
+Suites: $from
+Components: main
+Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg
+EOF
+      # sid's Release file carries a Valid-Until a week ahead and the mirror reachable here serves
+      # one past it, which apt-get update refuses ("is expired"). Debootstrap does not check it;
+      # apt in the chroot is told not to (Debian's own image needs no such file).
+      echo 'Acquire::Check-Valid-Until "false";' \
+        >"$rootfs.partial/etc/apt/apt.conf.d/99-container-test-no-valid-until" ;;
+    *) cat >"$rootfs.partial/etc/apt/sources.list.d/debian.sources" <<EOF
 Types: deb
 URIs: $mirror
 Suites: $from $from-updates
@@ -109,6 +126,8 @@ Suites: $from-security
 Components: main
 Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg
 EOF
+      ;;
+  esac
   # As in Debian's images: no .deb files kept after installing, no translations.
   cat >"$rootfs.partial/etc/apt/apt.conf.d/docker-clean" <<'EOF'
 DPkg::Post-Invoke { "rm -f /var/cache/apt/archives/*.deb /var/cache/apt/archives/partial/*.deb /var/cache/apt/*.bin || true"; };

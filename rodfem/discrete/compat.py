@@ -1,7 +1,9 @@
 """Every dolfinx call whose spelling differs between the versions rodfem runs on.
 
-Debian 12 ships dolfinx 0.5.2, Debian 13 (the container) 0.9.0. Everything else in rodfem uses
-calls that are the same in both; anything version-specific goes here and nowhere else.
+Debian 12 ships dolfinx 0.5.2, Debian 13 (the container) 0.9.0, Debian unstable (sid) 0.11.0 with
+PETSc 3.25 and FFCx 0.11 (containers/Dockerfile.sid). Everything else in rodfem uses calls that are
+the same in all three; anything version-specific (dolfinx, UFL, basix, FFCx, petsc4py) goes here
+and nowhere else.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import dolfinx
 import dolfinx.fem.petsc
 import ffcx  # noqa: F401  (calls logging.basicConfig(): its handler is quietened below)
 from dolfinx import fem
+from petsc4py import PETSc
 
 VERSION = tuple(int(part) for part in dolfinx.__version__.split(".")[:2])
 
@@ -77,7 +80,10 @@ def set_bc(b, bcs) -> None:
 
 def assemble_matrix(a, bcs, diagonal: float):
     """Assemble a bilinear form into an assembled PETSc matrix."""
-    A = dolfinx.fem.petsc.assemble_matrix(a, bcs=bcs, diagonal=diagonal)
+    if VERSION < (0, 10):
+        A = dolfinx.fem.petsc.assemble_matrix(a, bcs=bcs, diagonal=diagonal)
+    else:  # ``diag`` since the rewrite of dolfinx.fem.petsc in 0.10 (checked on 0.11)
+        A = dolfinx.fem.petsc.assemble_matrix(a, bcs=bcs, diag=diagonal)
     A.assemble()
     return A
 
@@ -89,3 +95,21 @@ def assemble_vector(L):
     b = dolfinx.fem.petsc.assemble_vector(L)
     b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     return b
+
+
+# The reason SNES gives up on a residual that is not finite: PETSc 3.25 (Debian sid, with dolfinx
+# 0.11) renamed SNES_DIVERGED_FNORM_NAN to SNES_DIVERGED_FUNCTION_NANORINF.
+SNES_DIVERGED_NAN = (PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_NANORINF
+                     if hasattr(PETSc.SNES.ConvergedReason, "DIVERGED_FUNCTION_NANORINF")
+                     else PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN)
+
+
+def ffcx_command(ufl_file, directory) -> list[str]:
+    """The arguments of ``python -m ffcx`` that compile ``ufl_file`` into ``directory``: FFCx 0.5
+    and 0.9 spell the output directory ``-o``/``--output-directory``, 0.11 ``-d``/``--dir`` (its
+    ``-o`` is the generated files' name stem)."""
+    import ffcx.main
+
+    options = getattr(ffcx.main.parser, "_option_string_actions", {})
+    flag = "--dir" if "--dir" in options else "--output-directory"
+    return ["-m", "ffcx", str(ufl_file), flag, str(directory)]

@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
+from rodfem.discrete import compat
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.solver.errors import NotConverged, NotFinite
 from rodfem.solver.linalg import LU_OPTIONS, lu_factor, set_default_options, stacked
@@ -185,7 +186,7 @@ class NewtonMethod(Method):
         self.snes.solve(None, self.x)
         reason = self.snes.getConvergedReason()
         iterations = self.snes.getIterationNumber()
-        if reason == PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN:
+        if reason == compat.SNES_DIVERGED_NAN:
             raise NotFinite("newton", self.n + 1, (self.n + 1) * self.dt,
                             "the residual of (3.1)-(3.2)")
         if reason <= 0:
