@@ -28,8 +28,11 @@ def say(message: str, stream=None) -> None:
 
 
 def _advice(scene, error) -> str:
-    """The error, and for Picard the paper's condition and the methods that need none."""
-    if error.method != "picard":
+    """The error, and for Picard's iteration not converging the paper's condition and the
+    methods that need none (an overflow is not the iteration's doing)."""
+    from rodfem.solver.errors import PicardNotConverged
+
+    if not isinstance(error, PicardNotConverged):
         return f"{error}."
     from mpi4py import MPI
 

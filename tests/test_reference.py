@@ -4,9 +4,10 @@ M, K, B, C, z assembled by hand, the Picard loop in matrix form).
 Both codes solve (3.1)–(3.2) for the increments ΔΘⁿ, ΔUⁿ (the reference with ``increment=True``):
 against an 80-bit extended-precision run of paper5 to t = 1, each is within 1e-12. The paper's
 literal form, which solves for Uⁿ and so subtracts numbers of size |U|/Δt² in every step, drifts
-from exact arithmetic by about ε_mach t²/Δt² (1e-10 at t = 1, measured against the same
-extended-precision run), so it is compared with over the horizon where that floor is below the
-tolerance.
+from exact arithmetic by about C ε_mach t²/Δt² (1e-10 at t = 1, measured against the same
+extended-precision run; C depends on the order of the BLAS's sums, and with OpenBLAS 0.3.34 the
+reference's own drift reached 1.8e-10 at t = 0.5), so it is compared with over t ≤ 0.25, where
+that floor is 1.4e-11 C, well below the tolerance, and the first contact (t = 0.186) is covered.
 
 "Relative" is per history column: max |rodfem − reference| / max |reference| over the column; for
 the final fields, max over the nodes against max |reference field|.
@@ -61,7 +62,7 @@ def test_paper_scenes_agree_with_reference(simulate, name, mass):
     compare(simulate, name, [f"discretisation.mass={mass}"], increment=True)
 
 
-@pytest.mark.parametrize("mass, end", [("lumped", 0.5), ("consistent", 0.25)])
+@pytest.mark.parametrize("mass, end", [("lumped", 0.25), ("consistent", 0.25)])
 def test_agrees_with_the_literal_paper_form(simulate, mass, end):
     """The matrix equations exactly as printed in the paper, solved for Uⁿ, over the first
     contact interval (from t = 0.186)."""

@@ -12,6 +12,7 @@ import dataclasses
 import difflib
 import json
 import math
+import stat
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -313,7 +314,11 @@ def read(scene: str | Path) -> tuple[dict, str]:
         return _parse_toml(text, f"scene '{scene}'"), scene
     path = Path(scene)
     try:
-        is_file = path.is_file()
+        # stat, not is_file(): since Python 3.14 is_file() says False for a name longer than
+        # the system allows, where stat raises the error that says why
+        is_file = stat.S_ISREG(path.stat().st_mode)
+    except (FileNotFoundError, NotADirectoryError):
+        is_file = False
     except (OSError, ValueError) as err:  # e.g. a name longer than the system allows
         raise SceneError(f"scene '{shorten(scene)}': cannot be read "
                          f"({getattr(err, 'strerror', None) or err})") from None
