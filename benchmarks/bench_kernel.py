@@ -82,8 +82,9 @@ def kernel_loop(cells: int, end: float, repeats: int) -> dict:
 SHAPES = [
     ("paper1", "paper1", []),
     ("paper1 consistent", "paper1", ["discretisation.mass=consistent"]),
-    ("paper1 cn redistributed zeta=0", "paper1", ["time.scheme=crank-nicolson", "model.zeta=0",
-                                                  "discretisation.mass=redistributed"]),
+    ("paper1 cn redistributed zeta=a=0", "paper1", ["time.scheme=crank-nicolson", "model.zeta=0",
+                                                    "model.a=0",
+                                                    "discretisation.mass=redistributed"]),
     ("impact (a=0, rigid, cn redistributed)", "impact", []),
     ("impact redistributed-lumped", "impact", ["discretisation.mass=redistributed-lumped"]),
     ("impact lumped, paper", "impact", ["discretisation.mass=lumped", "time.scheme=paper"]),

@@ -36,13 +36,11 @@ def _advice(scene, error) -> str:
         return f"{error}."
     from mpi4py import MPI
 
-    from rodfem.model import contact
     from rodfem.solver.methods.direct import compliance
 
     dt, eps, zeta, a = (scene[k] for k in ("time.dt", "obstacle.epsilon", "model.zeta", "model.a"))
     ratio = f"{dt / (eps * zeta):.3g}" if eps * zeta > 0 else "inf (ζ = 0)"
-    w = compliance(scene, MPI.COMM_WORLD)
-    law = contact.of_scene(scene)
+    w, law = compliance(scene, MPI.COMM_WORLD, with_law=True)
     rate = law.contraction(w, error.u_1)
     return (
         f"{error} (tol {scene['solver.tol']:g}). In contact the iteration contracts by about "

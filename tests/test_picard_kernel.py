@@ -33,11 +33,12 @@ EPS = np.finfo(float).eps
 PER_STEP = 64 * EPS
 CASES = [(name, scheme, mass, ()) for name in rodfem.scene.BUILTIN
          for scheme in ("paper", "crank-nicolson") for mass in ("lumped", "consistent")]
-# The redistributed masses (rodfem.solver.methods.massless): the end without mass, and with
-# Crank–Nicolson and ζ = 0 eliminated, its law in series with the last cell.
+# The redistributed masses: the end without mass. (With Crank–Nicolson and ζ = 0 the end is
+# eliminated, which needs a = 0, and Picard with a = 0 is the PETSc loop's.)
 CASES += [(name, scheme, mass, (f"model.zeta={zeta}",)) for name in ("paper1", "paper5")
           for scheme in ("paper", "crank-nicolson")
-          for mass in ("redistributed", "redistributed-lumped") for zeta in (0.2, 0)]
+          for mass in ("redistributed", "redistributed-lumped") for zeta in (0.2, 0)
+          if not (scheme == "crank-nicolson" and zeta == 0)]
 
 
 def ids(value) -> str:
@@ -182,8 +183,7 @@ def test_refuses():
 
 
 @pytest.mark.parametrize("overrides,kind", [
-    (("discretisation.mass=redistributed",), "RC_END_MASS"),
-    (("discretisation.mass=redistributed", "model.zeta=0"), "RC_END_MASSLESS")], ids=ids)
+    (("discretisation.mass=redistributed",), "RC_END_MASS")], ids=ids)
 def test_detects_a_wrong_end(overrides, kind):
     """The comparison sees how the end is treated: the kernel told that the end has its mass
     (the midpoint rule for D(1)), or that an eliminated end is merely massless (no settling, the

@@ -221,12 +221,23 @@ def _check_consistency(scene: Scene) -> None:
             'midpoint rule with U(1) held at g), and the contact force with it; or use "paper"'
         )
     if (redistributed and scene["time.scheme"] == "crank-nicolson" and scene["model.zeta"] == 0.0
-            and scene["model.b"] > 0.0 and scene.source_term("momentum") is not None):
-        raise SceneError(
-            f'source.momentum: not with discretisation.mass = "{scene["discretisation.mass"]}", '
-            'time.scheme = "crank-nicolson" and model.zeta = 0 (the end x = 1 is then in '
-            "equilibrium and eliminated, without a source); use model.zeta > 0 or another mass"
-        )
+            and scene["model.b"] > 0.0):
+        # the end x = 1 has neither mass nor viscosity: it is in equilibrium and is eliminated
+        # (rodfem.solver.methods.massless), which takes its equation as a spring's alone
+        mass = scene["discretisation.mass"]
+        if scene["model.a"] != 0.0:
+            raise SceneError(
+                f'model.a: must be 0 with discretisation.mass = "{mass}", time.scheme = '
+                '"crank-nicolson" and model.zeta = 0 (the end x = 1, without mass nor '
+                "viscosity, is eliminated, and the heat coupling would tie it to its own "
+                'motion); use model.zeta > 0 or time.scheme = "paper"'
+            )
+        if scene.source_term("momentum") is not None:
+            raise SceneError(
+                f'source.momentum: not with discretisation.mass = "{mass}", time.scheme = '
+                '"crank-nicolson" and model.zeta = 0 (the end x = 1 is then in equilibrium and '
+                "eliminated, without a source); use model.zeta > 0 or another mass"
+            )
     dt, end = scene["time.dt"], scene["time.end"]
     if dt > end:
         raise SceneError(f"time.dt: must be <= time.end = {end!r}, got {dt!r}")

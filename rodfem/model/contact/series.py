@@ -21,8 +21,16 @@ with the end never past the obstacle (docs/time-schemes.md).
 
 from __future__ import annotations
 
+import numpy as np
+
 from rodfem.model.contact.law import ContactLaw
 from rodfem.model.contact.linear import LinearLaw
+
+# Gauss–Legendre on (0, 1), 8 points: the mean of ψ' between two close positions, where their
+# secant (ψ(y) − ψ(c))/(y − c) would cancel (ψ is found by a solve, to round-off only).
+_T, _W = np.polynomial.legendre.leggauss(8)
+_T, _W = 0.5 * (_T + 1.0), 0.5 * _W
+CLOSE = 1e-3  # |y − c| up to which, relative to the penetration, the mean is taken
 
 
 class InSeries(ContactLaw):
@@ -46,6 +54,24 @@ class InSeries(ContactLaw):
         """dψ'/dy = φ''/(1 + c φ''), at the end's place u*."""
         curvature = self.law.slope(y - self.compliance * self.force(y))
         return curvature / (1.0 + self.compliance * curvature)
+
+    def _close(self, y: float, c: float) -> bool:
+        return y != c and abs(y - c) <= CLOSE * max(abs(y - self.gap), abs(c - self.gap))
+
+    def gradient(self, y: float, c: float) -> float:
+        """The discrete gradient; between close positions the mean of ψ' over [c, y] by
+        quadrature (equal to the secant up to the quadrature's error, which there is below its
+        round-off), so that Newton's residual can reach its own round-off."""
+        if self._close(y, c):
+            return float(sum(w * self.force(c + t * (y - c)) for t, w in zip(_T, _W)))
+        return super().gradient(y, c)
+
+    def gradient_slope(self, y: float, c: float) -> float:
+        """∂/∂y of :meth:`gradient`: between close positions that of the quadrature,
+        Σ wᵢ tᵢ ψ''(c + tᵢ (y − c))."""
+        if self._close(y, c):
+            return float(sum(w * t * self.slope(c + t * (y - c)) for t, w in zip(_T, _W)))
+        return super().gradient_slope(y, c)
 
 
 def in_series(law, compliance: float) -> ContactLaw:

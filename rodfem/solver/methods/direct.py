@@ -83,12 +83,18 @@ class DirectMethod(Method):
         self.iterations = 1
 
 
-def compliance(scene, comm) -> float:
-    """w of a scene: the response of Uⁿ(1) to a unit contact force over one step. Picard's
-    iteration contracts by about w/ε while the rod touches the obstacle (``rodfem stability``)."""
+def compliance(scene, comm, with_law: bool = False):
+    """w of a scene: the response of Uⁿ(1) to a unit contact force over one step (of the free
+    position y of an eliminated end). Picard's iteration contracts by about w/ε while the rod
+    touches the obstacle (``rodfem stability``). ``with_law``: (w, the law the step sees: the
+    obstacle's, or the obstacle in series with the last cell for an eliminated end)."""
     from rodfem.scene import validate
 
     values = scene.data()
     values["solver"]["method"] = "direct"
     values["obstacle"]["kind"] = "elastic"
-    return DirectMethod(Discretisation(validate(values, scene.source), comm)).compliance
+    method = DirectMethod(Discretisation(validate(values, scene.source), comm))
+    if not with_law:
+        return method.compliance
+    law = method.law if method.massless is None else method.massless.law
+    return method.compliance, law

@@ -4,7 +4,9 @@ scheme without viscosity: its equation is static, and it is eliminated.
 With the redistributed mass the row of x = 1 in the momentum equation has no inertia; with ζ = 0
 nothing else in it has a time derivative either, so it says that the end is in equilibrium:
 
-    K_NN Uⁿ(1) + Σ_{j≠N} K_Nj U_j − a (Θ, η_N') + a θ_A z_N + p = 0.
+    K_NN Uⁿ(1) + Σ_{j≠N} K_Nj U_j + p = 0     (a = 0: the scene's validation refuses a > 0,
+                                               whose coupling would tie the end's temperature,
+                                               and so its equation, to its own motion).
 
 Crank–Nicolson takes every row at the half step, and for an equation without time derivative the
 midpoint rule makes the end alternate about its equilibrium from step to step, and the contact
@@ -43,8 +45,9 @@ class MasslessEnd:
     [ΔΘ; ΔU] of a step), and the obstacle in series with the last cell."""
 
     def __init__(self, method):
-        if any(f is not None for f in method.sources.values()):
-            raise ValueError("the massless end does not take body sources")
+        if method.sources["momentum"] is not None or method.coupled:
+            raise ValueError("the end is eliminated only without a momentum source and with "
+                             "a = 0 (the scene's validation refuses the others)")
         n, last = method.disc.nodes.size, method.last
         N_u, N_theta = method.momentum.N["u_prev"], method.momentum.N["theta_prev"]
         stiffness = -N_u.getValue(last, last)  # K_NN
