@@ -215,8 +215,10 @@ def main(argv: list[str] | None = None) -> int:
         signum = interrupts.signal_behind(err)
         if signum is not None:
             _release("interrupted")
-            commands.say(f"rodfem: {interrupts.Interrupted(signum)}; stopped outside a time "
-                         "loop, nothing half-written")
+            # said by every rank that gets here, not rank 0's alone: this rank may end the others
+            # (_abort_ranks) before rank 0 has said anything
+            print(f"rodfem: {interrupts.Interrupted(signum)}; stopped outside a time loop, "
+                  "nothing half-written", file=sys.stderr, flush=True)
             _abort_ranks(128 + signum)
             return 128 + signum
         if isinstance(err, OSError):  # a write that failed outside a run's loop (a figure)
