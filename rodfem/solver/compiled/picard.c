@@ -33,10 +33,8 @@
  * PETSc's LU (normalised factors, U L for A_m).
  *
  * A redistributed mass (rodfem/solver/methods/massless.py, contact.h's rc_end) changes the end
- * only: without its mass, D(1) = U^n(1) - U^(n-1)(1); eliminated (Crank-Nicolson, zeta = 0), c
- * and the iterates' U(1) are the end's free position y (c = y of the old state, the iterate's
- * c + y's row on (T, V)), the law is y's (in series with the last cell), and after the update
- * the end is settled, before the rows that read it, its force the step's p.
+ * only: without its mass, D(1) = U^n(1) - U^(n-1)(1). (An eliminated end needs a = 0, which this
+ * loop leaves to the PETSc loop.)
  *
  * The rows of R and b, of N_du, N_dtheta and e, and of E and 2w repeat bit for bit between
  * nodes: each is a table of its distinct rows and a class (row number) per node, so an iteration
@@ -54,9 +52,8 @@ typedef struct {
     int n;                 /* nodes */
     int max_iterations;
     double tol;
-    rc_obstacle obstacle;  /* the law and the time scheme's rule (contact.h); an eliminated
-                              end's law in series */
-    rc_end end;            /* the end x = 1: with mass, without, or eliminated (contact.h) */
+    rc_obstacle obstacle;  /* the law and the time scheme's rule (contact.h) */
+    rc_end end;            /* the end x = 1: with its mass or without (contact.h) */
     int midpoint_inertia;  /* D = 2 dU - D (Crank-Nicolson with inertia), else D = dU */
     /* Tables of distinct rows, with each node's row number (its class) in *_class: */
     /* rows of 20: the heat row of R (blocks Theta, D, U; each (i-1, i, i+1)), b_h, then the
@@ -191,8 +188,7 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
     const double *restrict cpl = P->coupling;
     const int *restrict cc = P->coupling_class;
     const int midpoint_inertia = P->midpoint_inertia;
-    const rc_end *end = &P->end;
-    const int eliminated = end->kind == RC_END_ELIMINATED;
+    const int massless = P->end.kind != RC_END_MASS;
     long done = 0;
     int its = *iterations;
     double p = *pressure, inc = 0.0;
@@ -204,22 +200,17 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
             fixed_row(P, i, th, D, U, h, m, gH, &gh);
     }
     for (long k = 0; k < steps; k++) {
-        /* where the law is taken: U(1), or an eliminated end's free position y */
-        const double c = eliminated ? rc_end_position(end, th[n - 2], th[n - 1], U[n - 2],
-                                                      U[n - 1])
-                                    : U[n - 1];
+        const double c = U[n - 1];
         int l;
         int failed = 0;
         for (int i = 0; i < n; i++) {
             T[i] = 0.0;
             V[i] = 0.0;
         }
-        double deepest = c;  /* the largest U(1) (y) of the iterates, for the failure's message */
+        double deepest = c;  /* the largest U(1) of the iterates, for the failure's message */
         for (l = 1; l <= max_it; l++) {
-            const double y = eliminated
-                ? c + rc_end_moved(end, T[n - 2], T[n - 1], V[n - 2], V[n - 1]) : c + V[n - 1];
-            deepest = y > deepest ? y : deepest;
-            const double q = -rc_contact_force(&P->obstacle, y, c);
+            deepest = c + V[n - 1] > deepest ? c + V[n - 1] : deepest;
+            const double q = -rc_contact_force(&P->obstacle, c + V[n - 1], c);
             double ct, cu, bad, e;
             /* sweep B, descending: T' by A_h's substitution; momentum rhs and elimination one
              * node behind (x1 = T'(i + 1), x2 = T'(i + 2)) */
@@ -296,8 +287,7 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
             *last_u_1 = deepest;
             break;
         }
-        p = rc_contact_force(&P->obstacle, eliminated
-            ? c + rc_end_moved(end, T[n - 2], T[n - 1], V[n - 2], V[n - 1]) : c + V[n - 1], c);
+        p = rc_contact_force(&P->obstacle, c + V[n - 1], c);
         /* accept node i; then, one node behind (they read node i), the energy row of node
          * i - 1 and the next step's fixed parts there */
         double energy[3] = {0.0, 0.0, 0.0}, gh = 0.0;
@@ -307,13 +297,10 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
             energy_row(P, i - 1, th, D, U, energy);
             fixed_row(P, i - 1, th, D, U, h, m, gH, &gh);
         }
-        /* the end, before the rows that read it: settled if eliminated (its force is the
-         * step's), and without mass it has no velocity of its own, D(1) = U^n(1) - U^(n-1)(1) */
+        /* the end, before the rows that read it: without mass it has no velocity of its own,
+         * D(1) = U^n(1) - U^(n-1)(1) */
         accept_node(th, D, U, up, T, V, n - 1, midpoint_inertia);
-        if (eliminated)
-            p = rc_end_settle(end, &P->obstacle, rc_end_position(end, th[n - 2], th[n - 1],
-                                                                  U[n - 2], U[n - 1]), &U[n - 1]);
-        if (end->kind != RC_END_MASS)
+        if (massless)
             D[n - 1] = U[n - 1] - up[n - 1];
         energy_row(P, n - 2, th, D, U, energy);
         fixed_row(P, n - 2, th, D, U, h, m, gH, &gh);

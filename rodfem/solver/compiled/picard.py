@@ -21,12 +21,9 @@ off a method and its history once and runs ``steps`` steps of exactly that algeb
 
 and for each new state the raw row of :data:`rodfem.solver.record.RAW` (record.h).
 
-A redistributed mass (:mod:`rodfem.solver.methods.massless`) changes only the end x = 1, as in
-:mod:`.direct`: without its mass, Dⁿ(1) = Uⁿ(1) − Uⁿ⁻¹(1); eliminated (Crank–Nicolson, ζ = 0),
-c is its free position y of the old state and each iterate's contact force the law in series at
-c + y's row on [ΔΘ^{l−1}; ΔU^{l−1}] (``PicardMethod._step``), and after the update the end is
-settled before the rows that read it, its force the step's p (contact.h's rc_end; the power law
-is refused).
+A redistributed mass changes only the end x = 1, as in :mod:`.direct`: without its mass,
+Dⁿ(1) = Uⁿ(1) − Uⁿ⁻¹(1). An eliminated end (:mod:`rodfem.solver.methods.massless`) needs a = 0,
+which this loop leaves to the PETSc loop.
 
 **Tridiagonal in node order.** Every operator couples only neighbouring nodes (anything wider is
 refused). A_h is factored L U and A_m U L, without pivoting (the operators are SPD up to the
