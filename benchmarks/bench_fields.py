@@ -25,6 +25,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 from mpi4py import MPI
 
 import rodfem.scene
@@ -32,7 +33,6 @@ from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.directories import prepare_directory
 from rodfem.output.fields import FieldFile
 from rodfem.run import simulate
-from rodfem.solver.linalg import stacked
 from rodfem.studies.common import machine
 
 COMM = MPI.COMM_WORLD
@@ -57,11 +57,11 @@ def save_cost(root: Path, saves: int = 2000) -> tuple[float, float]:
         out.mkdir()
     COMM.barrier()
     fields = FieldFile(out / "fields.xdmf", disc)
-    _, (theta, u, u_prev) = stacked(3, disc.nodes.size)
+    state = np.zeros(3 * disc.nodes.size)  # [Θ; D; U]
     times = []
     for k in range(saves):
         started = time.perf_counter()
-        fields.write(k, 0.001 * k, theta, u, u_prev)
+        fields.write(k, 0.001 * k, state)
         times.append(time.perf_counter() - started)
         if k % 500 == 499:
             fields.checkpoint()

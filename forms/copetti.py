@@ -153,6 +153,12 @@ def stress(U, U_prev, θ, dt, zeta, a):
     return U.dx(0) + zeta * (U.dx(0) - U_prev.dx(0)) / dt - a * θ
 
 
+def heat_flux(θ):
+    """The heat flux q = −θ_x (Fourier's law; the model's conductivity is 1): at x = 1 it is
+    k θ(1), the heat given to the obstacle."""
+    return -θ.dx(0)
+
+
 # The matrices of Section 3 that the discrete energy needs: M_ij = (η_i, η_j), K_ij = (η_i', η_j')
 # and z_i = (r, η_i').
 

@@ -4,7 +4,8 @@ Copetti's scheme: a heat equation coupled to a Kelvin–Voigt wave equation on (
 contact with an elastic obstacle at x = 1, P1 elements and a Picard loop per time step.
 
 From Python: :func:`simulate` runs a scene, :func:`load` reads a run directory, both give a
-:class:`Result`; :func:`sweep` runs a sweep file (:mod:`rodfem.studies.sweep`). They are
+:class:`Result`; :func:`sweep` runs a sweep file (:mod:`rodfem.studies.sweep`);
+:func:`read_fields` reads any run's ``fields.xdmf`` into NumPy (:class:`Fields`). They are
 imported on first use, so that ``import rodfem`` stays light.
 """
 
@@ -12,7 +13,8 @@ __version__ = "0.1.0"
 
 _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "SceneError": "rodfem.scene", "OutputError": "rodfem.output.directories",
-        "sweep": "rodfem.studies.sweep", "load_sweep": "rodfem.studies.sweep"}
+        "sweep": "rodfem.studies.sweep", "load_sweep": "rodfem.studies.sweep",
+        "read_fields": "rodfem.post.fields", "Fields": "rodfem.post.fields"}
 __all__ = [*_API, "__version__"]
 
 

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rodfem.output.columns import COLUMNS
+from rodfem.output.columns import COLUMNS, for_scene
 from rodfem.output.measures import measures as _measures
 from rodfem.post.fields import Fields
 from rodfem.scene import Scene, SceneError, read, validate, with_values
@@ -38,9 +38,11 @@ class Result:
         scene: the resolved scene (every key, defaults filled in): ``r.scene["model.k"]``.
         summary: what ``summary.json`` holds: status, steps, iterations, seconds, versions…
         history: the rows of ``history.csv``, one per step n = 0 … N, as a structured array:
-            ``r.history["u_1"]`` (columns: :data:`rodfem.output.columns.COLUMNS`).
-        fields: θ (the physical temperature), u and σ at every saved step, with ``t``, ``x``
-            and ``x_cells`` (:class:`rodfem.post.fields.Fields`); None where none were saved.
+            ``r.history["u_1"]`` (the default columns :data:`rodfem.output.columns.COLUMNS`,
+            then those the scene's ``output.history`` and ``output.probes`` add).
+        fields: the saved fields (``output.fields``: θ, the physical temperature, u and σ by
+            default) at every saved step, with ``t``, ``x`` and ``x_cells``
+            (:class:`rodfem.post.fields.Fields`); None where none were saved.
         path: the run directory, or None for a run in memory.
     """
 
@@ -66,11 +68,11 @@ class Result:
         return _measures(columns, self.scene, self.summary)
 
 
-def named_history(rows: np.ndarray) -> np.ndarray:
+def named_history(rows: np.ndarray, columns=COLUMNS) -> np.ndarray:
     """Rows of history.csv (steps × columns) as a structured array with the columns' names."""
-    dtype = [(c.name, np.int64 if c.integer else np.float64) for c in COLUMNS]
+    dtype = [(c.name, np.int64 if c.integer else np.float64) for c in columns]
     history = np.empty(len(rows), dtype=dtype)
-    for i, column in enumerate(COLUMNS):
+    for i, column in enumerate(columns):
         history[column.name] = rows[:, i]
     return history
 
@@ -141,10 +143,11 @@ def simulate(scene: str | Path | Mapping | Scene, overrides=None, out: str | Pat
         result = run(resolved, None, comm, progress=progress, keep_fields=True)
         fields = None
         if result.fields is not None:
-            _, t, theta, u, sigma = result.fields
+            _, t, values = result.fields
             x = result.x
-            fields = Fields(x, t, theta, u, (x[1:] + x[:-1]) / 2, sigma)
-        return Result(resolved, result.summary, named_history(result.history), fields)
+            fields = Fields(x, t, (x[1:] + x[:-1]) / 2, **values)
+        return Result(resolved, result.summary,
+                      named_history(result.history, for_scene(resolved)), fields)
     out = Path(out)
     from rodfem.output.files import write_text
 
@@ -174,11 +177,12 @@ def load(path: str | Path) -> Result:
         scene = load_scene(str(path / "scene.toml"))
     except SceneError as err:
         raise RunDirectoryError(f"{path / 'scene.toml'}: {err}") from None
+    columns = for_scene(scene)
     if _steps_written(path / "history.csv"):
         history = read_history(path / "history.csv")
-        rows = np.column_stack([history[c.name] for c in COLUMNS])
+        rows = np.column_stack([history[c.name] for c in columns])
     else:  # killed before its first checkpoint: no step on the disk yet
-        rows = np.zeros((0, len(COLUMNS)))
+        rows = np.zeros((0, len(columns)))
     try:
         summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -194,7 +198,7 @@ def load(path: str | Path) -> Result:
             fields = read_fields(path / "fields.xdmf")
         except FieldsError as err:
             raise RunDirectoryError(str(err)) from None
-    return Result(scene, summary, named_history(rows), fields, path)
+    return Result(scene, summary, named_history(rows, columns), fields, path)
 
 
 

@@ -17,11 +17,12 @@ from rodfem.discrete.discretisation import Discretisation
 from rodfem.output import interrupts
 from rodfem.output.atomic import io_line
 from rodfem.output.checkpoint import RunFiles
-from rodfem.output.columns import INDEX
+from rodfem.output.columns import INDEX, for_scene, readings
 from rodfem.output.directories import finish
 from rodfem.output.fields import FieldFile
 from rodfem.output.files import write_json, write_text
 from rodfem.output.history import History
+from rodfem.output.pointwise import Pointwise
 from rodfem.output.progress import Progress
 from rodfem.scene import Scene
 from rodfem.solver.compiled import compiled_loop
@@ -91,7 +92,7 @@ class RunResult:
     history: np.ndarray | None = None  # the rows of history.csv, for a run without files
     io_error: str | None = None  # a file could not be written: the line that says which
     signal: int | None = None  # the signal that interrupted the run
-    fields: tuple | None = None  # keep_fields: (steps, t, θ, u, σ) of the saves (rank 0)
+    fields: tuple | None = None  # keep_fields: (steps, t, {field: values}) of the saves (rank 0)
 
 
 class InMemory:
@@ -151,13 +152,15 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
         write_text(out / "scene.toml", scene.to_toml(), comm)
     disc = setups.discretisation(scene, comm) if setups else Discretisation(scene, comm)
     method = make_method(disc)
-    history = History(disc)
+    saving = out is not None or keep_fields
+    # the recorded fields as maps of the state, read once: for the fields and the readings
+    pointwise = Pointwise(disc) if saving or readings(for_scene(scene)) else None
+    history = History(disc, pointwise=pointwise)
     meta = resume[1] if resume else {}
-    files = (RunFiles(out, disc, scene["output.checkpoint"], meta or None) if out is not None
-             else None)
+    files = (RunFiles(out, disc, scene["output.checkpoint"], meta or None, pointwise)
+             if out is not None else None)
     rows_out = files.history if files is not None else InMemory()
-    kept = FieldFile(None, disc) if files is None and keep_fields else None
-    saving = files is not None or kept is not None
+    kept = FieldFile(None, disc, pointwise=pointwise) if files is None and keep_fields else None
     energy = EnergyMonitor(**meta.get("energy", {}))
     iterations = Iterations(**meta.get("iterations", {}))
     steps, every, dt = scene.steps, scene["output.every"], scene["time.dt"]
@@ -193,8 +196,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     saved = [meta["saves"][-1][0] if meta.get("saves") else -1]
 
     def write_fields() -> None:
-        (files.fields if kept is None else kept).write(method.n, method.n * dt, method.theta,
-                                                       method.u, method.velocity_back)
+        (files.fields if kept is None else kept).write(method.n, method.n * dt, method.values)
 
     def save_fields() -> None:
         if files is not None or kept is not None:

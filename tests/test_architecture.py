@@ -90,6 +90,16 @@ def test_registries_agree_with_the_schema():
     assert {law.code for law in (LinearLaw, PowerLaw, RigidObstacle)} == {0, 1, 2}
 
 
+def test_recorded_quantities_agree_with_the_schema():
+    from rodfem.output.columns import QUANTITIES
+    from rodfem.output.fields import FIELDS
+    from rodfem.post.fields import FUNCTIONS
+
+    assert SCHEMA["output"]["history"].choices == tuple(c.name for c in QUANTITIES)
+    assert set(SCHEMA["output"]["fields"].choices) == set(FIELDS) == set(FUNCTIONS)
+    assert set(SCHEMA["output"]["fields"].default) <= set(FIELDS)
+
+
 def test_history_header():
     assert ",".join(NAMES) == "t,u_1,u_half,ut_1,sigma_1,energy,iterations"
 

@@ -65,6 +65,20 @@ CASES = [
     (["source.momentum=log(x - t)"], "source.momentum: not finite at x = 0, t = 0.001"),
     (["source.heat=1/(t - 8)"], "source.heat: not finite at x = 0, t = 8"),
     (["source.mass=1"], "unknown key 'source.mass'"),
+    (["output.probes=[0.5, 1.5]"], "output.probes[1]: must be <= 1, got 1.5"),
+    (["output.probes=[-0.1]"], "output.probes[0]: must be >= 0, got -0.1"),
+    (["output.probes=[0.25, 0.5, 0.25]"], "output.probes: 0.25 is listed twice"),
+    (["output.probes=[0.5, 0.50]"], "output.probes: 0.5 is listed twice"),
+    (["output.probes=0.5"], "output.probes: must be a list"),
+    (["output.probes=[nan]"], "output.probes[0]: must be finite"),
+    (['output.probes=["x"]'], "output.probes[0]: must be a number"),
+    (['output.fields=["u", "temperature"]'],
+     'output.fields[1]: must be one of "theta" | "u" | "sigma" | "velocity" | "heat_flux", '
+     'got "temperature"'),
+    (['output.fields=["u", "u"]'], 'output.fields: "u" is listed twice'),
+    (["output.fields=[]"], "output.fields: must name at least one of theta, u, sigma"),
+    (['output.history=["u_1"]'], 'output.history[0]: must be one of "theta_1" |'),
+    (['output.history=["contact", "contact"]'], 'output.history: "contact" is listed twice'),
 ]
 
 

@@ -69,29 +69,54 @@ def test_vtk_reads_the_fields_at_full_precision(simulate):
 
 
 def test_a_save_is_the_forms_expressions():
-    """A save computes θ and σ from coefficients read off the forms' expressions once: for any
-    state they are what interpolating the expressions gives, to the round-off of σ's terms
-    (ζ/Δt times the strain)."""
+    """A save computes θ, σ and the heat flux from coefficients read off the forms' expressions
+    once: for any state they are what interpolating the expressions gives, to the round-off of
+    σ's terms (ζ/Δt times the strain) and of the flux's (θ_x)."""
     import rodfem.scene
     from rodfem.discrete.discretisation import Discretisation
-    from rodfem.output.fields import FieldFile
-    from rodfem.solver.linalg import stacked
+    from rodfem.output.pointwise import Pointwise
 
-    scene = rodfem.scene.load("paper2", ["mesh.cells=37", "model.a=0.3"])
+    scene = rodfem.scene.load("paper2", ["mesh.cells=37", "model.a=0.3", "model.k=3"])
     disc = Discretisation(scene, COMM)
-    fields = FieldFile(None, disc)
-    _, (theta, u, u_prev) = stacked(3, disc.nodes.size)
+    pointwise = Pointwise(disc)
+    n = disc.nodes.size
     rng = np.random.default_rng(7)
-    for vector in (theta, u, u_prev):
-        vector.array[:] = rng.normal(size=disc.nodes.size)
-        vector.array[disc.nodes.x == 0.0] = 0.0
-    fields.write(0, 0.0, theta, u, u_prev)
-    expected = fields._evaluate(theta, u, u_prev)
+    parts = [rng.normal(size=n) for _ in range(3)]  # Θ, D, U
+    for part in parts:
+        part[disc.nodes.x == 0.0] = 0.0
+    s = np.concatenate(parts)
+    θ_expected, cells = pointwise._evaluate(parts)
+    np.testing.assert_array_equal(pointwise.field("theta", s), θ_expected)
+    σ = pointwise.field("sigma", s)
+    # σ's largest term: (1 + ζ/Δt) |ΔU|/h, summed over six terms
+    scale = (1 + 1.0 / 0.001) * 37 * 4 * np.max(np.abs(s))
+    assert np.max(np.abs(σ - cells["sigma"])) <= 16 * np.finfo(float).eps * scale
+    assert np.max(np.abs(σ)) > 1e3  # a state that tests the coefficients
+    q = pointwise.field("heat_flux", s)
+    scale = 37 * 4 * (np.max(np.abs(θ_expected)) + 10)
+    assert np.max(np.abs(q - cells["heat_flux"])) <= 16 * np.finfo(float).eps * scale
+    h = np.diff(disc.nodes.x)
+    np.testing.assert_allclose(q, -np.diff(θ_expected) / h, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_array_equal(pointwise.field("velocity", s), parts[1] / 0.001)
+    np.testing.assert_array_equal(pointwise.field("u", s), parts[2])
+
+
+def test_stock_meshio_cannot_read_them_and_rodfems_reader_can(simulate):
+    """What docs/outputs.md says of meshio 5: ``meshio.read`` gives up on a file of several
+    grids (with SystemExit), and its time-series reader does not know the topology "PolyLine";
+    ``rodfem.read_fields`` reads the same file."""
+    import pytest
+
+    import rodfem
+
+    meshio = pytest.importorskip("meshio")
+    _, out = simulate("paper1", "mesh.cells=8", "time.end=0.1")
     if COMM.rank != 0:
         return
-    _, _, θ, _, σ = fields._pending[-1]
-    np.testing.assert_array_equal(θ, expected[0])
-    # σ's largest term: (1 + ζ/Δt) |ΔU|/h, summed over six terms
-    scale = (1 + 1.0 / 0.001) * 37 * 4 * np.max(np.abs(u.array_r))
-    assert np.max(np.abs(σ - expected[1])) <= 16 * np.finfo(float).eps * scale
-    assert np.max(np.abs(σ)) > 1e3  # a state that tests the coefficients
+    with pytest.raises(SystemExit):
+        meshio.read(out / "fields.xdmf")
+    with pytest.raises(KeyError, match="PolyLine"):
+        with meshio.xdmf.TimeSeriesReader(out / "fields.xdmf") as reader:
+            reader.read_points_cells()
+    f = rodfem.read_fields(out / "fields.xdmf")
+    assert f.names == ("theta", "u", "sigma") and f.u.shape == (3, 9)

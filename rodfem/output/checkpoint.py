@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from rodfem.output.atomic import TEMPORARY, replacing, sync_directory
+from rodfem.output.columns import for_scene
 from rodfem.output.fields import DIRECTORY, SEGMENT, FieldFile, segment_name
 from rodfem.output.files import HistoryFile
 
@@ -63,13 +64,14 @@ class RunFiles:
     since the last (0: at every save), and when the run ends. ``resume``: the metadata of the
     checkpoint a resumed run starts from."""
 
-    def __init__(self, out: Path, disc, interval: float, resume: dict | None = None):
+    def __init__(self, out: Path, disc, interval: float, resume: dict | None = None,
+                 pointwise=None):
         self.out, self.comm, self.interval = out, disc.comm, interval
-        self.history = HistoryFile(out / "history.csv", self.comm,
+        self.history = HistoryFile(out / "history.csv", self.comm, for_scene(disc.scene),
                                    keep=resume["history_bytes"] if resume else None)
         saves = resume["saves"] if resume else None
         self.fields = FieldFile(out / "fields.xdmf", disc, saves,
-                                resume["segments"] if resume else 0)
+                                resume["segments"] if resume else 0, pointwise)
         if self.comm.rank == 0:
             self._remove_leftovers(resume["segments"] if resume else 0)
         self.last = time.perf_counter()

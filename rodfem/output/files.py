@@ -21,23 +21,23 @@ import numpy as np
 from mpi4py import MPI
 
 from rodfem.output.atomic import named, replacing, temporary
-from rodfem.output.columns import COLUMNS, NAMES
+from rodfem.output.columns import COLUMNS
 
 
 class HistoryFile:
     """history.csv, one row per step: whole rows only, whatever happens to the process.
 
-    Printing a row's seven numbers to round-trip precision takes about 2 µs, as long as a compiled
+    Printing a row's seven default numbers to round-trip precision takes about 2 µs, as long as a compiled
     step itself, so rank 0 formats the blocks in a thread of its own while the time loop (a C call
     that releases the GIL) goes on, and keeps the text. :meth:`checkpoint` writes it: a copy of
     the file with the new rows appended, synced, renamed over it (:mod:`rodfem.output.atomic`).
     ``keep``: the length in bytes of an existing history to continue (a resumed run); None for a
     new file of just the header."""
 
-    ROW = ",".join("%d" if c.integer else "%.17g" for c in COLUMNS) + "\n"  # round-trip floats
-
-    def __init__(self, path: Path, comm: MPI.Comm, keep: int | None = None):
+    def __init__(self, path: Path, comm: MPI.Comm, columns=COLUMNS, keep: int | None = None):
         self.path, self.rank0 = path, comm.rank == 0
+        # a row: integers as such, floats to round-trip precision
+        self.row = ",".join("%d" if c.integer else "%.17g" for c in columns) + "\n"
         self._error: BaseException | None = None
         self._text: list[str] = []
         self.size = 0
@@ -45,7 +45,7 @@ class HistoryFile:
         if not self.rank0:
             return
         if keep is None:
-            header = ",".join(NAMES) + "\n"
+            header = ",".join(c.name for c in columns) + "\n"
             with replacing(path) as file:
                 file.write(header)
             self.size = len(header.encode())
@@ -63,7 +63,7 @@ class HistoryFile:
         self._writer.start()
 
     def _format(self) -> None:
-        row = self.ROW
+        row = self.row
         while True:
             rows = self._blocks.get()
             try:

@@ -16,7 +16,7 @@ import forms.copetti as copetti
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.discrete.nodes import block_diagonal
 from rodfem.model import contact
-from rodfem.output.columns import RAW, RAW_INDEX, columns_of  # noqa: F401
+from rodfem.output.columns import RAW, RAW_INDEX, Context, columns_of, for_scene, readings
 
 
 class Energy:
@@ -51,13 +51,48 @@ class Energy:
         return 0.5 * self._y.dot(s)
 
 
-class History:
-    """Collects one row per step n = 0..N and hands them out in blocks (:meth:`take`)."""
+class Readings:
+    """The readings of a run (:func:`rodfem.output.columns.readings`): each the value of a field
+    at a point, an affine functional c + Σ_t w_t s[i_t] of the state s = [Θ; D; U], as a table
+    padded with zero weights (``count`` × ``terms``), summed in the order of t from c: as
+    ``record.h``'s ``rr_read`` does, bit for bit."""
 
-    def __init__(self, disc: Discretisation, block: int = 1024):
+    def __init__(self, pointwise, reads):
+        self.reads = reads
+        functionals = [pointwise.reading(field, x) for field, x in reads]
+        self.count = len(functionals)
+        self.terms = max((len(w) for w, _ in functionals), default=0)
+        self.index = np.zeros((self.count, self.terms), dtype=np.intc)
+        self.weight = np.zeros((self.count, self.terms))
+        self.constant = np.array([c for _, c in functionals], dtype=float)
+        for r, (weights, _) in enumerate(functionals):
+            for t, (i, w) in enumerate(sorted(weights.items())):
+                self.index[r, t], self.weight[r, t] = i, w
+
+    def __call__(self, s: np.ndarray, out: np.ndarray) -> None:
+        value = self.constant.copy()
+        for t in range(self.terms):
+            value += self.weight[:, t] * s[self.index[:, t]]
+        out[:] = value
+
+
+class History:
+    """Collects one row per step n = 0..N and hands them out in blocks (:meth:`take`): the raw
+    slots of :data:`RAW`, then the readings the scene's columns need."""
+
+    def __init__(self, disc: Discretisation, block: int = 1024, pointwise=None):
         scene = disc.scene
         self.dt = scene["time.dt"]
         self.obstacle = contact.of_scene(scene)
+        self.context = Context(self.dt, self.obstacle, scene["model.k"])
+        self.columns = for_scene(scene)
+        reads = readings(self.columns)
+        if reads and pointwise is None:
+            from rodfem.output.pointwise import Pointwise
+
+            pointwise = Pointwise(disc)
+        self.readings = Readings(pointwise, reads) if reads else None
+        self.width = len(RAW) + len(reads)
         self.energy = Energy(disc)
         # Positions in the state [Θ; ΔU; U] of ΔU(1), U(1) and the nodes around x = 0.5.
         n = disc.nodes.size
@@ -65,8 +100,8 @@ class History:
         (i, *rest), (w, *rest_w) = disc.nodes.interpolation(0.5)
         self.half = (2 * n + int(i), float(w), 2 * n + (int(rest[0]) if rest else int(i)),
                      rest_w[0] if rest else 0.0)
-        # Per step, the raw row of rodfem.solver.record.RAW.
-        self._rows = np.zeros((block, len(RAW)))
+        # Per step, the raw row of rodfem.solver.record.RAW, then the readings.
+        self._rows = np.zeros((block, self.width))
         self._slots = tuple(RAW_INDEX[name] for name in ("n", "iterations", "u_1", "d_1",
                                                          "u_half", "bulk_energy", "pressure"))
         self._count = 0
@@ -87,6 +122,8 @@ class History:
         row[n], row[iterations], row[pressure] = state.n, state.iterations, state.pressure
         row[u_1], row[d_1], row[u_half] = s[self.u_1], s[self.du_1], w * s[i] + v * s[j]
         row[bulk_energy] = bulk
+        if self.readings is not None:
+            self.readings(s, row[len(RAW):])
         self._count += 1
 
     @property
@@ -127,7 +164,8 @@ class History:
         return step, quantity
 
     def take(self) -> np.ndarray:
-        """The rows recorded since the last call, with the columns ``COLUMNS``."""
+        """The rows recorded since the last call, with the scene's columns (``columns``)."""
         rows = self._rows[: self._count].copy()
         self._count = 0
-        return columns_of(rows, self.dt, self.obstacle)
+        return columns_of(rows, self.context, self.columns,
+                          self.readings.reads if self.readings else ())

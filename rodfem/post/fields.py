@@ -1,4 +1,5 @@
-"""``fields.xdmf`` read back: θ and u per node, σ per cell, at the saved steps, in float64.
+"""``fields.xdmf`` read back: the saved fields (θ, u, the velocity per node; σ and the heat flux
+per cell; whichever the run saved) at the saved steps, in float64.
 
 rodfem writes XDMF 3 the way dolfinx does (a mesh grid, then per field a temporal collection of
 grids that include the mesh by reference and carry one attribute each), with the heavy data in
@@ -17,7 +18,9 @@ from xml.etree import ElementTree
 import h5py
 import numpy as np
 
-FUNCTIONS = ("theta", "u", "sigma")
+NODE_FUNCTIONS = ("theta", "u", "velocity")
+CELL_FUNCTIONS = ("sigma", "heat_flux")
+FUNCTIONS = (*NODE_FUNCTIONS, *CELL_FUNCTIONS)
 
 
 class FieldsError(ValueError):
@@ -26,23 +29,33 @@ class FieldsError(ValueError):
 
 @dataclass(frozen=True)
 class Fields:
-    """The saved fields of a run, on nodes and cells sorted by x.
+    """The saved fields of a run, on nodes and cells sorted by x; a field the run did not save
+    (``output.fields``) is None.
 
     Attributes:
         x: node coordinates, increasing, shape (nodes,).
         t: saved times, increasing, shape (saves,).
+        x_cells: cell midpoints, increasing, shape (cells,); cell j spans x[j] .. x[j + 1].
         theta: physical temperature θ at the nodes, shape (saves, nodes).
         u: displacement u at the nodes, shape (saves, nodes).
-        x_cells: cell midpoints, increasing, shape (cells,); cell j spans x[j] .. x[j + 1].
+        velocity: velocity u_t at the nodes, shape (saves, nodes).
         sigma: stress σ = u_x + ζ u_xt − aθ, constant per cell, shape (saves, cells).
+        heat_flux: heat flux −θ_x, constant per cell, shape (saves, cells).
     """
 
     x: np.ndarray
     t: np.ndarray
-    theta: np.ndarray
-    u: np.ndarray
     x_cells: np.ndarray
-    sigma: np.ndarray
+    theta: np.ndarray | None = None
+    u: np.ndarray | None = None
+    sigma: np.ndarray | None = None
+    velocity: np.ndarray | None = None
+    heat_flux: np.ndarray | None = None
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The fields saved, in the order of :data:`FUNCTIONS`."""
+        return tuple(name for name in FUNCTIONS if getattr(self, name) is not None)
 
 
 class _Reader:
@@ -111,8 +124,10 @@ class _Reader:
         for name in FUNCTIONS:
             grids = [g for g in domain.findall("Grid")
                      if g.get("CollectionType") == "Temporal" and g.get("Name") == name]
+            if not grids:
+                continue  # not saved
             if len(grids) != 1:
-                raise FieldsError(f"no time series '{name}'")
+                raise FieldsError(f"two time series '{name}'")
             times, values = [], []
             for grid in grids[0].findall("Grid"):
                 time = grid.find("Time")
@@ -126,7 +141,7 @@ class _Reader:
 
 
 def read_fields(path: Path) -> Fields:
-    """Read θ, u and σ from a run's ``fields.xdmf`` (and the HDF5 files it names).
+    """Read the fields of a run's ``fields.xdmf`` (and the HDF5 files it names).
 
     Args:
         path: the XDMF file.
@@ -145,31 +160,31 @@ def read_fields(path: Path) -> Fields:
     except (OSError, KeyError, ValueError, TypeError, IndexError, ElementTree.ParseError) as err:
         raise FieldsError(f"{path} is not readable as rodfem fields ({err})") from None
 
-    times = series["theta"][0]
+    if not series:
+        raise FieldsError(f"{path} holds none of the fields {', '.join(FUNCTIONS)}")
+    times = next(iter(series.values()))[0]
     if times.size == 0:
         raise FieldsError(f"{path} holds no saved step")
-    if any(not np.array_equal(series[name][0], times) for name in FUNCTIONS):
-        raise FieldsError(f"{path}: θ, u and σ are saved at different times")
+    if any(not np.array_equal(s[0], times) for s in series.values()):
+        raise FieldsError(f"{path}: its fields are saved at different times")
     if points.ndim != 2 or cells.ndim != 2 or cells.shape[1] != 2 or cells.size == 0:
         raise FieldsError(f"{path}: not an interval mesh")
     if cells.min() < 0 or cells.max() >= len(points):
         raise FieldsError(f"{path}: the mesh's cells name nodes it does not have")
-    node_values = {len(v) for name in ("theta", "u") for v in series[name][1]}
-    cell_values = {len(v) for v in series["sigma"][1]}
-    if node_values != {len(points)} or cell_values != {len(cells)}:
-        raise FieldsError(f"{path}: the fields do not match the mesh's nodes and cells")
+    for name, (_, values) in series.items():
+        size = len(points) if name in NODE_FUNCTIONS else len(cells)
+        if {len(v) for v in values} != {size}:
+            raise FieldsError(f"{path}: the fields do not match the mesh's nodes and cells")
 
     x = points[:, 0]
     nodes = np.argsort(x, kind="stable")
     midpoints = x[cells.astype(np.int64)].mean(axis=1)
     order = np.argsort(midpoints, kind="stable")
     steps = np.argsort(times, kind="stable")
-    theta, u, sigma = (np.array(series[name][1]) for name in FUNCTIONS)
     return Fields(
         x=x[nodes],
         t=times[steps],
-        theta=theta[np.ix_(steps, nodes)],
-        u=u[np.ix_(steps, nodes)],
         x_cells=midpoints[order],
-        sigma=sigma[np.ix_(steps, order)],
+        **{name: np.array(values)[np.ix_(steps, nodes if name in NODE_FUNCTIONS else order)]
+           for name, (_, values) in series.items()},
     )

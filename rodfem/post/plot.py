@@ -4,8 +4,9 @@ For one run DIR the figures go to DIR/figures/ (or ``out``):
 
     contact.png        u(1, t) with the gap g, u(0.5, t), u_t(1, t), σ(1, t); contact shaded
     energy.png         ln(Ê + 0.01) against t (the paper's Figure 5)
-    spacetime_u.png, spacetime_theta.png, spacetime_sigma.png
-    rod.gif            the rod against the obstacle, coloured by θ
+    spacetime_<field>.png  each saved field over (t, x): u, theta, sigma (and velocity,
+                       heat_flux where the scene saves them)
+    rod.gif            the rod against the obstacle, coloured by θ (where u and θ are saved)
 
 For several runs contact.png and energy.png overlay them all, and the per-run figures carry the
 run's directory name: spacetime_u_<name>.png, ..., rod_<name>.gif, all in one directory (``out``,
@@ -50,7 +51,9 @@ def plot(dirs: list[Path], out: Path | None = None) -> list[Path]:
     for run, suffix in zip(runs, file_suffixes(runs), strict=True):
         label = legend_labels([run], math=False)[0]
         for name in MAPS:
-            written.append(spacetime_figure(run.fields, name, label,
-                                            out / f"spacetime_{name}{suffix}.png"))
-        written.append(rod_animation(run, label, out / f"rod{suffix}.gif"))
+            if getattr(run.fields, name) is not None:
+                written.append(spacetime_figure(run.fields, name, label,
+                                                out / f"spacetime_{name}{suffix}.png"))
+        if run.fields.u is not None and run.fields.theta is not None:
+            written.append(rod_animation(run, label, out / f"rod{suffix}.gif"))
     return written

@@ -47,8 +47,9 @@ class History:
     """The columns of ``history.csv`` (:mod:`rodfem.output.columns`) by name, one entry per step
     n = 0..N: ``history.u_1`` or ``history["u_1"]``."""
 
-    def __init__(self, rows: np.ndarray):
-        self._columns = {name: rows[:, i] for i, name in enumerate(HISTORY_COLUMNS)}
+    def __init__(self, rows: np.ndarray, names: tuple[str, ...] = HISTORY_COLUMNS):
+        self.names = names
+        self._columns = {name: rows[:, i] for i, name in enumerate(names)}
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self._columns[name]
@@ -94,13 +95,16 @@ class Run:
 
 
 def read_history(path: Path) -> History:
-    """Read ``history.csv``; raise :class:`RunDirectoryError` unless it is rodfem's."""
+    """Read ``history.csv``; raise :class:`RunDirectoryError` unless it is rodfem's: the default
+    columns first, then any the scene chose (distinct names)."""
     try:
         with open(path, encoding="utf-8") as file:
             header = tuple(file.readline().strip().split(","))
-            if header != HISTORY_COLUMNS:
+            if header[:len(HISTORY_COLUMNS)] != HISTORY_COLUMNS or len(set(header)) != len(
+                    header):
                 columns = ",".join(HISTORY_COLUMNS)
-                raise RunDirectoryError(f"{path} is not a rodfem history (header is not {columns})")
+                raise RunDirectoryError(f"{path} is not a rodfem history (its header does not "
+                                        f"begin {columns})")
             lines = file.read().split()
         if not lines:
             raise RunDirectoryError(f"{path} holds no steps")
@@ -110,11 +114,9 @@ def read_history(path: Path) -> History:
     except (OSError, ValueError, UnicodeDecodeError) as err:
         reason = str(err).split(";")[0]  # without NumPy's advice on loadtxt's arguments
         raise RunDirectoryError(f"cannot read {path}: {reason}") from None
-    if rows.shape[1] != len(HISTORY_COLUMNS):
-        raise RunDirectoryError(
-            f"{path} has rows of {rows.shape[1]} values, not {len(HISTORY_COLUMNS)}"
-        )
-    return History(rows)
+    if rows.shape[1] != len(header):
+        raise RunDirectoryError(f"{path} has rows of {rows.shape[1]} values, not {len(header)}")
+    return History(rows, header)
 
 
 def _flatten(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:

@@ -15,7 +15,7 @@ import pyvista as pv
 from vtkmodules.util.numpy_support import numpy_to_vtk
 
 from rodfem.post import backend, style
-from rodfem.post.fields import Fields
+from rodfem.post.fields import CELL_FUNCTIONS, Fields
 
 ASPECT = 1.35  # width / height of the map
 # name: title, colour-bar title, colour map, centred on zero
@@ -23,6 +23,8 @@ MAPS = {
     "u": ("displacement u", "u(x, t)", "viridis", False),
     "theta": ("temperature θ", "θ(x, t)", "coolwarm", False),
     "sigma": ("stress σ", "σ(x, t)", "RdBu_r", True),
+    "velocity": ("velocity u_t", "u_t(x, t)", "PuOr_r", True),
+    "heat_flux": ("heat flux −θ_x", "−θ_x(x, t)", "PiYG", True),
 }
 
 
@@ -35,10 +37,10 @@ def _edges(centres: np.ndarray) -> np.ndarray:
 
 
 def _grid(fields: Fields, name: str, t_scale: float) -> pv.RectilinearGrid:
-    if name == "sigma":
+    if name in CELL_FUNCTIONS:
         grid = pv.RectilinearGrid(_edges(fields.t) * t_scale, fields.x, np.zeros(1))
         # VTK orders cells (and points) with the first coordinate fastest: index = i_t + n_t i_x.
-        grid.cell_data[name] = fields.sigma.ravel(order="F")
+        grid.cell_data[name] = getattr(fields, name).ravel(order="F")
     else:
         grid = pv.RectilinearGrid(fields.t * t_scale, fields.x, np.zeros(1))
         grid.point_data[name] = getattr(fields, name).ravel(order="F")
@@ -50,7 +52,7 @@ def spacetime_figure(fields: Fields, name: str, run_label: str, path: Path) -> P
 
     Args:
         fields: the run's saved fields.
-        name: ``u``, ``theta`` or ``sigma``.
+        name: a field of :data:`MAPS` the run saved.
         run_label: the run, for the title.
         path: the PNG to write.
     """

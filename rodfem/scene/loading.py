@@ -102,6 +102,8 @@ def _is_zero(text: str) -> bool:
 
 
 def _toml_value(value: Any) -> str:
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     if isinstance(value, str):
         return json.dumps(value, ensure_ascii=False)  # a TOML basic string, any character
     return repr(value)
@@ -113,7 +115,24 @@ def _suggest(name: str, allowed) -> str:
     return f"{hint}allowed: {', '.join(allowed)}"
 
 
+def _check_list(dotted: str, spec: Key, value: Any) -> list:
+    """A list key's value: a list of distinct values, each checked as the key's element kind."""
+    if not isinstance(value, (list, tuple)):
+        raise SceneError(f"{dotted}: must be a list, e.g. {_toml_value(spec.default or [0.5])}, "
+                         f"got {_toml_value(value)}")
+    element = dataclasses.replace(spec, kind=spec.kind[:-1])  # "reals" -> "real"
+    items = tuple(_check_value(f"{dotted}[{i}]", element, v) for i, v in enumerate(value))
+    if spec.kind == "choices" and dotted == "output.fields" and not items:
+        raise SceneError(f"{dotted}: must name at least one of {', '.join(spec.choices)}")
+    for i, item in enumerate(items):
+        if item in items[:i]:
+            raise SceneError(f"{dotted}: {_toml_value(item)} is listed twice")
+    return list(items)  # as JSON holds it (a checkpoint's scene)
+
+
 def _check_value(dotted: str, spec: Key, value: Any) -> Any:
+    if spec.kind in ("reals", "choices"):
+        return _check_list(dotted, spec, value)
     if spec.kind in ("real", "integer"):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             noun = "a number" if spec.kind == "real" else "an integer"

@@ -20,7 +20,8 @@ class SceneError(ValueError):
 
 @dataclasses.dataclass(frozen=True)
 class Key:
-    """One scene key: its kind ("real", "integer", "choice", "expression"), default and range."""
+    """One scene key: its kind ("real", "integer", "choice", "expression", or a list of distinct
+    values: "reals", "choices"), default and range (of each value, for a list)."""
 
     kind: str
     default: Any
@@ -42,6 +43,9 @@ MAX_CELLS, MAX_STEPS = 10_000_000, 100_000_000
 METHODS = ("direct", "newton", "picard")
 TIME_SCHEMES = ("paper", "crank-nicolson")
 MASSES = ("lumped", "consistent", "redistributed", "redistributed-lumped")
+# What a run can save and record besides the default history (rodfem.output.columns, .fields).
+FIELDS = ("theta", "u", "sigma", "velocity", "heat_flux")
+QUANTITIES = ("theta_1", "heat_flux_1", "contact_force", "contact")
 
 
 SCHEMA: dict[str, dict[str, Key]] = {
@@ -105,6 +109,16 @@ SCHEMA: dict[str, dict[str, Key]] = {
     "output": {
         "every": Key("integer", 50, minimum=1, maximum=MAX_STEPS,
                      help="save fields every n steps"),
+        "fields": Key("choices", ("theta", "u", "sigma"), choices=FIELDS,
+                      help="the fields saved in fields.xdmf: theta (temperature), u "
+                      "(displacement), velocity (nodes); sigma (stress), heat_flux (-theta_x, "
+                      "per cell); at least one"),
+        "history": Key("choices", (), choices=QUANTITIES,
+                       help="quantities history.csv records besides t, u_1, u_half, ut_1, "
+                       "sigma_1, energy and iterations (docs/outputs.md)"),
+        "probes": Key("reals", (), minimum=0.0, maximum=1.0,
+                      help="points x of the rod where history.csv records u@x, theta@x and "
+                      "sigma@x"),
         "checkpoint": Key("real", 5.0, minimum=0.0, maximum=BIG,
                           help="write a checkpoint (history, fields and the state to resume "
                           "from) at the first field save this many seconds of wall time after "

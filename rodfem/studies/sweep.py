@@ -42,6 +42,7 @@ from rodfem.output import interrupts, journal
 from rodfem.output import results as table
 from rodfem.output.atomic import io_line, replacing
 from rodfem.output.columns import NAMES as HISTORY_COLUMNS
+from rodfem.output.columns import for_scene, named
 from rodfem.output.measures import measures
 from rodfem.scene import SceneError
 from rodfem.studies import design
@@ -181,7 +182,7 @@ class SweepResult:
     axes: tuple[str, ...]
     status: str
     path: Path | None = None
-    _histories: dict[int, np.ndarray] | None = None
+    _histories: dict[int, tuple] | None = None  # in memory: the rows and their columns
     error: str | None = None  # a file that could not be written, which stopped the sweep
 
     def __getitem__(self, name: str) -> np.ndarray:
@@ -199,7 +200,7 @@ class SweepResult:
         from rodfem.api import named_history
 
         if self._histories is not None:
-            return named_history(self._histories[index])
+            return named_history(*self._histories[index])
         if self.path is None or not (self.path / HISTORIES).is_file():
             raise KeyError(f"no histories kept (run the sweep with --histories): scene {index}")
         import h5py
@@ -208,7 +209,9 @@ class SweepResult:
             name = f"scenes/{index}"
             if name not in file:
                 raise KeyError(f"{self.path / HISTORIES} has no history of scene {index}")
-            return named_history(file[name][...])
+            data = file[name]
+            names = data.attrs.get("columns", file.attrs["columns"])
+            return named_history(data[...], named(str(names).split(",")))
 
 
 def _result_from(lines: dict[int, str], axes, status, path=None, histories=None) -> SweepResult:
@@ -289,7 +292,8 @@ def _in_memory(sweep: Sweep, comm: MPI.Comm, histories: bool, progress) -> Sweep
     status = "complete" if len(lines) == len(sweep) and all(
         o.status != "interrupted" for o in every) else "interrupted"
     return _result_from(lines, sweep.axes, status, None,
-                        {o.index: o.history for o in every} if histories else None)
+                        {o.index: (o.history, for_scene(sweep.scene(o.index))) for o in every}
+                        if histories else None)
 
 
 def _run_into(out: Path, sweep: Sweep, comm: MPI.Comm, histories: bool, session: int,
@@ -349,7 +353,7 @@ def _write_table(out: Path, sweep: Sweep, histories: bool, ran: int, seconds: fl
     with replacing(out / table.NAME) as file:
         file.write(table.text(sweep.axes, lines))
     if complete and histories:
-        _write_histories(out / HISTORIES, records)
+        _write_histories(out / HISTORIES, records, sweep)
     status = "complete" if complete else "interrupted"
     summary = {"status": status, "scenes": len(sweep), "recorded": len(records),
                **{f"scenes_{s}": n for s, n in counts.items()},
@@ -364,7 +368,7 @@ def _write_table(out: Path, sweep: Sweep, histories: bool, ran: int, seconds: fl
     return status
 
 
-def _write_histories(path: Path, records: dict[int, journal.Record]) -> None:
+def _write_histories(path: Path, records: dict[int, journal.Record], sweep) -> None:
     """histories.h5, whole or not at all. HDF5 closing a file on a full disk can crash the
     process (h5py 3.7: a segmentation fault in H5F__close_cb), so the room is checked first and
     a disk without it is the OSError any full disk is."""
@@ -383,7 +387,9 @@ def _write_histories(path: Path, records: dict[int, journal.Record]) -> None:
             for i in sorted(records):
                 rows = records[i].history()
                 if rows is not None:
-                    group.create_dataset(str(i), data=rows)
+                    dataset = group.create_dataset(str(i), data=rows)
+                    # the scene's own columns: the default ones, then what its [output] adds
+                    dataset.attrs["columns"] = ",".join(c.name for c in for_scene(sweep.scene(i)))
         with open(part, "rb+") as f:
             os.fsync(f.fileno())
         os.replace(part, path)

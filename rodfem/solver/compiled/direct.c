@@ -104,6 +104,8 @@ typedef struct {
     /* positions in the packed state (ghosts not counted) of U(1), D(1) and around x = 0.5 */
     int u_1, du_1, half_i, half_j;
     double half_wi, half_wj;
+    int width;             /* a history row: RAW_SLOTS, then the readings */
+    rr_readings readings;
     /* work: the packed state, 3 (n + 2 ghost), and z, 2n */
     double *s;
     double *z;
@@ -415,7 +417,7 @@ RK_INLINE void steps_loop(const rk_problem *P, double *u_prev, long n0, long ste
             forward(P, sp, z, S);
             p = backward(P, sp, z, last, &energy, S);
         }
-        double *row = rows + RAW_SLOTS * k;
+        double *row = rows + (ptrdiff_t)P->width * k;
         row[RAW_N] = (double)(n0 + k + 1);
         row[RAW_ITERATIONS] = 1.0;
         row[RAW_U_1] = sp[P->u_1];
@@ -423,13 +425,18 @@ RK_INLINE void steps_loop(const rk_problem *P, double *u_prev, long n0, long ste
         row[RAW_U_HALF] = P->half_wi * sp[P->half_i] + P->half_wj * sp[P->half_j];
         row[RAW_BULK_ENERGY] = 0.5 * energy;
         row[RAW_PRESSURE] = p;
+        if (P->readings.count) {
+            const double *const part[3] = {sp, sp + 1, sp + 2};
+            rr_read(&P->readings, P->n, part, 3, row + RAW_SLOTS);
+        }
     }
     *pressure = p;
 }
 
 /* `steps` steps from the state `values` = [Theta; D; U] (3n, block order), which is overwritten by
- * the last; u_prev (n) receives U of the step before the last, rows (steps x 7) the history rows
- * (n, 1, U(1), D(1), U(0.5), bulk energy, p) of the steps n0 + 1 .. n0 + steps, and *pressure
+ * the last; u_prev (n) receives U of the step before the last, rows (steps x width) the history
+ * rows (n, 1, U(1), D(1), U(0.5), bulk energy, p, the readings) of the steps n0 + 1 .. n0 + steps,
+ * and *pressure
  * the last p. Returns 0. */
 int rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, long steps,
                double *rows, double *pressure)

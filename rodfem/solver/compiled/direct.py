@@ -232,6 +232,7 @@ class DirectKernel(CompiledLoop):
         P.midpoint_inertia = self.velocity_update
         P.u_1, P.du_1 = pack(history.u_1), pack(history.du_1)
         P.half_i, P.half_j, P.half_wi, P.half_wj = pack(i), pack(j), wi, wj
+        self.set_record(P, history)
         self._problem = P
         self._pressure = ffi.new("double *")
 

@@ -85,6 +85,7 @@ class CompiledLoop:
         self.first_step_special = method.time_scheme.special_first_step(method.inertia)
         self.velocity_update = int(method.time_scheme.velocity_update(method.inertia))
         self.done = 0
+        self.width = len(RAW)
 
     @staticmethod
     def set_obstacle(target, method) -> None:
@@ -115,6 +116,24 @@ class CompiledLoop:
         target.constant = float(end.constant)
         target.epsilon = float(method.law.epsilon)  # the obstacle's own: 0 for the rigid one
 
+    def set_record(self, target, history) -> None:
+        """Fill a problem's ``width`` and ``readings`` (record.h's rr_readings) from the
+        history's readings, kept alive on ``self``."""
+        self.width = history.width
+        target.width = history.width
+        readings = history.readings
+        if readings is None:
+            target.readings.count = target.readings.terms = 0
+            return
+        self._readings = (np.ascontiguousarray(readings.index, dtype=np.intc),
+                          np.ascontiguousarray(readings.weight, dtype=np.float64),
+                          np.ascontiguousarray(readings.constant, dtype=np.float64))
+        index, weight, constant = self._readings
+        target.readings.count, target.readings.terms = readings.count, readings.terms
+        target.readings.index = self.pointer(index, "int *")
+        target.readings.weight = self.pointer(weight)
+        target.readings.constant = self.pointer(constant)
+
     def checked_steps(self, steps: int, rows: np.ndarray) -> int:
         """The arguments of :meth:`advance`, checked: ``steps`` ≥ 0 as an int, not from the paper
         scheme's special first step, ``rows`` a writable C-contiguous float64 array of at least
@@ -125,7 +144,7 @@ class CompiledLoop:
         if steps and self.method.n == 0 and self.first_step_special:
             raise ValueError("the paper scheme's first step (n = 0 -> 1, with inertia) is "
                              "Method._first_step: take it with method.advance()")
-        width = len(RAW)
+        width = self.width
         if steps and not (rows.dtype == np.float64 and rows.ndim == 2 and rows.shape[1] == width
                           and rows.shape[0] >= steps and rows.flags.c_contiguous
                           and rows.flags.writeable):

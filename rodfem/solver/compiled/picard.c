@@ -75,6 +75,8 @@ typedef struct {
     /* the nodes around x = 0.5 (U(0.5) = half_wi U(half_i) + half_wj U(half_j)) */
     int half_i, half_j;
     double half_wi, half_wj;
+    int width;             /* a history row: RAW_SLOTS, then the readings */
+    rr_readings readings;
     /* 10 (n + 2) doubles of work: Theta, D, U, u_prev, T, V, h, m, gH, gM, each with a zero
      * ghost entry on either side */
     double *work;
@@ -306,7 +308,7 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
         fixed_row(P, n - 2, th, D, U, h, m, gH, &gh);
         energy_row(P, n - 1, th, D, U, energy);
         fixed_row(P, n - 1, th, D, U, h, m, gH, &gh);
-        double *row = rows + RAW_SLOTS * k;
+        double *row = rows + (ptrdiff_t)P->width * k;
         row[RAW_N] = (double)(n0 + k + 1);
         row[RAW_ITERATIONS] = (double)l;
         row[RAW_U_1] = U[n - 1];
@@ -314,6 +316,10 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
         row[RAW_U_HALF] = P->half_wi * U[P->half_i] + P->half_wj * U[P->half_j];
         row[RAW_BULK_ENERGY] = 0.5 * ((energy[0] + energy[1]) + energy[2]);
         row[RAW_PRESSURE] = p;
+        if (P->readings.count) {
+            const double *const part[3] = {th, D, U};
+            rr_read(&P->readings, n, part, 1, row + RAW_SLOTS);
+        }
         its = l;
         done = k + 1;
     }

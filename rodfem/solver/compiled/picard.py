@@ -170,6 +170,7 @@ class PicardKernel(CompiledLoop):
         if not (2 * n <= min(i, j) and max(i, j) < 3 * n):
             raise ValueError("the Picard kernel reads U(0.5) off U's block of the state")
         P.half_i, P.half_j, P.half_wi, P.half_wj = i - 2 * n, j - 2 * n, wi, wj
+        self.set_record(P, history)
         self._problem = P
         self._pressure = ffi.new("double *")
         self._iterations = ffi.new("int *")

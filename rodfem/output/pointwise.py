@@ -1,0 +1,162 @@
+"""The fields a run records, as affine maps of its state s = [Θ; D; U] (node order), and their
+values at points of the rod.
+
+θ, σ and the heat flux q are the forms' expressions (:func:`forms.copetti.temperature`,
+:func:`~forms.copetti.stress`, :func:`~forms.copetti.heat_flux`) of the P1 functions Θ, U and
+U − D, where D/Δt is the velocity (the paper's δⁿ = (Uⁿ − Uⁿ⁻¹)/Δt, Crank–Nicolson's Vⁿ). Each is
+affine in s, so :class:`Pointwise` reads its coefficients off the expressions once per run, by
+interpolating them into P1 and DG0 for a few probing states, and a field is then a few NumPy
+operations on s:
+
+* at the nodes: θ = Θ + θ₀, u = U, the velocity D/Δt;
+* per cell: σ = S s + σ₀ and q = Q s + q₀, S and Q sparse (a row per cell, its two nodes in each
+  part of s).
+
+:meth:`Pointwise.reading` gives the value of a field at a point x as an affine functional of s,
+which the time loops evaluate at every step (:class:`rodfem.output.history.History`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse
+from dolfinx import fem
+
+import forms.copetti as copetti
+from rodfem.discrete import compat
+from rodfem.discrete.discretisation import Discretisation
+
+NODE_FIELDS = ("theta", "u", "velocity")
+CELL_FIELDS = ("sigma", "heat_flux")
+PARTS = ("Θ", "D", "U")  # the parts of the state, in order
+
+
+class Pointwise:
+    """The recorded fields of a discretisation's scene as affine maps of the state (collective:
+    every rank calls the constructor, and every rank holds the maps)."""
+
+    def __init__(self, disc: Discretisation):
+        self.comm, self.nodes = disc.comm, disc.nodes
+        n = self.n = disc.nodes.size
+        self.x = disc.nodes.x.copy()
+        self.dt = disc.scene["time.dt"]
+        self.functions = [disc.function(name) for name in PARTS]
+        Θ, D, U = self.functions
+        c = disc.const
+        θ = copetti.temperature(Θ, c.theta_A, disc.r)
+        cell = {"sigma": copetti.stress(U, U - D, θ, c.dt, c.zeta, c.a),
+                "heat_flux": copetti.heat_flux(θ)}
+        self.theta = disc.function("theta")
+        self.theta_expr = fem.Expression(θ, compat.interpolation_points(disc.V))
+        self.cell_functions = {name: fem.Function(disc.W) for name in cell}
+        self.cell_exprs = {name: fem.Expression(e, compat.interpolation_points(disc.W))
+                           for name, e in cell.items()}
+        self._owned_nodes = disc.V.dofmap.index_map.size_local
+        self._owned_cells = disc.W.dofmap.index_map.size_local
+        midpoints = disc.W.tabulate_dof_coordinates()[: self._owned_cells, 0]
+        gathered = self.comm.allgather((self.nodes.owned, midpoints))
+        self._node_positions = np.concatenate([g[0] for g in gathered])
+        self._cell_order = np.argsort(np.concatenate([g[1] for g in gathered]), kind="stable")
+        self.x_cells = np.sort(np.concatenate([g[1] for g in gathered]))
+        self._read_maps(disc)
+
+    def _evaluate(self, parts: list[np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """θ at the nodes and the cell fields per cell (in order of x) of the state whose parts
+        Θ, D, U are the node-ordered arrays ``parts``, by interpolating the forms' expressions
+        (collective)."""
+        for f, values in zip(self.functions, parts, strict=True):
+            compat.petsc_vector(f).array[:] = values[self.nodes.owned]
+            f.x.scatter_forward()
+        self.theta.interpolate(self.theta_expr)
+        θ = np.empty(self.n)
+        θ[self._node_positions] = np.concatenate(
+            self.comm.allgather(self.theta.x.array[: self._owned_nodes].copy()))
+        cells = {}
+        for name, f in self.cell_functions.items():
+            f.interpolate(self.cell_exprs[name])
+            owned = np.concatenate(self.comm.allgather(f.x.array[: self._owned_cells].copy()))
+            cells[name] = owned[self._cell_order]
+        return θ, cells
+
+    def _read_maps(self, disc: Discretisation) -> None:
+        """The coefficients of θ and the cell fields, read off their expressions: with θ_A = 0
+        they are linear in (Θ, D, U), so setting one part to 1 on every third node (no cell sees
+        two of them) gives, cell by cell, the coefficient of its left or right node; θ₀, σ₀ and
+        q₀ are the fields of s = 0 with the scene's θ_A."""
+        n = self.n
+        zero = [np.zeros(n) for _ in PARTS]
+        self.theta0, self.cell0 = self._evaluate(zero)
+        theta_A = disc.const.theta_A
+        value = float(theta_A.value)
+        theta_A.value = 0.0
+        coefficients = {name: [] for name in CELL_FIELDS}  # per part: (left, right)
+        try:
+            for part in range(len(PARTS)):
+                left = {name: np.zeros(n - 1) for name in CELL_FIELDS}
+                right = {name: np.zeros(n - 1) for name in CELL_FIELDS}
+                unit = np.zeros(n)
+                for k in range(3):
+                    probe = (np.arange(n) % 3 == k).astype(float)
+                    parts = [probe if p == part else zero[p] for p in range(len(PARTS))]
+                    θ, cells = self._evaluate(parts)
+                    unit += θ
+                    for name, values in cells.items():
+                        left[name][probe[:-1] == 1.0] = values[probe[:-1] == 1.0]
+                        right[name][probe[1:] == 1.0] = values[probe[1:] == 1.0]
+                for name in CELL_FIELDS:
+                    coefficients[name].append((left[name], right[name]))
+                expected = np.ones(n) if PARTS[part] == "Θ" else np.zeros(n)
+                if not np.array_equal(unit, expected):
+                    raise RuntimeError("θ is not Θ plus a function of x: the maps do not apply")
+        finally:
+            theta_A.value = value
+        cells = np.arange(n - 1)
+        self.cell_maps = {}
+        for name in CELL_FIELDS:
+            rows, columns, values = [], [], []
+            for part, (left, right) in enumerate(coefficients[name]):
+                rows += [cells, cells]
+                columns += [part * n + cells, part * n + cells + 1]
+                values += [left, right]
+            self.cell_maps[name] = scipy.sparse.csr_matrix(
+                (np.concatenate(values), (np.concatenate(rows), np.concatenate(columns))),
+                shape=(n - 1, 3 * n))
+
+    def field(self, name: str, s: np.ndarray) -> np.ndarray:
+        """The field ``name`` (of :data:`NODE_FIELDS` or :data:`CELL_FIELDS`) of the state s."""
+        n = self.n
+        if name == "theta":
+            return s[:n] + self.theta0
+        if name == "u":
+            return s[2 * n:].copy()
+        if name == "velocity":
+            return s[n:2 * n] / self.dt
+        values = self.cell_maps[name] @ s
+        values += self.cell0[name]
+        return values
+
+    def reading(self, name: str, x: float) -> tuple[dict[int, float], float]:
+        """The field ``name`` at the point x as an affine functional of the state: its weights
+        (position in s → weight) and constant. A node field is interpolated; a cell field is its
+        cell's value, at a node between two cells their mean."""
+        n = self.n
+        if name in NODE_FIELDS:
+            nodes, weights = self.nodes.interpolation(x)
+            offset = {"theta": 0, "velocity": n, "u": 2 * n}[name]
+            scale = 1.0 / self.dt if name == "velocity" else 1.0
+            terms = {offset + int(i): float(w) * scale for i, w in zip(nodes, weights)}
+            constant = (sum(float(w) * self.theta0[int(i)] for i, w in zip(nodes, weights))
+                        if name == "theta" else 0.0)
+            return terms, constant
+        j = int(np.clip(np.searchsorted(self.x, x, side="right") - 1, 0, n - 2))
+        cells = [j - 1, j] if 0 < j and x == self.x[j] else [j]
+        terms: dict[int, float] = {}
+        constant = 0.0
+        A = self.cell_maps[name]
+        for cell in cells:
+            w = 1.0 / len(cells)
+            for i, a in zip(A.indices[A.indptr[cell]:A.indptr[cell + 1]],
+                            A.data[A.indptr[cell]:A.indptr[cell + 1]]):
+                terms[int(i)] = terms.get(int(i), 0.0) + w * float(a)
+            constant += w * float(self.cell0[name][cell])
+        return {i: w for i, w in terms.items() if w != 0.0}, constant
