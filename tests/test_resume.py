@@ -68,7 +68,8 @@ def assert_whole(out: Path) -> None:
 def assert_same_run(out: Path, reference: Path) -> None:
     assert (out / "history.csv").read_bytes() == (reference / "history.csv").read_bytes()
     a, b = read_fields(out / "fields.xdmf"), read_fields(reference / "fields.xdmf")
-    for name in ("t", "x", "theta", "u", "sigma"):
+    assert a.names == b.names
+    for name in ("t", "x", *a.names):
         assert np.array_equal(getattr(a, name), getattr(b, name)), name
     summary = json.loads((out / "summary.json").read_text())
     expected = json.loads((reference / "summary.json").read_text())
@@ -145,6 +146,26 @@ def test_a_finished_run_extends_to_a_later_end(tmp_path):
     rodfem("run", *scene, "--set", "time.end=1", "--out", long, "--quiet", check=0)
     assert_same_run(short, long)
     assert "end = 1" in (short / "scene.toml").read_text()
+
+
+@serial_only
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_chosen_outputs_resume_to_the_same_run(tmp_path, ranks):
+    """Probes, added quantities and chosen fields continue bit for bit, as the defaults do."""
+    short, long = tmp_path / "short", tmp_path / "long"
+    scene = ["paper1", "--set", "mesh.cells=40", "--set", "output.every=7",
+             "--set", "output.probes=[0.3, 0.5, 1]", "--set", "output.checkpoint=0",
+             "--set", 'output.history=["theta_1", "heat_flux_1", "contact_force", "contact"]',
+             "--set", 'output.fields=["u", "velocity", "heat_flux"]']
+    rodfem("run", *scene, "--set", "time.end=0.5", "--out", short, "--quiet", ranks=ranks,
+           check=0)
+    rodfem("resume", short, "--set", "time.end=1", "--quiet", ranks=ranks, check=0)
+    rodfem("run", *scene, "--set", "time.end=1", "--out", long, "--quiet", ranks=ranks, check=0)
+    assert_same_run(short, long)
+    header = (short / "history.csv").read_text().splitlines()[0]
+    assert header.endswith(",contact,u@0.3,theta@0.3,sigma@0.3,u@0.5,theta@0.5,sigma@0.5,"
+                           "u@1,theta@1,sigma@1")
+    assert read_fields(short / "fields.xdmf").names == ("u", "velocity", "heat_flux")
 
 
 @serial_only
