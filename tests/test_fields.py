@@ -118,5 +118,5 @@ def test_stock_meshio_cannot_read_them_and_rodfems_reader_can(simulate):
     with pytest.raises(KeyError, match="PolyLine"):
         with meshio.xdmf.TimeSeriesReader(out / "fields.xdmf") as reader:
             reader.read_points_cells()
-    f = rodfem.read_fields(out / "fields.xdmf")
+    f = rodfem.read_fields(str(out / "fields.xdmf"))  # a path as a string too
     assert f.names == ("theta", "u", "sigma") and f.u.shape == (3, 9)

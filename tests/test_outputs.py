@@ -74,7 +74,8 @@ def test_probes_match_the_saved_fields(simulate):
     and u interpolated, σ on the cell holding x (at a node, the mean of its two cells); theta_1
     is θ(1), the velocity at x = 1 is ut_1, the heat flux is −θ_x per cell."""
     every = 10
-    probes = [0.0, 0.3, 0.5, 0.71, 1.0]  # nodes (0, 0.3, 0.5, 1) and inside a cell (0.71)
+    # nodes (0, 0.5, 1; 0.3 is the node at 0.30000000000000004) and inside a cell (0.71)
+    probes = [0.0, 0.3, 0.5, 0.71, 1.0]
     result, out = simulate("paper2", "mesh.cells=20", "time.end=0.5", f"output.every={every}",
                            f"output.probes={probes}", QUANTITIES, ALL_FIELDS)
     if COMM.rank != 0:
@@ -95,9 +96,12 @@ def test_probes_match_the_saved_fields(simulate):
                                        atol=16 * eps * scale[name])
         if x == 1.0:
             continue  # σ(1) is the obstacle's, as sigma_1 (test above)
-        j = np.searchsorted(f.x, x, side="right") - 1
-        on_node = x == f.x[j] and 0 < j
-        cell = 0.5 * (f.sigma[:, j - 1] + f.sigma[:, j]) if on_node else f.sigma[:, j]
+        j = int(np.argmin(np.abs(f.x - x)))  # the nearest node, and is x that node?
+        on_node = abs(f.x[j] - x) <= 1e-10 * (f.x[1] - f.x[0])
+        if not on_node:
+            j = np.searchsorted(f.x, x, side="right") - 1
+        cell = (f.sigma[:, 0] if j == 0 else 0.5 * (f.sigma[:, j - 1] + f.sigma[:, j])
+                if on_node else f.sigma[:, j])
         # σ's terms reach ζ/Δt times the strain: its round-off is that times eps
         np.testing.assert_allclose(h[f"sigma@{x:g}"][saved], cell, rtol=0,
                                    atol=64 * eps * scale["sigma"] * (1 + 1 / 0.001))
@@ -189,3 +193,61 @@ def test_two_ranks_record_and_save_what_one_does(tmp_path):
     one, two = (read_fields(out / "fields.xdmf") for out in outs)
     for name in ("x", "t", "x_cells", *one.names):
         np.testing.assert_array_equal(getattr(two, name), getattr(one, name), err_msg=name)
+
+
+def test_a_probe_at_a_node_is_at_the_node(simulate):
+    """x = 0.3 on 10 cells is the node the mesh places at 0.30000000000000004: its σ is the mean
+    of the two cells there, its u the node's value, whichever of the two is written."""
+    _, out = simulate("paper1", "mesh.cells=10", "time.end=0.1", "output.every=20",
+                      "output.probes=[0.3, 0.30000000000000004, 0.35]")
+    if COMM.rank != 0:
+        return
+    h, _ = history(out)
+    f = read_fields(out / "fields.xdmf")
+    assert f.x[3] != 0.3 and abs(f.x[3] - 0.3) < 1e-15
+    for field in ("u", "theta", "sigma"):
+        np.testing.assert_array_equal(h[f"{field}@0.3"], h[f"{field}@0.30000000000000004"])
+    saved = np.arange(0, 101, 20)
+    mean = 0.5 * (f.sigma[:, 2] + f.sigma[:, 3])
+    np.testing.assert_allclose(h["sigma@0.3"][saved], mean, rtol=0,
+                               atol=1e-12 * np.abs(f.sigma).max())
+    np.testing.assert_array_equal(h["u@0.3"][saved], f.u[:, 3])
+    assert np.all(np.abs(h["sigma@0.35"][saved] - f.sigma[:, 3])
+                  <= 1e-12 * np.abs(f.sigma).max())
+
+
+def test_what_a_run_records_counts_in_its_size():
+    """The size check counts the columns and fields a scene chooses."""
+    import rodfem.scene
+    from rodfem.output.sizes import estimate
+
+    base = ["time.end=1", "time.dt=1e-5", "mesh.cells=100"]
+    plain = estimate(rodfem.scene.load("paper1", base))
+    probes = [f"output.probes={list(np.linspace(0, 1, 1000))}"]
+    many = estimate(rodfem.scene.load("paper1", [*base, *probes]))
+    # 3000 columns more, of about 24 bytes, on 100 001 rows
+    assert many[0] - plain[0] >= 3000 * 20 * 100_001
+    fields = estimate(rodfem.scene.load("paper1", [*base, 'output.fields=["u"]']))
+    assert fields[0] < plain[0]
+
+
+def test_probes_read_minus_zero_as_zero():
+    import rodfem.scene
+    from rodfem.output.columns import for_scene
+
+    scene = rodfem.scene.load("paper1", ["output.probes=[-0.0, 0.5]"])
+    assert [c.name for c in for_scene(scene)][7:10] == ["u@0", "theta@0", "sigma@0"]
+
+
+def test_a_checkpoint_of_an_earlier_rodfem_resumes():
+    """A checkpoint written before the [output] keys it lacks existed: the same scene."""
+    import rodfem.scene
+    from rodfem.output.resume import _resolved, identity
+
+    scene = rodfem.scene.load("paper1", [])
+    old = scene.data()
+    for key in ("fields", "history", "probes"):
+        del old["output"][key]
+    assert identity(_resolved(old)) == identity(scene.data())
+    old["model"]["zeta"] = 5.0
+    assert identity(_resolved(old)) != identity(scene.data())

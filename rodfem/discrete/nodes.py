@@ -78,12 +78,17 @@ class NodeOrder:
         """This rank's owned entries, in its local order, of the node-ordered vector u."""
         return u.array_r[self.owned]
 
+    # A point within this fraction of a cell from a node is the node: x = 0.3 is the node that
+    # the mesh places at 0.30000000000000004.
+    SNAP = 1e-10
+
     def interpolation(self, x0: float) -> tuple[np.ndarray, np.ndarray]:
-        """Node positions and weights with u(x0) = Σ w_j u_j for u in P1."""
+        """Node positions and weights with u(x0) = Σ w_j u_j for u in P1: one node, weight 1,
+        where x0 is a node (to :attr:`SNAP` of a cell)."""
         j = int(np.clip(np.searchsorted(self.x, x0, side="right") - 1, 0, self.size - 2))
         t = (x0 - self.x[j]) / (self.x[j + 1] - self.x[j])
-        if t == 0.0 or t == 1.0:
-            return np.array([j + int(t)], dtype=PETSc.IntType), np.array([1.0])
+        if t <= self.SNAP or t >= 1.0 - self.SNAP:
+            return np.array([j + int(t >= 0.5)], dtype=PETSc.IntType), np.array([1.0])
         return np.array([j, j + 1], dtype=PETSc.IntType), np.array([1.0 - t, t])
 
 

@@ -138,7 +138,8 @@ class Pointwise:
     def reading(self, name: str, x: float) -> tuple[dict[int, float], float]:
         """The field ``name`` at the point x as an affine functional of the state: its weights
         (position in s → weight) and constant. A node field is interpolated; a cell field is its
-        cell's value, at a node between two cells their mean."""
+        cell's value, at a node between two cells their mean (a point within
+        :attr:`~rodfem.discrete.nodes.NodeOrder.SNAP` of a cell from a node is the node)."""
         n = self.n
         if name in NODE_FIELDS:
             nodes, weights = self.nodes.interpolation(x)
@@ -148,8 +149,12 @@ class Pointwise:
             constant = (sum(float(w) * self.theta0[int(i)] for i, w in zip(nodes, weights))
                         if name == "theta" else 0.0)
             return terms, constant
-        j = int(np.clip(np.searchsorted(self.x, x, side="right") - 1, 0, n - 2))
-        cells = [j - 1, j] if 0 < j and x == self.x[j] else [j]
+        nodes, _ = self.nodes.interpolation(x)
+        if len(nodes) == 2:  # inside cell j
+            cells = [int(nodes[0])]
+        else:  # at node i: the cells on either side of it that there are
+            i = int(nodes[0])
+            cells = [c for c in (i - 1, i) if 0 <= c <= n - 2]
         terms: dict[int, float] = {}
         constant = 0.0
         A = self.cell_maps[name]

@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from rodfem.output.checkpoint import NAME, CheckpointError, read_checkpoint
-from rodfem.scene import SceneError, load
+from rodfem.scene import SceneError, load, validate
 
 CHANGEABLE = ("time.end",)
 
@@ -27,6 +27,15 @@ def identity(data: dict) -> dict:
         section, name = key.split(".")
         data.get(section, {}).pop(name, None)
     return data
+
+
+def _resolved(data: dict) -> dict:
+    """A checkpoint's scene with the defaults of keys added since it was written (a run of an
+    earlier rodfem resumes); as it is where it is not a valid scene."""
+    try:
+        return validate(data).data()
+    except SceneError:
+        return data
 
 
 def _plan(out: Path, overrides: list[str], marker: dict, ranks: int):
@@ -49,7 +58,7 @@ def _plan(out: Path, overrides: list[str], marker: dict, ranks: int):
         arrays, meta = read_checkpoint(out)
     except CheckpointError as err:
         raise ResumeError(str(err)) from None
-    if identity(meta.get("scene", {})) != identity(base.data()):
+    if identity(_resolved(meta.get("scene", {}))) != identity(base.data()):
         raise ResumeError(f"{out / 'scene.toml'} is not the scene of the run's checkpoint (was "
                           "it edited?); a run resumes with the scene it was run with")
     if meta.get("mpi_ranks") != ranks:

@@ -7,7 +7,8 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-HISTORY_ROW = 140  # bytes of a row of history.csv: seven numbers to 17 digits, and commas
+NUMBER = 24  # bytes of a number of history.csv: 17 digits, sign, exponent and a comma
+BLOCK = 1024  # rows of the history a run holds in memory before it formats them
 STATE_PER_NODE = 4000  # bytes per node of the operators, factors and vectors of a method
 
 
@@ -17,12 +18,19 @@ class SizeError(ValueError):
 
 def estimate(scene) -> tuple[int, int]:
     """(bytes written, bytes of memory at most) of a run of ``scene``."""
+    from rodfem.output.columns import for_scene, readings
+
     steps, nodes = scene.steps, scene["mesh.cells"] + 1
     saves = steps // scene["output.every"] + 2
-    fields = saves * (3 * nodes) * 8
-    history = (steps + 2) * HISTORY_ROW
+    per_save = sum(nodes if name in ("theta", "u", "velocity") else nodes - 1
+                   for name in scene["output.fields"])
+    fields = saves * per_save * 8
+    columns = for_scene(scene)
+    history = (steps + 2) * len(columns) * NUMBER
+    # the raw rows of a block: the slots, then the readings
+    block = BLOCK * (8 + len(readings(columns))) * 8
     # Between two checkpoints rank 0 keeps the saved fields and the history's text; at most all.
-    return fields + history, fields + history + nodes * STATE_PER_NODE
+    return fields + history, fields + history + block + nodes * STATE_PER_NODE
 
 
 def _free_memory() -> int | None:
@@ -60,8 +68,8 @@ def check_room(scene, out: Path, comm, allow: bool = False) -> None:
         except OSError:
             disk = None
         ram = _free_memory()
-        advice = ("fewer steps, fields saved less often (output.every), or --no-size-check to "
-                  "run anyway")
+        advice = ("fewer steps, fields saved less often (output.every) or fewer of them "
+                  "(output.fields), fewer probes, or --no-size-check to run anyway")
         if disk is not None and written > disk:
             error = (f"the run would write about {_size(written)} into {out}, where "
                      f"{_size(disk)} is free; use {advice}")

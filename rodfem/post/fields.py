@@ -140,7 +140,7 @@ class _Reader:
         return points, cells, series
 
 
-def read_fields(path: Path) -> Fields:
+def read_fields(path: str | Path) -> Fields:
     """Read the fields of a run's ``fields.xdmf`` (and the HDF5 files it names).
 
     Args:
@@ -152,6 +152,7 @@ def read_fields(path: Path) -> Fields:
     Raises:
         FieldsError: the file is missing, unreadable, or its functions do not share their times.
     """
+    path = Path(path)
     try:
         with _Reader(path) as reader:
             points, cells, series = reader.read()

@@ -117,17 +117,22 @@ def _suggest(name: str, allowed) -> str:
 
 def _check_list(dotted: str, spec: Key, value: Any) -> list:
     """A list key's value: a list of distinct values, each checked as the key's element kind."""
+    example = spec.default or ([spec.choices[0]] if spec.choices else [0.5])
     if not isinstance(value, (list, tuple)):
-        raise SceneError(f"{dotted}: must be a list, e.g. {_toml_value(spec.default or [0.5])}, "
+        raise SceneError(f"{dotted}: must be a list, e.g. {_toml_value(list(example))}, "
                          f"got {_toml_value(value)}")
     element = dataclasses.replace(spec, kind=spec.kind[:-1])  # "reals" -> "real"
-    items = tuple(_check_value(f"{dotted}[{i}]", element, v) for i, v in enumerate(value))
+    items = [_check_value(f"{dotted}[{i}]", element, v) for i, v in enumerate(value)]
+    if spec.kind == "reals":
+        items = [x + 0.0 for x in items]  # -0.0 is 0
     if spec.kind == "choices" and dotted == "output.fields" and not items:
         raise SceneError(f"{dotted}: must name at least one of {', '.join(spec.choices)}")
-    for i, item in enumerate(items):
-        if item in items[:i]:
+    seen = set()
+    for item in items:
+        if item in seen:
             raise SceneError(f"{dotted}: {_toml_value(item)} is listed twice")
-    return list(items)  # as JSON holds it (a checkpoint's scene)
+        seen.add(item)
+    return items  # a list, as JSON holds it (a checkpoint's scene)
 
 
 def _check_value(dotted: str, spec: Key, value: Any) -> Any:
