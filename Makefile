@@ -4,7 +4,8 @@ PY := .venv/bin/python
 MPIRUN := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 \
   PRTE_MCA_rmaps_default_mapping_policy=:oversubscribe mpirun
 
-.PHONY: setup demo test test-serial test-mpi fuzz bench clean container-test container-test-sid
+.PHONY: setup demo test test-serial test-mpi fuzz bench clean container-test container-test-sid \
+  docs test-docs notebooks
 
 setup:
 	@scripts/setup.sh
@@ -27,6 +28,31 @@ fuzz: setup
 
 clean:
 	rm -rf results .pytest_cache .hypothesis
+
+# The documentation site in docs/_build/html, warnings as errors, every reference checked
+# (nitpicky). Sets itself up: Sphinx, MyST, Furo, MathJax and Chromium from Debian, jupytext from
+# PyPI (scripts/setup.sh docs). Runs every demo (CI=1) and generates the scene, CLI and API
+# references from the code. About a minute and a half.
+docs:
+	@scripts/setup.sh docs
+	$(PY) -m sphinx -b html -W --keep-going -n -q docs docs/_build/html
+	@echo "docs: docs/_build/html/index.html"
+
+# Checks of the built site: every page, link and image resolves, the references are complete,
+# and headless Chromium renders the pages with their figures and formulas. Skipped (with the
+# reason) without docs/_build/html: run `make docs` first.
+test-docs:
+	$(PY) -m pytest -q tests/test_docs_reference.py tests/test_docs_site.py
+
+# The demos as Jupyter notebooks, in build/notebooks/ (jupytext; `pip install -e .[jupyter]` for
+# Jupyter itself).
+notebooks:
+	@scripts/setup.sh docs
+	@mkdir -p build/notebooks
+	for demo in demos/demo_*.py; do \
+	  $(PY) -m jupytext --quiet --to ipynb --output build/notebooks/$$(basename $$demo .py).ipynb $$demo \
+	    || exit 1; \
+	done
 
 bench: setup
 	$(PY) benchmarks/bench_picard.py

@@ -4,6 +4,11 @@
 # (editable). Idempotent: a second run checks and changes nothing. The container runs this too.
 # Debian 12 (dolfinx 0.5.2, Python 3.11, NumPy 1) and Debian 13 (dolfinx 0.9.0, Python 3.13,
 # NumPy 2) alike: `make container-test` runs it in a Debian 13 chroot.
+#
+# `scripts/setup.sh docs` (what `make docs` runs) adds what the documentation site needs: Sphinx,
+# MyST, the Furo theme, MathJax and headless Chromium from Debian (every name packaged by both
+# releases), and jupytext from PyPI (the `docs` extra). The plain set-up, and so the containers,
+# install none of it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -18,6 +23,19 @@ APT_PACKAGES=(
   # at run time (ldd shows no GL library) and Mesa renders off-screen with libgl1-mesa-dri.
   python3-matplotlib libegl1 libgl1-mesa-dri
 )
+extras=test
+if [ "${1:-}" = docs ]; then
+  extras=test,docs
+  APT_PACKAGES+=(
+    python3-sphinx python3-myst-parser furo  # the site: Sphinx 5.3 and MyST 0.18 on Debian 12
+    libjs-mathjax fonts-mathjax  # MathJax 2, copied into the site: it renders without a network
+    python3-nbformat  # jupytext's notebooks (its other requirements come with MyST)
+    chromium  # tests/test_docs_site.py looks at the built pages in headless Chromium
+  )
+elif [ -n "${1:-}" ]; then
+  echo "usage: scripts/setup.sh [docs]" >&2
+  exit 2
+fi
 
 missing=()
 for pkg in "${APT_PACKAGES[@]}"; do
@@ -45,10 +63,19 @@ fi
 # matplotlib would pull in: that is why matplotlib comes from Debian too).
 numpy_pin=$(/usr/bin/python3 -c 'import numpy; print("numpy==" + numpy.__version__)')
 stamp=.venv/.rodfem-installed
+[ "$extras" = test ] || stamp=.venv/.rodfem-installed-$extras
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ "$0" -nt "$stamp" ]; then
-  echo "setup: pip install -e .[test] ($numpy_pin)"
+  echo "setup: pip install -e .[$extras] ($numpy_pin)"
   echo "$numpy_pin" > .venv/constraints.txt
+  if [ "$extras" != test ]; then
+    # The same for Sphinx, MyST and docutils: Debian's own, which its Furo theme and MathJax fit.
+    # Unpinned, jupytext's requirements let pip replace them with PyPI's newest, a Sphinx that
+    # Debian 12's Furo does not know. (Debian's furo says it is version 0.0.0: not pinned.)
+    /usr/bin/python3 -c 'import importlib.metadata as m
+for name in ("sphinx", "myst-parser", "docutils", "mdit-py-plugins"):
+    print(f"{name}=={m.version(name)}")' >> .venv/constraints.txt
+  fi
   .venv/bin/python -m pip install -q --disable-pip-version-check -c .venv/constraints.txt \
-    "$numpy_pin" -e ".[test]"
+    "$numpy_pin" -e ".[$extras]"
   touch "$stamp"
 fi
