@@ -223,7 +223,7 @@ def test_what_a_run_records_counts_in_its_size():
 
     base = ["time.end=1", "time.dt=1e-5", "mesh.cells=100"]
     plain = estimate(rodfem.scene.load("paper1", base))
-    probes = [f"output.probes={list(np.linspace(0, 1, 1000))}"]
+    probes = [f"output.probes={np.linspace(0, 1, 1000).tolist()}"]
     many = estimate(rodfem.scene.load("paper1", [*base, *probes]))
     # 3000 columns more, of about 24 bytes, on 100 001 rows
     assert many[0] - plain[0] >= 3000 * 20 * 100_001

@@ -120,7 +120,7 @@ def _check_list(dotted: str, spec: Key, value: Any) -> list:
     example = spec.default or ([spec.choices[0]] if spec.choices else [0.5])
     if not isinstance(value, (list, tuple)):
         raise SceneError(f"{dotted}: must be a list, e.g. {_toml_value(list(example))}, "
-                         f"got {_toml_value(value)}")
+                         f"got {shorten(_toml_value(value), 60)}")
     element = dataclasses.replace(spec, kind=spec.kind[:-1])  # "reals" -> "real"
     items = [_check_value(f"{dotted}[{i}]", element, v) for i, v in enumerate(value)]
     if spec.kind == "reals":
