@@ -4,7 +4,8 @@
     rodfem run SCENE [--out DIR] [--set section.key=value ...] [--force]
     rodfem sweep SWEEP.toml [--out DIR] [--force] [--histories]
     rodfem resume DIR [--set time.end=T]
-    rodfem plot DIR [DIR ...] [--out FIGDIR]     (runs, or one sweep)
+    rodfem plot DIR [DIR ...] [--out FIGDIR] [--force] [--only KINDS] [--no-animation]
+                [--window T0,T1] [--labels A,B,...] [--colour-by KEY]   (runs, or one sweep)
     rodfem stability [--out DIR] [--scene S] [--methods M,...] [--dt LIST] [--epsilon LIST]
                      [--zeta LIST] [--a LIST] [--end T] [--force] [--progress]
     rodfem verify [--out DIR] [--scenes S,...] [--force] [--quick] [--progress]
@@ -108,7 +109,8 @@ def parser() -> argparse.ArgumentParser:
         help="draw the figures of runs",
         description="Draw contact.png, energy.png, spacetime_{u,theta,sigma}.png and rod.gif of "
         "a run directory into DIR/figures. With several directories, contact.png and energy.png "
-        "overlay the runs and the per-run figures are named after each run's directory, "
+        "overlay the runs (with a legend below the curves, or coloured by a scene value with "
+        "--colour-by) and the per-run figures are named after each run's directory, "
         "e.g. rod_paper2.gif, all in the first directory's figures/ (or FIGDIR). For a sweep "
         "directory, sweep_<measure>.png draws each measure over the swept keys: a line over one, "
         "a coloured map over two grid axes (and lines, one per value of the second).",
@@ -116,12 +118,33 @@ def parser() -> argparse.ArgumentParser:
     plot.add_argument("dirs", nargs="+", type=Path, metavar="DIR",
                       help="a run directory written by 'rodfem run', or one sweep directory")
     plot.add_argument("--out", type=Path, metavar="FIGDIR",
-                      help="figure directory (default: the first DIR's figures/)")
+                      help="figure directory (default: the first DIR's figures/, whose figures "
+                      "are drawn again); if FIGDIR holds a figure of a name rodfem would write, "
+                      "nothing is drawn, unless --force")
+    plot.add_argument("--force", action="store_true",
+                      help="replace the figures of the same names in FIGDIR (no other file is "
+                      "touched)")
+    from rodfem.post.options import KINDS
+
+    plot.add_argument("--only", metavar="KINDS",
+                      help=f"draw only these figures, comma-separated: {', '.join(KINDS)} "
+                      "(spacetime: every saved field's map); for a sweep, measures")
+    plot.add_argument("--no-animation", dest="animation", action="store_false",
+                      help="no rod.gif (the slowest figure)")
+    plot.add_argument("--window", metavar="T0,T1",
+                      help="draw the times T0 <= t <= T1 only (curves, maps and animation)")
+    plot.add_argument("--labels", metavar="A,B,...",
+                      help="the runs' names in legends and titles, one per DIR, comma-separated "
+                      "(default: each directory's name and the values that differ)")
+    plot.add_argument("--colour-by", metavar="KEY",
+                      help="colour overlaid runs by this scene value (e.g. model.zeta) on a "
+                      "sequential colour map, with a colour bar instead of a legend")
     paper = sub.add_parser(
         "paper",
         help="reproduce the paper's Section 6",
-        description="Run the paper's five experiments, draw their figures and Figure 5, and write "
-        "index.md, which sets each figure beside what the paper says about it.",
+        description="Run the paper's five experiments, draw their figures and Figure 5 "
+        "(experiments 1 and 2 overlaid: their energy and their curves), and write index.md, "
+        "which sets each figure beside what the paper says about it.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     _output(paper, "results/paper", "output directory", "replace an earlier reproduction")

@@ -253,6 +253,41 @@ SWEEP_INCOMPLETE = {
 }
 
 
+def _plot_options(args: argparse.Namespace):
+    """The options of ``rodfem plot`` read (their fit with the runs is checked as they load)."""
+    from rodfem.post.options import KINDS, Options, parse_labels, parse_only, parse_window
+
+    return Options(only=parse_only(args.only) if args.only is not None else frozenset(KINDS),
+                   animation=args.animation,
+                   window=parse_window(args.window) if args.window is not None else None,
+                   labels=parse_labels(args.labels) if args.labels is not None else None,
+                   colour_by=args.colour_by)
+
+
+def _drawing(args: argparse.Namespace):
+    """Check the options against what the directories are (runs, or one sweep) and return what
+    draws the figures: the options' mistakes are found before any note or figure."""
+    from rodfem.output.directories import read_marker
+    from rodfem.post import PlotError
+    from rodfem.post import plot as draw
+
+    sweeps = [d for d in args.dirs if (read_marker(d) or {}).get("command") == "sweep"]
+    if sweeps and len(args.dirs) > 1:
+        raise PlotError(f"{sweeps[0]} is a sweep: plot it alone (its figures draw every "
+                        "scene's measures)")
+    if not sweeps:
+        options = _plot_options(args)
+        return lambda: draw(args.dirs, args.out, options, force=args.force)
+    from rodfem.post.sweep import plot_sweep
+
+    for option, value in (("--window", args.window), ("--labels", args.labels),
+                          ("--colour-by", args.colour_by)):
+        if value is not None:
+            raise PlotError(f"{option} applies to runs; {sweeps[0]} is a sweep")
+    only = None if args.only is None else [m.strip() for m in args.only.split(",")]
+    return lambda: plot_sweep(sweeps[0], args.out, force=args.force, only=only)
+
+
 def plot(args: argparse.Namespace) -> int:
     """Draw the figures on rank 0 (the others wait), then list the files written."""
     from mpi4py import MPI
@@ -263,25 +298,16 @@ def plot(args: argparse.Namespace) -> int:
     written, error, code = [], None, 0
     if comm.rank == 0:
         from rodfem.post import PlotError
-        from rodfem.post import plot as draw
 
-        for path in args.dirs:
-            sweep = (read_marker(path) or {}).get("command") == "sweep" if path.is_dir() else False
-            notes = SWEEP_INCOMPLETE if sweep else INCOMPLETE
-            note = notes.get(state(path) if path.is_dir() else None)
-            if note:
-                say(f"rodfem: note: {path} {note.format(path=path)}")
         try:
-            sweeps = [d for d in args.dirs if (read_marker(d) or {}).get("command") == "sweep"]
-            if sweeps and len(args.dirs) > 1:
-                raise PlotError(f"{sweeps[0]} is a sweep: plot it alone (its figures draw every "
-                                "scene's measures)")
-            if sweeps:
-                from rodfem.post.sweep import plot_sweep
-
-                written = plot_sweep(sweeps[0], args.out)
-            else:
-                written = draw(args.dirs, args.out)
+            drawing = _drawing(args)
+            for path in args.dirs:
+                sweep = path.is_dir() and (read_marker(path) or {}).get("command") == "sweep"
+                notes = SWEEP_INCOMPLETE if sweep else INCOMPLETE
+                note = notes.get(state(path) if path.is_dir() else None)
+                if note:
+                    say(f"rodfem: note: {path} {note.format(path=path)}")
+            written = drawing()
         except PlotError as err:
             error, code = " ".join(str(err).split()), EXIT_INPUT  # one line
         except OSError as err:

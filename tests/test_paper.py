@@ -1,5 +1,6 @@
-"""rodfem paper: five experiments, their figures and an index that quotes the paper beside them;
-and every experiment's literate demo runs under mpirun -n 2."""
+"""rodfem paper: five experiments, their figures and an index that quotes the paper beside them
+and links every figure written, none blank; and every experiment's literate demo runs under
+mpirun -n 2."""
 
 import os
 import re
@@ -9,6 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from test_plot import assert_figure
 
 from conftest import COMM, serial_only
 from rodfem.cli import main
@@ -29,10 +31,23 @@ def test_paper_index_sets_each_figure_beside_the_paper(shared_dir, capsys):
         assert experiment.says in index
         assert (out / experiment.scene / "history.csv").is_file()
     images = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", index)
-    assert len(images) == 6 * len(EXPERIMENTS) + 1
+    assert len(images) == 6 * len(EXPERIMENTS) + 2
+    drawn = sorted(p.relative_to(out).as_posix() for p in out.rglob("*")
+                   if p.suffix in (".png", ".gif"))
+    assert sorted(images) == drawn  # every figure written is linked, and only those
     for image in images:
-        assert (out / image).is_file() and (out / image).stat().st_size > 1000, image
+        assert_figure(out / image)  # every frame of every figure has something drawn
     assert "ln(Ê^n + 0.01)" in index and "figure5/energy.png" in images
+    # t ≤ 0.2: paper1 touches once (from t ≈ 0.19), singular; no count of 1 in the plural
+    assert "rodfem: 1 interval of contact (u(1) > g)" in index
+    assert not re.search(r"\b1 intervals", index)
+
+
+def test_plural():
+    from rodfem.studies.paper import plural
+
+    assert [plural(n, "interval") for n in (0, 1, 2)] == ["0 intervals", "1 interval",
+                                                           "2 intervals"]
 
 
 def test_paper_refuses_a_bad_override_before_running(shared_dir, capsys):

@@ -161,3 +161,30 @@ def test_missing_directory(tmp_path):
         plot_sweep(tmp_path / "nowhere")
     assert "\n" not in str(error.value)
     assert not (tmp_path / "nowhere").exists()
+
+
+def test_options(tmp_path, capsys):
+    """--only chooses measures, --out keeps its figures without --force (and --force replaces
+    only them); options of runs, or an unknown measure, are refused: exit 2, one line."""
+    from rodfem.cli import main
+
+    out, figs = sweep(tmp_path, ONE), tmp_path / "figs"
+    written = plot_sweep(out, figs, only=["u_1_final"])
+    check(written, figs, ["sweep_u_1_final.png"])
+    with pytest.raises(PlotError, match="sweep_u_1_final.png exists"):
+        plot_sweep(out, figs, only=["u_1_final"])
+    (figs / "mine.txt").write_text("mine")
+    assert plot_sweep(out, figs, force=True, only=["u_1_final"]) == written
+    assert sorted(p.name for p in figs.iterdir()) == ["mine.txt", "sweep_u_1_final.png"]
+    capsys.readouterr()
+    for options, message in ((["--only", "u_1_finall"], "the measures are "),
+                             (["--window", "0,1"], "--window applies to runs"),
+                             (["--colour-by", "model.k"], "--colour-by applies to runs"),
+                             (["--labels", "a"], "--labels applies to runs")):
+        bad = tmp_path / "bad"
+        assert main(["plot", str(out), "--out", str(bad), *options]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err and "Traceback" not in err, err
+        assert not bad.exists()
+    assert main(["plot", str(out), "--out", str(figs), "--only", "u_1_final"]) == 2
+    assert "--force" in capsys.readouterr().err

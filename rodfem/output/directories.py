@@ -38,7 +38,8 @@ RUN_FILES = ("history.csv", "fields.xdmf", "fields", "scene.toml", "summary.json
              "checkpoint.npz")
 FIGURE_DIRS = ("figures", "figure5")
 # The names of the figures rodfem draws (rodfem.post; "_<run>" when several runs are drawn).
-FIGURE_NAMES = re.compile(r"^((contact|energy)(_.+)?\.png|spacetime_(u|theta|sigma)(_.+)?\.png"
+FIGURE_NAMES = re.compile(r"^((contact|energy)(_.+)?\.png"
+                          r"|spacetime_(u|theta|sigma|velocity|heat_flux)(_.+)?\.png"
                           r"|rod(_.+)?\.gif|stability_\w+\.png|(orders|workprecision)_.+\.png"
                           r"|sweep_\w+\.png)$")
 # A run's subdirectories of data, and the names of the files rodfem writes there.

@@ -1,6 +1,10 @@
-"""Curves against time from ``history.csv``: the paper's four panels and its Figure 5.
+"""Curves against time from ``history.csv``: the paper's four panels and ln(Ê + 0.01).
 
-Several runs are drawn on the same axes, each in its own colour, with one legend.
+Drawn with matplotlib (its figures, not pyplot's: nothing global, no backend to choose), which
+lays out what VTK's charts cannot: a legend outside the axes, below them, so that it never covers
+a curve, and a colour bar for runs coloured by a scene value. Several runs share the axes, each
+in its own colour with one legend, or (``colour_by``) coloured along a sequential map of that
+value with one colour bar and no per-run legend.
 """
 
 from __future__ import annotations
@@ -8,9 +12,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import pyvista as pv
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 
-from rodfem.post import backend, style
+from rodfem.output.atomic import replacing
+from rodfem.post import style
 from rodfem.post.runs import Run
 
 # The paper's four panels (Figures 1-4): title, y label and history column.
@@ -23,74 +30,163 @@ PANELS = (
 ENERGY_FLOOR = 0.01  # the paper plots ln(Ê + 0.01)
 
 
-def _shade_contact(chart: pv.Chart2D, runs: list[Run], y_range: tuple[float, float],
-                   labelled: bool) -> None:
-    """Shade, across the chart's height, the intervals where a run is in contact (u(1) > g)."""
-    lo, hi = y_range
-    for i, run in enumerate(runs):
-        t, contact = run.history.t, run.history.u_1 > run.gap
-        if not contact.any():
-            continue
-        label = ""
-        if labelled:
-            label = "contact: $u(1, t) > g$" if len(runs) == 1 else f"{run.name} in contact"
-        chart.area(t, np.full_like(t, lo), np.where(contact, hi, lo), color=style.shade(i),
-                   label=label)
+def _in_window(t: np.ndarray, window: tuple[float, float] | None) -> np.ndarray:
+    """The samples drawn: those in the window and one beyond each end, so that a curve reaches
+    the edges of the axes (which clip it)."""
+    if window is None:
+        return np.ones(t.size, dtype=bool)
+    inside = (t >= window[0]) & (t <= window[1])
+    reach = inside.copy()
+    reach[:-1] |= inside[1:]
+    reach[1:] |= inside[:-1]
+    return reach
 
 
-def _panel(runs: list[Run], labels: list[str], panel: int) -> pv.Chart2D:
-    """One of the four panels; the first also draws the gap and carries the legend."""
-    title, y_label, column = PANELS[panel]
-    first = panel == 0
-    t_range = style.time_range([float(run.history.t[-1]) for run in runs])
-    curves = [(run.history.t, getattr(run.history, column)) for run in runs]
-    gaps = sorted({run.gap for run in runs}) if first else []
-    curves += [(np.linspace(*t_range, 200), np.full(200, gap)) for gap in gaps]
-    y_range = style.padded_range([y for _, y in curves])
-
-    chart = style.chart(title, "$t$", y_label)
-    _shade_contact(chart, runs, y_range, labelled=first)
-    for i, ((t, y), label) in enumerate(zip(curves[: len(runs)], labels, strict=True)):
-        chart.line(t, y, color=style.colour(i), width=style.LINE_WIDTH,
-                   label=label if first else "")
-    for gap in gaps:
-        chart.line(t_range, [gap, gap], color="black", width=2.0, style="--",
-                   label=f"gap $g = {gap:g}$")
-    chart.x_range = t_range
-    chart.y_range = list(y_range)
-    chart.legend_visible = first
-    if first:
-        shaded = sum(bool((run.history.u_1 > run.gap).any()) for run in runs)
-        style.place_legend(chart, curves, len(runs) + len(gaps) + shaded)
-    return chart
+def _limits(ax, curves: list[tuple[np.ndarray, np.ndarray]], t_range: list[float]) -> None:
+    """x from the window (or the runs' span), y from the values inside it, padded."""
+    ax.set_xlim(*t_range)
+    visible = [y[(t >= t_range[0]) & (t <= t_range[1])] for t, y in curves]
+    ax.set_ylim(*style.padded_range(visible or [np.array([])]))
 
 
-def contact_figure(runs: list[Run], labels: list[str], path: Path) -> Path:
-    """u(1, t) with the gap g, u(0.5, t), u_t(1, t) and σ(1, t), intervals of contact shaded."""
-    plotter = pv.Plotter(shape=(2, 2), window_size=style.WINDOW, off_screen=True)
-    for panel in range(len(PANELS)):
-        plotter.subplot(panel // 2, panel % 2)
-        plotter.add_chart(_panel(runs, labels, panel))
-    backend.save_image(plotter, path)
-    plotter.close()
-    return path
+def _t_range(runs: list[Run], window: tuple[float, float] | None) -> list[float]:
+    return list(window) if window else style.time_range([float(r.history.t[-1]) for r in runs])
 
 
-def energy_figure(runs: list[Run], labels: list[str], path: Path) -> Path:
-    """ln(Ê + 0.01) against t, the paper's Figure 5 (values with Ê + 0.01 ≤ 0 are left out)."""
-    plotter = pv.Plotter(window_size=style.WINDOW, off_screen=True)
-    chart = style.chart("discrete energy of Remark 4.4 (Figure 5)", "$t$", r"$\ln(\hat{E} + 0.01)$")
-    series = []
-    for i, (run, label) in enumerate(zip(runs, labels, strict=True)):
-        shifted = run.history.energy + ENERGY_FLOOR
-        y = np.log(np.where(shifted > 0, shifted, np.nan))
-        series.append(y)
-        chart.line(run.history.t, y, color=style.colour(i), width=style.LINE_WIDTH, label=label)
-    chart.x_range = style.time_range([float(run.history.t[-1]) for run in runs])
-    chart.y_range = list(style.padded_range(series))
-    style.place_legend(chart, [(run.history.t, y) for run, y in zip(runs, series, strict=True)],
-                       len(runs))
-    plotter.add_chart(chart)
-    backend.save_image(plotter, path)
-    plotter.close()
+def _contact_intervals(run: Run) -> list[tuple[float, float]]:
+    """The intervals [t_i, t_j] of consecutive steps with u(1, t) > g."""
+    t, touching = run.history.t, run.history.u_1 > run.gap
+    edges = np.diff(np.concatenate([[0], touching.astype(int), [0]]))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    return [(float(t[i]), float(t[j])) for i, j in zip(starts, ends, strict=True)]
+
+
+def _columns(labels: list[str]) -> int:
+    """Legend columns: as many as fit the figure's width for labels of this length."""
+    longest = max((len(label) for label in labels), default=1)
+    return max(1, min(len(labels), 4 if longest < 28 else 3 if longest < 40 else 2))
+
+
+def _axes(fig: Figure, rows: int, columns: int, labels: list[str], bar: bool, top: float):
+    """The panels; below them a strip for the legend (an empty axes), as high as its entries
+    need, so that it sits beside the curves, never over them; and right of them the colour
+    bar's axes if ``bar``. The margins are fixed (the figure's size and fonts are): a layout
+    engine would measure every label first, a third of the drawing time."""
+    height = style.MPL_SIZE[1]
+    legend = (0.25 + 0.3 * -(-len(labels) // _columns(labels))) if labels else 0.0  # inches
+    bottom = (legend + 0.6) / height  # the tick labels and "t" under the lowest panels
+    right = 0.87 if bar else 0.98
+    grid = fig.add_gridspec(rows, columns, left=0.075, right=right, bottom=bottom, top=top,
+                            hspace=0.38, wspace=0.22)
+    axes = np.array([[fig.add_subplot(grid[r, c]) for c in range(columns)] for r in range(rows)])
+    box = None
+    if labels:
+        box = fig.add_axes((0.02, 0.0, 0.96, legend / height))
+        box.axis("off")
+    bar_axes = fig.add_axes((0.9, bottom, 0.018, top - bottom)) if bar else None
+    return axes, box, bar_axes
+
+
+def _legend(box, handles: list, labels: list[str]) -> None:
+    """The legend, in the strip below the panels."""
+    if box is not None:
+        box.legend(handles, labels, loc="center", ncol=_columns(labels), frameon=False,
+                   fontsize=style.MPL_LEGEND_SIZE, handlelength=2.5, borderaxespad=0)
+
+
+def _colour_bar(fig: Figure, bar_axes, mappable, key: str | None) -> None:
+    if mappable is not None:
+        fig.colorbar(mappable, cax=bar_axes, label=style.key_label(key))
+
+
+def contact_figure(runs: list[Run], labels: list[str], path: Path,
+                   window: tuple[float, float] | None = None,
+                   colour_by: str | None = None) -> Path:
+    """u(1, t) with the gap g, u(0.5, t), u_t(1, t) and σ(1, t).
+
+    For one run the intervals of contact (u(1, t) > g) are shaded in grey across the four
+    panels; for several, shadings would pile up, and the gap line shows contact in the first.
+    """
+    colours, mappable = style.run_colours(runs, colour_by)
+    t_range = _t_range(runs, window)
+    gaps = sorted({run.gap for run in runs})
+    intervals = _contact_intervals(runs[0]) if len(runs) == 1 else []
+    handles = [] if mappable else [Line2D([], [], color=c, lw=style.MPL_LINE_WIDTH)
+                                   for c in colours]
+    names = [] if mappable else list(labels)
+    handles += [Line2D([], [], color="black", ls="--", lw=1.5) for _ in gaps]
+    names += [f"gap $g = {gap:g}$" for gap in gaps]
+    if intervals:
+        handles.append(Patch(color=style.CONTACT_SHADE))
+        names.append("contact: $u(1, t) > g$")
+    with style.mpl_fonts():
+        fig = Figure(figsize=style.MPL_SIZE, dpi=style.MPL_DPI)
+        axes, box, bar = _axes(fig, 2, 2, names, mappable is not None, top=0.96)
+        for panel, ax in enumerate(axes.flat):
+            title, y_label, column = PANELS[panel]
+            for start, end in intervals:
+                ax.axvspan(start, end, color=style.CONTACT_SHADE, lw=0, zorder=0)
+            curves = []
+            for run, colour in zip(runs, colours, strict=True):
+                keep = _in_window(run.history.t, window)
+                t, y = run.history.t[keep], run.history[column][keep]
+                ax.plot(t, y, color=colour, lw=style.MPL_LINE_WIDTH)
+                curves.append((t, y))
+            if panel == 0:
+                for gap in gaps:
+                    ax.axhline(gap, color="black", ls="--", lw=1.5)
+                    curves.append((np.array(t_range), np.array([gap, gap])))
+            ax.set_title(title)
+            ax.set_xlabel("$t$")
+            ax.set_ylabel(y_label)
+            ax.grid(True, color="0.9")
+            _limits(ax, curves, t_range)
+        _colour_bar(fig, bar, mappable, colour_by)
+        _legend(box, handles, names)
+        return _save(fig, path)
+
+
+def energy_title(runs: list[Run]) -> str:
+    """What the energy figure shows; the paper's Figure 5 is named only where every run is the
+    paper's experiment 1 or 2 (the figure compares the two)."""
+    title = r"$\ln(\hat{E} + 0.01)$ against $t$"
+    experiments = sorted({run.experiment for run in runs}, key=str)
+    if set(experiments) <= {1, 2}:
+        which = " and ".join(str(e) for e in experiments)
+        plural = "s" if len(experiments) > 1 else ""
+        title += f": the paper's Figure 5 (experiment{plural} {which})"
+    return title
+
+
+def energy_figure(runs: list[Run], labels: list[str], path: Path,
+                  window: tuple[float, float] | None = None,
+                  colour_by: str | None = None) -> Path:
+    """ln(Ê + 0.01) against t, Ê the discrete energy of Remark 4.4 (values with Ê + 0.01 ≤ 0
+    are left out)."""
+    colours, mappable = style.run_colours(runs, colour_by)
+    t_range = _t_range(runs, window)
+    names = [] if mappable else list(labels)
+    with style.mpl_fonts():
+        fig = Figure(figsize=style.MPL_SIZE, dpi=style.MPL_DPI)
+        axes, box, bar = _axes(fig, 1, 1, names, mappable is not None, top=0.91)
+        ax, handles, curves = axes[0, 0], [], []
+        for run, colour in zip(runs, colours, strict=True):
+            keep = _in_window(run.history.t, window)
+            shifted = run.history.energy[keep] + ENERGY_FLOOR
+            t, y = run.history.t[keep], np.log(np.where(shifted > 0, shifted, np.nan))
+            handles += ax.plot(t, y, color=colour, lw=style.MPL_LINE_WIDTH)
+            curves.append((t, y))
+        ax.set_title(energy_title(runs) + "\n" + r"$\hat{E}$: the discrete energy of Remark 4.4")
+        ax.set_xlabel("$t$")
+        ax.set_ylabel(r"$\ln(\hat{E} + 0.01)$")
+        ax.grid(True, color="0.9")
+        _limits(ax, curves, t_range)
+        _colour_bar(fig, bar, mappable, colour_by)
+        _legend(box, handles if names else [], names)
+        return _save(fig, path)
+
+
+def _save(fig: Figure, path: Path) -> Path:
+    with replacing(path, "wb") as file:  # whole or not at all
+        fig.savefig(file, format="png", dpi=style.MPL_DPI)
     return path

@@ -6,15 +6,16 @@ directory stops ``rodfem plot`` with one line and no half-written figures.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import cache
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from rodfem.output.columns import NAMES as HISTORY_COLUMNS
-from rodfem.post.fields import Fields, FieldsError, read_fields
-from rodfem.scene import SceneError
+from rodfem.post.fields import FUNCTIONS, Fields, FieldsError, read_fields
+from rodfem.scene import BUILTIN, SceneError
 from rodfem.scene import load as load_scene
 
 # Scene values that tell runs apart in a legend, with their symbols in the paper: in mathtext
@@ -33,6 +34,9 @@ PARAMETERS = {
     "discretisation.mass": (r"\mathrm{mass}", "mass"),
 }
 PAPER_PARAMETERS = ("model.zeta", "obstacle.epsilon", "model.k")
+# What makes a scene one of the paper's experiments: its equations and data, not how finely or
+# how long it is solved (mesh, time step, end, solver and outputs may differ).
+EXPERIMENT_SECTIONS = ("model.", "obstacle.", "initial.", "source.")
 
 
 class PlotError(ValueError):
@@ -84,6 +88,15 @@ class Run:
         """The obstacle's gap g: the rod is in contact where u(1, t) > g."""
         return float(self.scene["obstacle.gap"])
 
+    @property
+    def experiment(self) -> int | None:
+        """The number of the paper's experiment (Section 6) this run solves, or None."""
+        data = {k: v for k, v in self.scene.items() if k.startswith(EXPERIMENT_SECTIONS)}
+        for number, experiment in enumerate(_experiments(), start=1):
+            if data == experiment:
+                return number
+        return None
+
     def parameter(self, key: str, math: bool = True) -> str:
         """``symbol = value``, e.g. ``$\\zeta = 0.2$`` in mathtext or ``ζ = 0.2`` in Unicode."""
         if key == "obstacle.epsilon" and self.scene.get("obstacle.kind") == "rigid":
@@ -127,6 +140,14 @@ def _flatten(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:
         else:
             flat[prefix + key] = value
     return flat
+
+
+@cache
+def _experiments() -> tuple[dict[str, Any], ...]:
+    """The equations and data of the paper's experiments, from the built-in scenes."""
+    return tuple({k: v for k, v in _flatten(load_scene(name).data()).items()
+                  if k.startswith(EXPERIMENT_SECTIONS)}
+                 for name in BUILTIN if name.startswith("paper"))
 
 
 def load_run(path: Path) -> Run:
@@ -177,3 +198,13 @@ def file_suffixes(runs: list[Run]) -> list[str]:
     names = [run.name for run in runs]
     return [f"_{name}" if names.count(name) == 1 else f"_{name}-{i + 1}"
             for i, name in enumerate(names)]
+
+
+def fields_in_window(fields: Fields, window: tuple[float, float] | None) -> Fields:
+    """The saved steps with t0 ≤ t ≤ t1 (all without a window; none is possible)."""
+    if window is None:
+        return fields
+    keep = (fields.t >= window[0]) & (fields.t <= window[1])
+    return replace(fields, t=fields.t[keep], **{name: getattr(fields, name)[keep]
+                                               for name in FUNCTIONS
+                                               if getattr(fields, name) is not None})

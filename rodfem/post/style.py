@@ -1,27 +1,41 @@
 """What every figure shares: sizes, colours, fonts and the look of a chart.
 
-Symbols are written in mathtext (``$\\sigma(1, t)$``), which VTK typesets through matplotlib, as
+Symbols are written in mathtext (``$\\sigma(1, t)$``), which matplotlib typesets (for VTK too), as
 the paper writes them; VTK's own fonts have no Greek letters.
 """
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import matplotlib
 import numpy as np
 import pyvista as pv
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import ListedColormap, LogNorm, Normalize
 from matplotlib.ticker import MaxNLocator
 from vtkmodules.vtkCommonCore import VTK_FONT_FILE
 from vtkmodules.vtkRenderingCore import vtkTextProperty
 
+from rodfem.post.runs import PARAMETERS, Run
+
 WINDOW = (1200, 900)  # pixels, for the still figures
 LINE_WIDTH = 3.0
 TITLE_SIZE, LABEL_SIZE, TICK_SIZE, LEGEND_SIZE = 22, 22, 18, 18
-# Run colours (matplotlib's tab10); a run's contact intervals are shaded in its own colour.
+# Run colours (matplotlib's tab10).
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
            "tab:pink", "tab:gray", "tab:olive", "tab:cyan")
-SHADE_OPACITY = 0.18
+# Runs coloured by a value: viridis, dark blue (low) to green, without its last 15 %, whose
+# yellows are too light to read as lines on white.
+SEQUENTIAL = ListedColormap(matplotlib.colormaps["viridis"](np.linspace(0.0, 0.85, 256)),
+                            name="viridis_dark")
+# Intervals of contact of a single run, in a neutral grey that no run colour uses.
+CONTACT_SHADE = "0.87"
+# The matplotlib figures (curves): the same pixels as the VTK ones, fonts in points.
+MPL_SIZE, MPL_DPI = (WINDOW[0] / 100, WINDOW[1] / 100), 100
+MPL_LINE_WIDTH = 2.0
+MPL_TITLE_SIZE, MPL_LABEL_SIZE, MPL_TICK_SIZE, MPL_LEGEND_SIZE = 15, 15, 12, 13
 # Plain text with Greek letters (ζ, θ, σ) is drawn in matplotlib's DejaVu Sans.
 FONT_FILE = Path(matplotlib.get_data_path()) / "fonts" / "ttf" / "DejaVuSans.ttf"
 
@@ -39,9 +53,38 @@ def colour(i: int) -> str:
     return COLOURS[i % len(COLOURS)]
 
 
-def shade(i: int) -> tuple[float, float, float, float]:
-    """The translucent colour that shades the i-th run's intervals of contact."""
-    return (*pv.Color(colour(i)).float_rgb, SHADE_OPACITY)
+@contextlib.contextmanager
+def mpl_fonts():
+    """matplotlib's font sizes for the figures drawn inside (and saved inside) the block."""
+    with matplotlib.rc_context({"font.size": MPL_TICK_SIZE, "axes.titlesize": MPL_TITLE_SIZE,
+                                "axes.labelsize": MPL_LABEL_SIZE, "xtick.labelsize": MPL_TICK_SIZE,
+                                "ytick.labelsize": MPL_TICK_SIZE}):
+        yield
+
+
+def key_label(key: str | None) -> str:
+    """A scene key for a colour bar: its paper's symbol and the key, ``$\\zeta$ (model.zeta)``."""
+    if key in PARAMETERS:
+        return f"${PARAMETERS[key][0]}$ ({key})"
+    return str(key)
+
+
+def run_colours(runs: list[Run], key: str | None) -> tuple[list, ScalarMappable | None]:
+    """The runs' line colours: tab10 in turn, or (``key``) the sequential map over the runs'
+    values of that scene key, on a log scale when they are positive and span a factor of 100 or
+    more, with the mappable its colour bar draws."""
+    if key is None:
+        return [colour(i) for i in range(len(runs))], None
+    values = np.array([float(run.scene[key]) for run in runs])
+    lo, hi = float(values.min()), float(values.max())
+    if lo > 0 and hi / lo >= 100:
+        norm = LogNorm(lo, hi)
+    else:
+        if lo == hi:  # one value: the middle of the map
+            lo, hi = lo - max(abs(lo), 1.0) / 2, hi + max(abs(hi), 1.0) / 2
+        norm = Normalize(lo, hi)
+    mappable = ScalarMappable(norm=norm, cmap=SEQUENTIAL)
+    return [mappable.to_rgba(v) for v in values], mappable
 
 
 def time_range(ends: list[float]) -> list[float]:
@@ -64,34 +107,6 @@ def ticks(lo: float, hi: float, count: int = 7) -> np.ndarray:
     """Round tick values within [lo, hi] (matplotlib's choice), for colour bars."""
     values = MaxNLocator(count).tick_values(lo, hi)
     return values[(values >= lo - 1e-9 * (hi - lo)) & (values <= hi + 1e-9 * (hi - lo))]
-
-
-def place_legend(chart: pv.Chart2D, curves: list[tuple[np.ndarray, np.ndarray]],
-                 entries: int) -> None:
-    """Put the legend in the corner of the plot area that the curves cross least.
-
-    Args:
-        chart: a chart whose ``x_range`` and ``y_range`` are set.
-        curves: the (x, y) data drawn.
-        entries: the number of legend entries (the legend's height grows with them).
-    """
-    (x0, x1), (y0, y1) = chart.x_range, chart.y_range
-    width, height = 0.45, min(0.9, 0.07 * entries + 0.04)
-    points = np.concatenate([np.column_stack([(x - x0) / (x1 - x0), (y - y0) / (y1 - y0)])
-                             for x, y in curves])
-    legend = chart.GetLegend()
-    corners = [(legend.TOP, legend.RIGHT), (legend.TOP, legend.LEFT),
-               (legend.BOTTOM, legend.RIGHT), (legend.BOTTOM, legend.LEFT)]
-
-    def crossings(corner: tuple[int, int]) -> int:
-        vertical, horizontal = corner
-        in_x = points[:, 0] >= 1 - width if horizontal == legend.RIGHT else points[:, 0] <= width
-        in_y = points[:, 1] >= 1 - height if vertical == legend.TOP else points[:, 1] <= height
-        return int(np.count_nonzero(in_x & in_y))
-
-    vertical, horizontal = min(corners, key=crossings)  # the first of equals: top right
-    legend.SetVerticalAlignment(vertical)
-    legend.SetHorizontalAlignment(horizontal)
 
 
 def chart(title: str, x_label: str, y_label: str) -> pv.Chart2D:

@@ -161,12 +161,16 @@ def _figure(title: str) -> tuple[Figure, object]:
     return fig, ax
 
 
-def plot_sweep(path: Path, out: Path | None = None) -> list[Path]:
+def plot_sweep(path: Path, out: Path | None = None, force: bool = False,
+               only: list[str] | None = None) -> list[Path]:
     """Draw the figures of a sweep directory (``results.csv`` and ``sweep.json``).
 
     Args:
         path: the directory written by ``rodfem sweep``; read and checked first.
-        out: the figure directory, created if need be (default: ``path/figures``).
+        out: the figure directory, created if need be (default: ``path/figures``, whose
+            figures are drawn again; in ``out`` only with ``force``).
+        force: replace figures of the same names in ``out`` (no other file is touched).
+        only: the measures to draw (default: every one).
 
     Returns:
         The files written: per measure (in the table's order) ``sweep_<measure>.png``, then
@@ -174,24 +178,45 @@ def plot_sweep(path: Path, out: Path | None = None) -> list[Path]:
 
     Raises:
         SweepDirectoryError: the directory is not a readable sweep directory (nothing written).
+        PlotError: an unknown measure in ``only``, or figures in ``out`` without ``force``.
     """
     path = Path(path)
     sweep, columns = load_sweep(path)
-    out = Path(out) if out is not None else path / "figures"
-    out.mkdir(parents=True, exist_ok=True)  # an OSError is a write error (exit code 4)
+    names = [measure.name for measure in MEASURES]
+    unknown = [name for name in only or () if name not in names]
+    if unknown or (only is not None and not only):
+        raise PlotError(f"--only: unknown measure {(unknown or [''])[0]!r}; the measures are "
+                        f"{', '.join(names)}")
+    given = out is not None
+    out = Path(out) if given else path / "figures"
     complete = columns["status"] == "complete"
     axes, grid_axes = sweep.axes, [a for a in sweep.axes if sweep.design[a] == "grid"]
+    lines = len(axes) == 2 and len(grid_axes) == 2
+    drawn = []
+    for name in names:
+        y = np.asarray(columns[name], dtype=float)
+        if only is not None and name not in only:
+            continue
+        if name == "t_final" and len(np.unique(y[np.isfinite(y)])) <= 1:
+            continue
+        drawn.append(name)
+    files = [out / f for name in drawn
+             for f in (f"sweep_{name}.png", *((f"sweep_{name}_lines.png",) if lines else ()))]
+    existing = [file for file in files if file.exists()]
+    if given and existing and not force:
+        more = f" (and {len(existing) - 1} more)" if len(existing) > 1 else ""
+        raise PlotError(f"{existing[0]} exists{more}: --force replaces the figures rodfem "
+                        "draws there")
+    out.mkdir(parents=True, exist_ok=True)  # an OSError is a write error (exit code 4)
     others = [a for a in axes if a not in grid_axes[:2]]
     at = np.ones(len(complete), dtype=bool)
     for axis in others if len(grid_axes) >= 2 else ():
         at &= np.array([_key(v) == _key(columns[axis][0]) for v in columns[axis]])
     where = ", ".join(f"{a} = {columns[a][0]}" for a in others)
     written = []
-    for measure in MEASURES:
-        name, y = measure.name, np.asarray(columns[measure.name], dtype=float)
+    for name in drawn:
+        y = np.asarray(columns[name], dtype=float)
         ok = complete & np.isfinite(y)
-        if name == "t_final" and len(np.unique(y[np.isfinite(y)])) <= 1:
-            continue
         if len(axes) == 1:
             fig, ax = _figure(f"{name} against {axes[0]}")
             _lines(ax, *_positions(columns[axes[0]]), axes[0], y, ok, [(None, at)])
@@ -204,13 +229,15 @@ def plot_sweep(path: Path, out: Path | None = None) -> list[Path]:
             fig, ax = _figure(f"{name} over {axes[0]} and {axes[1]}")
             _scatter(ax, fig, sweep, columns, name, y, ok)
         written.append(_save(fig, out / f"sweep_{name}.png"))
-        if len(axes) == 2 and len(grid_axes) == 2:
+        if lines:
             fig, ax = _figure(f"{name} against {axes[0]}")
             keys = [_key(v) for v in columns[axes[1]]]
             groups = [(f"{axes[1]} = {v}", np.array([k == _key(v) for k in keys]))
                       for v in sweep.grid[axes[1]]]
             _lines(ax, *_positions(columns[axes[0]]), axes[0], y, ok, groups)
             ax.set_ylabel(name)
-            ax.legend(loc="best")
+            # beside the axes, not over them: "best" still covers lines where every corner has one
+            ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
+                      fontsize="small")
             written.append(_save(fig, out / f"sweep_{name}_lines.png"))
     return written

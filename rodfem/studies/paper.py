@@ -1,5 +1,9 @@
 """The paper's Section 6, reproduced: five runs, their figures, and an index.md that sets each
-figure beside what the paper says about it and what the run measured."""
+figure beside what the paper says about it and what the run measured.
+
+The runs take a second or two; the figures most of the time. They are drawn by worker processes
+(:mod:`rodfem.post.pool`), one per CPU but this process's, each run's as soon as it is done,
+while the next experiment runs; then by this process too."""
 
 from __future__ import annotations
 
@@ -46,10 +50,23 @@ EXPERIMENTS = (
 )
 FIGURE5 = ("The decay of the energy when ε = 0.01 and k = 1 is shown in Figure 5 where "
            "ln(Ê^n + 0.01) is plotted against time.")
-FIGURES = (("contact.png", "u(1, t), u(0.5, t), u_t(1, t) and σ(1, t); contact shaded"),
-           ("spacetime_u.png", "u(x, t)"), ("spacetime_theta.png", "θ(x, t)"),
-           ("spacetime_sigma.png", "σ(x, t)"), ("energy.png", "ln(Ê + 0.01)"),
-           ("rod.gif", "the rod against the obstacle"))
+CAPTIONS = {"contact": "u(1, t), u(0.5, t), u_t(1, t) and σ(1, t)", "energy": "ln(Ê + 0.01)",
+            "rod": "the rod against the obstacle"}
+
+
+def caption(path: Path) -> str:
+    """What a figure of ``rodfem plot`` shows, from its name (contact.png, spacetime_u.png...)."""
+    from rodfem.post.spacetime import MAPS
+
+    kind = path.stem
+    if kind.startswith("spacetime_"):
+        return MAPS[kind.removeprefix("spacetime_")][1]
+    return CAPTIONS[kind]
+
+
+def plural(count: int, noun: str) -> str:
+    """``1 interval``, ``3 intervals``."""
+    return f"{count} {noun}{'' if count == 1 else 's'}"
 
 
 def measured(scene: rodfem.scene.Scene, run: Path, result) -> str:
@@ -59,7 +76,7 @@ def measured(scene: rodfem.scene.Scene, run: Path, result) -> str:
     gap, epsilon = scene["obstacle.gap"], scene["obstacle.epsilon"]
     touching = u_1 > gap
     starts = np.flatnonzero(np.diff(touching.astype(int)) == 1) + 1
-    contact = (f"{starts.size} intervals of contact (u(1) > g), the first from t = "
+    contact = (f"{plural(starts.size, 'interval')} of contact (u(1) > g), the first from t = "
                f"{t[starts[0]]:.3f}" if starts.size else "no contact")
     u_star, sigma_star = stationary(np.array([1.0]), scene["model.a"], scene["model.theta_A"],
                                     scene["model.k"], epsilon, gap)
@@ -79,6 +96,23 @@ def measured(scene: rodfem.scene.Scene, run: Path, result) -> str:
     )
 
 
+def _simulate(name: str, out: Path, overrides, force: bool, comm: MPI.Comm, progress: bool):
+    """Run a built-in scene into ``out``: the scene, the :class:`~rodfem.run.RunResult`, and
+    on rank 0 what the run shows ("" where it is not to be drawn: interrupted, or a file that
+    could not be written)."""
+    scene = rodfem.scene.load(name, list(overrides))
+    prepare_directory(out, force, comm)
+    result = simulate(scene, out, comm, progress=progress)
+    facts = ""
+    if comm.rank == 0 and _drawable(result):
+        facts = measured(scene, out, result)
+    return scene, result, facts
+
+
+def _drawable(result) -> bool:
+    return result.status != "interrupted" and result.io_error is None
+
+
 def run_experiment(name: str, out: Path, overrides=(), force: bool = False,
                    comm: MPI.Comm = MPI.COMM_WORLD, progress: bool = True):
     """Run a built-in scene into ``out`` and draw its figures into ``out``/figures.
@@ -87,14 +121,10 @@ def run_experiment(name: str, out: Path, overrides=(), force: bool = False,
     shows (:func:`measured`). An interrupted run is not drawn."""
     from rodfem.post import PlotError, plot  # pyvista only where figures are made
 
-    scene = rodfem.scene.load(name, list(overrides))
-    prepare_directory(out, force, comm)
-    result = simulate(scene, out, comm, progress=progress)
-    facts = ""
-    if comm.rank == 0 and result.status != "interrupted" and result.io_error is None:
-        facts = measured(scene, out, result)
+    scene, result, facts = _simulate(name, out, overrides, force, comm, progress)
+    if comm.rank == 0 and _drawable(result):
         try:
-            plot([out], None)
+            plot([out], None, workers=1)
         except PlotError as err:
             facts += f" (No figures: {err}.)"
     comm.barrier()
@@ -109,34 +139,85 @@ def reproduce(out: Path, force: bool = False, comm: MPI.Comm = MPI.COMM_WORLD,
     ``report`` receives a line as each experiment is done. Returns the index, the experiments
     whose run failed, and the run that stopped the reproduction (interrupted, or a file that
     could not be written: its :class:`~rodfem.run.RunResult`) or None."""
-    from rodfem.post import PlotError, plot
+    from contextlib import nullcontext
+
+    from rodfem.post.pool import Drawer, cpus
 
     prepare_directory(out, force, comm, command="paper",
-                      files=("index.md", *(e.scene for e in EXPERIMENTS), "figure5"))
-    sections, failed = [], []
-    for experiment in EXPERIMENTS:
-        run = out / experiment.scene
-        scene, result, facts = run_experiment(experiment.scene, run, overrides, comm=comm,
-                                              progress=progress)
-        if result.status == "interrupted" or result.io_error is not None:
-            finish(out, "interrupted" if result.io_error is None else "failed", comm)
-            return out / "index.md", failed, result
-        if result.status == "failed":
-            failed.append(experiment.scene)
-        sections.append((experiment, scene, facts))
-        report(f"{experiment.scene}: {facts}")
-    if comm.rank == 0:
-        try:
-            plot([out / "paper1", out / "paper2"], out / "figure5")
-        except PlotError:
-            pass  # index.md says which runs failed
-        write_index(out, sections, failed)
+                      files=("index.md", *(e.scene for e in EXPERIMENTS), FIGURE5_DIR))
+    with Drawer(cpus() - 1) if comm.rank == 0 else nullcontext() as drawer:
+        sections, failed, stopped = _experiments(out, comm, progress, overrides, report, drawer)
+        if stopped is not None:
+            if drawer is not None:
+                drawer.cancel()
+            finish(out, "interrupted" if stopped.io_error is None else "failed", comm)
+            return out / "index.md", failed, stopped
+        if comm.rank == 0:
+            figure5 = _figures(drawer, [out / "paper1", out / "paper2"], out / FIGURE5_DIR)
+            drawer.work()  # the runs are done: draw here too
+            sections = [(*section[:-1], _drawn(section[-1])) for section in sections]
+            write_index(out, sections, _drawn(figure5), failed)
     finish(out, "failed" if failed else "complete", comm)
     comm.barrier()
     return out / "index.md", failed, None
 
 
-def write_index(out: Path, sections, failed=()) -> None:
+FIGURE5_DIR = "figure5"  # Figure 5's directory: the curves of experiments 1 and 2 overlaid
+
+
+def _figures(drawer, dirs: list[Path], out: Path | None = None):
+    """Queue the figures of runs (every figure of one run into its figures/, or the curves of
+    several overlaid into ``out``): the figures' futures, or the reason there are none."""
+    from rodfem.post import PlotError
+    from rodfem.post.options import Options
+    from rodfem.post.plot import prepare
+
+    options = Options() if out is None else Options(only=frozenset({"contact", "energy"}))
+    try:
+        return drawer.submit(prepare(dirs, out, options, force=True))
+    except PlotError as err:
+        return str(err)
+
+
+def _drawn(figures) -> list[Path] | str:
+    """The files of queued figures, once drawn, or the reason there are none."""
+    from rodfem.post import PlotError
+
+    if isinstance(figures, str):
+        return figures
+    try:
+        return [future.result() for future in figures]
+    except PlotError as err:
+        return str(err)
+
+
+def _experiments(out: Path, comm: MPI.Comm, progress: bool, overrides, report, drawer):
+    """Run the experiments in turn, each one's figures queued as it is done: the sections of
+    the index (experiment, scene, facts, figures), the failed, and the run that stopped them."""
+    sections, failed = [], []
+    for experiment in EXPERIMENTS:
+        run = out / experiment.scene
+        scene, result, facts = _simulate(experiment.scene, run, overrides, False, comm, progress)
+        if not _drawable(result):
+            return sections, failed, result
+        if result.status == "failed":
+            failed.append(experiment.scene)
+        figures = _figures(drawer, [run]) if comm.rank == 0 else []
+        sections.append((experiment, scene, facts, figures))
+        report(f"{experiment.scene}: {facts}")
+    return sections, failed, None
+
+
+def _links(out: Path, figures: list[Path] | str) -> list[str]:
+    """Markdown images of the figures drawn, relative to ``out``, or why there are none."""
+    if isinstance(figures, str):
+        return [f"(No figures: {figures}.)"]
+    return [f"![{caption(path)}]({path.relative_to(out).as_posix()})" for path in figures]
+
+
+def write_index(out: Path, sections, figure5: list[Path] | str, failed=()) -> None:
+    """index.md: per experiment what the paper says, what the run measured and every figure
+    drawn; then Figure 5 (experiments 1 and 2 overlaid)."""
     lines = [
         "# Copetti, Section 6, reproduced by rodfem",
         "",
@@ -150,14 +231,12 @@ def write_index(out: Path, sections, failed=()) -> None:
     if failed:
         lines += [f"**Not reproduced: the run of {', '.join(failed)} failed** (its section says "
                   "where and why).", ""]
-    for experiment, scene, facts in sections:
+    for experiment, scene, facts, figures in sections:
         e, k, z = scene["obstacle.epsilon"], scene["model.k"], scene["model.zeta"]
         figure = f" (the paper's Figure {experiment.figure})" if experiment.figure != "—" else ""
         lines += [f"## Experiment {experiment.scene[-1]}: ε = {e:g}, k = {k:g}, ζ = {z:g}{figure}",
-                  "", f"> {experiment.says}", "", f"rodfem: {facts}", ""]
-        for name, caption in FIGURES:
-            lines.append(f"![{caption}]({experiment.scene}/figures/{name})")
-        lines.append("")
+                  "", f"> {experiment.says}", "", f"rodfem: {facts}", "",
+                  *_links(out, figures), ""]
     lines += ["## Figure 5: the energy, ζ = 0.2 against ζ = 1 (ε = 0.01, k = 1)", "",
-              f"> {FIGURE5}", "", "![ln(Ê + 0.01), experiments 1 and 2](figure5/energy.png)", ""]
+              f"> {FIGURE5}", "", "Experiments 1 and 2 overlaid:", "", *_links(out, figure5), ""]
     write_text(out / "index.md", "\n".join(lines), MPI.COMM_SELF)
