@@ -45,6 +45,9 @@ def test_scene_reference_lists_every_key(scene_page):
                     assert f"{bound:g}" in row, (section, name, bound)
             if key.only_with is not None:
                 assert f"`{key.only_with[0]} = " in row
+            # every key says what it means
+            assert key.help.strip(), f"{section}.{name} has no meaning"
+            assert rodfem_reference.escape(key.help) in row
     for name in TOP_LEVEL:
         _row(scene_page, name)
 

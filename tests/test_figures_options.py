@@ -191,6 +191,27 @@ def test_default_directory_is_drawn_again(runs, capsys):
         shutil.rmtree(runs[2] / "figures")
 
 
+def test_an_overlay_does_not_replace_a_runs_own_figures(runs, capsys):
+    """Several runs drawn into the first one's figures/ (no --out) do not replace the figures it
+    holds without --force."""
+    assert main(["plot", str(runs[1]), "--only", "contact"]) == 0
+    capsys.readouterr()
+    own = runs[1] / "figures" / "contact.png"
+    before = own.read_bytes() if COMM.rank == 0 else None
+    code = main(["plot", str(runs[1]), str(runs[0]), "--only", "contact"])
+    err = capsys.readouterr().err
+    assert code == 2
+    if COMM.rank == 0:
+        assert own.read_bytes() == before and "--force" in err and err.count("\n") == 1
+    assert main(["plot", str(runs[1]), str(runs[0]), "--only", "contact", "--force"]) == 0
+    capsys.readouterr()
+    COMM.barrier()
+    if COMM.rank == 0:
+        assert own.read_bytes() != before
+        shutil.rmtree(runs[1] / "figures")
+    COMM.barrier()
+
+
 @pytest.mark.parametrize("options, message", [
     (["--only", "contact,energyy"], "the figures are contact, energy, spacetime"),
     (["--only", ""], "comma-separated"),
@@ -202,6 +223,7 @@ def test_default_directory_is_drawn_again(runs, capsys):
     (["--labels", "a,,"], "without empty items"),
     (["--colour-by", "model.zetta"], "has no such value"),
     (["--colour-by", "obstacle.kind"], "is not a finite number"),
+    (["--colour-by", "model.k"], "every run has model.k = 1; colour by a value in which"),
     (["--only", "rod", "--no-animation"], "nothing to draw"),
 ])
 def test_bad_values(runs, out, options, message, capsys):

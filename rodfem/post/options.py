@@ -107,3 +107,7 @@ def check(options: Options, runs: list[Run]) -> None:
                     or not math.isfinite(value):
                 raise PlotError(f"--colour-by {key}: {run.name}'s value {value!r} is not a "
                                 "finite number")
+        values = {float(run.scene[key]) for run in runs}
+        if len(runs) > 1 and len(values) == 1:
+            raise PlotError(f"--colour-by {key}: every run has {key} = {values.pop():g}; "
+                            "colour by a value in which the runs differ")

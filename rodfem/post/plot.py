@@ -118,10 +118,11 @@ def prepare(dirs: list[Path], out: Path | None = None, options: Options = EVERYT
         why = [" (--no-animation)" if not options.animation and "rod" in options.only else "",
                "" if options.window is None else " in the window (no saved fields there)"]
         raise PlotError(f"nothing to draw: no figure of {chosen} for these runs{''.join(why)}")
-    # The default figures/ belongs to the run (drawn again from its files at will); an
-    # --out directory may hold what the user keeps.
+    # The default figures/ of one run belongs to it (drawn again from its files at will); an
+    # --out directory may hold what the user keeps, and so may the first run's figures/ when
+    # several runs are overlaid there.
     existing = [task.path for task in tasks if task.path.exists()]
-    if given and existing and not force:
+    if (given or len(runs) > 1) and existing and not force:
         more = f" (and {len(existing) - 1} more)" if len(existing) > 1 else ""
         raise PlotError(f"{existing[0]} exists{more}: --force replaces the figures rodfem "
                         "draws there")

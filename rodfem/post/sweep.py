@@ -94,10 +94,15 @@ def _positions(values) -> tuple[np.ndarray, list | None]:
     return np.array([labels.index(k) for k in keys], dtype=float), labels
 
 
+def _shown(value) -> str:
+    """A swept value as a label shows it: 0.6, not 0.6000000000000001 (linspace's)."""
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+
 def _scale(ax, which: str, values: np.ndarray, labels: list | None, name: str) -> None:
     getattr(ax, f"set_{which}label")(name)
     if labels is not None:
-        getattr(ax, f"set_{which}ticks")(range(len(labels)), [str(v) for v in labels])
+        getattr(ax, f"set_{which}ticks")(range(len(labels)), [_shown(v) for v in labels])
     elif values.size and values.min() > 0 and values.max() / values.min() >= 100:
         getattr(ax, f"set_{which}scale")("log")
 
@@ -212,7 +217,7 @@ def plot_sweep(path: Path, out: Path | None = None, force: bool = False,
     at = np.ones(len(complete), dtype=bool)
     for axis in others if len(grid_axes) >= 2 else ():
         at &= np.array([_key(v) == _key(columns[axis][0]) for v in columns[axis]])
-    where = ", ".join(f"{a} = {columns[a][0]}" for a in others)
+    where = ", ".join(f"{a} = {_shown(columns[a][0])}" for a in others)
     written = []
     for name in drawn:
         y = np.asarray(columns[name], dtype=float)
@@ -232,7 +237,7 @@ def plot_sweep(path: Path, out: Path | None = None, force: bool = False,
         if lines:
             fig, ax = _figure(f"{name} against {axes[0]}")
             keys = [_key(v) for v in columns[axes[1]]]
-            groups = [(f"{axes[1]} = {v}", np.array([k == _key(v) for k in keys]))
+            groups = [(f"{axes[1]} = {_shown(v)}", np.array([k == _key(v) for k in keys]))
                       for v in sweep.grid[axes[1]]]
             _lines(ax, *_positions(columns[axes[0]]), axes[0], y, ok, groups)
             ax.set_ylabel(name)

@@ -72,15 +72,18 @@ SCHEMA: dict[str, dict[str, Key]] = {
                         only_with=("obstacle.law", "power"), help="m >= 1 of the power law"),
     },
     "initial": {
-        "theta0": Key("expression", "theta_A*(cos(2*pi*x) - sin(pi*x/2))"),
-        "u0": Key("expression", "0"),
+        "theta0": Key("expression", "theta_A*(cos(2*pi*x) - sin(pi*x/2))",
+                      help="initial temperature, in x and the model's names; theta_A at x = 0"),
+        "u0": Key("expression", "0", help="initial displacement, in x; 0 at x = 0"),
         "u1": Key("expression", "20*x*(x - 1)**2",
                   help="initial velocity; not used when b = 0 (quasi-static)"),
     },
-    "mesh": {"cells": Key("integer", 250, minimum=2, maximum=MAX_CELLS)},
+    "mesh": {"cells": Key("integer", 250, minimum=2, maximum=MAX_CELLS,
+                          help="cells of the uniform mesh of (0, 1): h = 1/cells")},
     "time": {
-        "dt": Key("real", 0.001, minimum=SMALL, maximum=BIG),
-        "end": Key("real", 8.0, minimum=SMALL, maximum=BIG),
+        "dt": Key("real", 0.001, minimum=SMALL, maximum=BIG, help="time step"),
+        "end": Key("real", 8.0, minimum=SMALL, maximum=BIG,
+                   help="end time T, a whole number of steps"),
         "scheme": Key("choice", "paper", choices=TIME_SCHEMES,
                       help="paper: the scheme (3.1)-(3.2), first order; crank-nicolson: the "
                       "midpoint rule, second order (docs/time-schemes.md)"),
@@ -98,7 +101,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
                       "picard: the paper's iteration (3.3)-(3.4)"),
         "tol": Key("real", 1e-10, minimum=1e-300, maximum=BIG,
                    help="picard: max-norm of the change between two iterations"),
-        "max_iterations": Key("integer", 100, minimum=1, maximum=1_000_000),
+        "max_iterations": Key("integer", 100, minimum=1, maximum=1_000_000,
+                              help="picard and newton: iterations allowed per step"),
     },
     # Body sources f of θ_t − θ_xx + a u_xt = f and b u_tt − σ_x = f, in x, t and the model's
     # names: for manufactured solutions (rodfem.model.manufactured). "0" costs nothing.

@@ -282,10 +282,10 @@ def summary_lines(data: dict, out: Path) -> list[str]:
     lines = [f"work-precision: {len(data['points'])} runs in {data['seconds']:.0f} s -> {out}"]
     r = data.get("reach")
     if r:
-        shown = ", ".join(f"{k} {v:.3g} s" if math.isfinite(v) else f"{k} not reached"
+        shown = "; ".join(f"{k}: {v:.3g} s" if math.isfinite(v) else f"{k}: not reached"
                           for k, v in r["seconds"].items())
         lines.append(f"{r['scene']}: time to reach max |u(1,t) error| = {r['target']:g}: {shown}")
-        if r["fastest"]:
+        if r["fastest"] and math.isfinite(r["ratio"]):
             lines.append(f"fastest: {r['fastest']}, {r['ratio']:.3g} of {r['paper_choice']}'s "
                          "time")
     i = data.get("impact")
