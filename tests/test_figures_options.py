@@ -292,7 +292,8 @@ def test_drawing_processes(runs, out):
     """The pool draws what it is given, in order, and hands back a worker's exception."""
     if COMM.rank != 0:
         return
-    from rodfem.post.plot import Task, prepare
+    from rodfem.post.plot import prepare
+    from rodfem.post.tasks import Task
     from rodfem.post.pool import Drawer
 
     tasks = prepare(runs[:1], out, force=True)[:3]

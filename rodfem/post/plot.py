@@ -14,15 +14,13 @@ by default the first run's figures/). :class:`~rodfem.post.options.Options` choo
 the time window, the labels and the colouring.
 
 Everything is read and checked before anything is drawn; each figure is one task
-(:class:`Task`), drawn here or by worker processes (:mod:`rodfem.post.pool`).
+(:class:`rodfem.post.tasks.Task`), drawn here or by worker processes (:mod:`rodfem.post.pool`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
-from rodfem.post import backend
 from rodfem.post.options import EVERYTHING, KINDS, Options, check
 from rodfem.post.runs import (
     PlotError,
@@ -34,38 +32,7 @@ from rodfem.post.runs import (
     load_run,
 )
 from rodfem.post.spacetime import MAPS
-
-
-@dataclass(frozen=True)
-class Task:
-    """One figure to draw: its kind (``contact``, ``energy``, ``spacetime``, ``rod``), the runs
-    it shows with their labels, the file, the field of a map, and the window and colouring."""
-
-    kind: str
-    runs: tuple[Run, ...]
-    labels: tuple[str, ...]
-    path: Path
-    field: str | None = None
-    window: tuple[float, float] | None = None
-    colour_by: str | None = None
-
-
-def draw(task: Task) -> Path:
-    """Draw one figure (in this process or a worker's) and return its file."""
-    from rodfem.post.animation import rod_animation
-    from rodfem.post.curves import contact_figure, energy_figure
-    from rodfem.post.spacetime import spacetime_figure
-
-    backend.off_screen()
-    runs, labels = list(task.runs), list(task.labels)
-    if task.kind == "contact":
-        return contact_figure(runs, labels, task.path, task.window, task.colour_by)
-    if task.kind == "energy":
-        return energy_figure(runs, labels, task.path, task.window, task.colour_by)
-    if task.kind == "spacetime":
-        fields = fields_in_window(runs[0].fields, task.window)
-        return spacetime_figure(fields, task.field, labels[0], task.path)
-    return rod_animation(runs[0], labels[0], task.path, task.window)
+from rodfem.post.tasks import Task, draw
 
 
 def _labels(runs: list[Run], options: Options) -> tuple[list[str], list[str]]:

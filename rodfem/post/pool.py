@@ -10,7 +10,7 @@ caller may hold MPI and PETSc, which a forked child must not touch, and spawn wo
 caller's main script again in every worker (a script without ``if __name__ == "__main__"``
 would start workers without end). The worker imports the figure modules only (about a second),
 without the launcher's MPI variables (so that it never joins the caller's job), reads pickled
-:class:`~rodfem.post.plot.Task`\\ s on stdin and answers each with the file written or the
+:class:`~rodfem.post.tasks.Task`\\ s on stdin and answers each with the file written or the
 exception raised. It ignores Ctrl-C, which reaches the whole process group: the caller stops it
 by closing its stdin.
 """
@@ -26,7 +26,7 @@ import sys
 import threading
 from concurrent.futures import Future
 
-from rodfem.post.plot import Task
+from rodfem.post.tasks import Task
 
 # The variables by which Open MPI, MPICH and PMIx tell a process it is a rank of a job.
 MPI_PREFIXES = ("OMPI_", "PMIX_", "PMI_", "MPICH_", "HYDRA_", "PRTE_")
@@ -99,7 +99,7 @@ class Drawer:
 
     def work(self) -> None:
         """Draw queued figures in this process as well, until the queue is empty."""
-        from rodfem.post.plot import draw
+        from rodfem.post.tasks import draw
 
         while True:
             try:
@@ -141,7 +141,7 @@ def _serve() -> None:
     answers = os.fdopen(os.dup(1), "wb")
     os.dup2(2, 1)  # anything a library prints goes to stderr, not into the answers
     tasks = sys.stdin.buffer
-    from rodfem.post.plot import draw
+    from rodfem.post.tasks import draw
 
     while True:
         try:
