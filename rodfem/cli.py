@@ -124,11 +124,12 @@ def parser() -> argparse.ArgumentParser:
     plot.add_argument("--force", action="store_true",
                       help="replace the figures of the same names in FIGDIR (no other file is "
                       "touched)")
-    from rodfem.post.options import KINDS
-
+    # the kinds of rodfem.post.options.KINDS, written out: importing rodfem.post loads VTK,
+    # which every command would then pay for (and a signal during that import can crash it)
     plot.add_argument("--only", metavar="KINDS",
-                      help=f"draw only these figures, comma-separated: {', '.join(KINDS)} "
-                      "(spacetime: every saved field's map); for a sweep, measures")
+                      help="draw only these figures, comma-separated: contact, energy, "
+                      "spacetime (every saved field's map), spacetime_<field> (theta, u, "
+                      "velocity, sigma, heat_flux), rod; for a sweep, measures")
     plot.add_argument("--no-animation", dest="animation", action="store_false",
                       help="no rod.gif (the slowest figure)")
     plot.add_argument("--window", metavar="T0,T1",

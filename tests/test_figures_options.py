@@ -306,3 +306,28 @@ def test_drawing_processes(runs, out):
     for task in tasks:
         assert_figure(task.path, size=(1200, 900))
     assert not (out / "bad.png").exists()
+
+
+def test_the_command_line_does_not_load_the_figures():
+    """`rodfem run` pays nothing for the figures: building the parser imports no VTK,
+    matplotlib or pyvista; and its help for --only names every kind of figure."""
+    import subprocess
+    import sys
+
+    from rodfem.post.fields import FUNCTIONS
+    from rodfem.post.options import KINDS
+
+    code = ("import sys, rodfem.cli; rodfem.cli.parser(); "
+            "print(sorted(m for m in ('pyvista', 'matplotlib', 'vtkmodules') if m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    assert done.stdout.strip() == "[]"
+    from rodfem.cli import parser
+
+    only = next(a for a in parser()._subparsers._group_actions[0].choices["plot"]._actions
+                if a.dest == "only")
+    for kind in KINDS:
+        if not kind.startswith("spacetime_"):
+            assert kind in only.help
+    for name in FUNCTIONS:
+        assert name in only.help
