@@ -80,7 +80,6 @@ class FieldFile:
         self._pending: list[tuple[int, float, list[np.ndarray]]] = []
         self.x = self.pointwise.x
         self.cells = self.x.size - 1
-        self.x_cells = self.pointwise.x_cells
         if self.comm.rank == 0:
             if path is None:
                 return

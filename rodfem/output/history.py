@@ -82,9 +82,7 @@ class History:
 
     def __init__(self, disc: Discretisation, block: int = 1024, pointwise=None):
         scene = disc.scene
-        self.dt = scene["time.dt"]
-        self.obstacle = contact.of_scene(scene)
-        self.context = Context(self.dt, self.obstacle, scene["model.k"])
+        self.context = Context(scene["time.dt"], contact.of_scene(scene), scene["model.k"])
         self.columns = for_scene(scene)
         reads = readings(self.columns)
         if reads and pointwise is None:

@@ -57,7 +57,6 @@ class Pointwise:
         gathered = self.comm.allgather((self.nodes.owned, midpoints))
         self._node_positions = np.concatenate([g[0] for g in gathered])
         self._cell_order = np.argsort(np.concatenate([g[1] for g in gathered]), kind="stable")
-        self.x_cells = np.sort(np.concatenate([g[1] for g in gathered]))
         self._read_maps(disc)
 
     def _evaluate(self, parts: list[np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
