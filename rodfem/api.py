@@ -7,7 +7,7 @@ what both give back (:class:`Result`).
 
 Labelled data are NumPy's own: the history is a structured array (a column per name, e.g.
 ``r.history["u_1"]``, ``r.history.dtype.names``), the fields a small dataclass of arrays with
-their coordinates (:class:`rodfem.post.fields.Fields`). xarray and pandas would add a dependency
+their coordinates (:class:`rodfem.output.readers.Fields`). xarray and pandas would add a dependency
 that rodfem's runs do not need (and a second of import time to every ``rodfem`` command) for two
 one-dimensional coordinates; ``xarray.Dataset({"u": (("t", "x"), r.fields.u)}, coords=...)`` is a
 line away for those who use them.
@@ -16,8 +16,9 @@ line away for those who use them.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,7 +26,7 @@ import numpy as np
 
 from rodfem.output.columns import COLUMNS, for_scene
 from rodfem.output.measures import measures as _measures
-from rodfem.post.fields import Fields
+from rodfem.output.readers import Fields
 from rodfem.scene import Scene, SceneError, read, validate, with_values
 from rodfem.scene import load as load_scene
 
@@ -37,20 +38,28 @@ class Result:
     Attributes:
         scene: the resolved scene (every key, defaults filled in): ``r.scene["model.k"]``.
         summary: what ``summary.json`` holds: status, steps, iterations, seconds, versions…
-        history: the rows of ``history.csv``, one per step n = 0 … N, as a structured array:
+        history: the rows of ``history.h5``, one per kept step n = 0 … N (every step, or every
+            n-th with ``output.history_every``), as a structured array:
             ``r.history["u_1"]`` (the default columns :data:`rodfem.output.columns.COLUMNS`,
             then those the scene's ``output.history`` and ``output.probes`` add).
         fields: the saved fields (``output.fields``: θ, the physical temperature, u and σ by
             default) at every saved step, with ``t``, ``x`` and ``x_cells``
-            (:class:`rodfem.post.fields.Fields`); None where none were saved.
+            (:class:`rodfem.output.readers.Fields`); None where none were saved. A run
+            directory's are read when first asked for.
         path: the run directory, or None for a run in memory.
     """
 
     scene: Scene
     summary: dict
     history: np.ndarray
-    fields: Fields | None = None
+    saved_fields: Fields | Callable[[], Fields | None] | None = dataclasses.field(
+        default=None, repr=False)
     path: Path | None = None
+
+    @functools.cached_property
+    def fields(self) -> Fields | None:
+        """The saved fields (read from the run directory on first use)."""
+        return self.saved_fields() if callable(self.saved_fields) else self.saved_fields
 
     @property
     def status(self) -> str:
@@ -69,7 +78,7 @@ class Result:
 
 
 def named_history(rows: np.ndarray, columns=COLUMNS) -> np.ndarray:
-    """Rows of history.csv (steps × columns) as a structured array with the columns' names."""
+    """Rows of a history (steps × columns) as a structured array with the columns' names."""
     dtype = [(c.name, np.int64 if c.integer else np.float64) for c in columns]
     history = np.empty(len(rows), dtype=dtype)
     for i, column in enumerate(columns):
@@ -160,14 +169,15 @@ def simulate(scene: str | Path | Mapping | Scene, overrides=None, out: str | Pat
 
 def load(path: str | Path) -> Result:
     """The :class:`Result` of a run directory of ``rodfem run`` (complete, failed,
-    interrupted, or killed: what its files hold).
+    interrupted, or killed: what its files hold). The history is read at once, by the names its
+    file holds, and must be the scene's; the fields when first asked for (``result.fields``).
 
     Raises:
-        rodfem.post.runs.RunDirectoryError: ``path`` is not a readable run directory.
+        rodfem.output.readers.RunDirectoryError: ``path`` is not a readable run directory, or
+            its scene.toml does not describe its history (edited).
     """
     from rodfem.output.directories import read_marker, state
-    from rodfem.post.fields import FieldsError, read_fields
-    from rodfem.post.runs import RunDirectoryError, read_history
+    from rodfem.output.readers import RunDirectoryError, history_path, read_history
 
     path = Path(path)
     if not (path / "scene.toml").is_file() or read_marker(path) is None:
@@ -178,9 +188,15 @@ def load(path: str | Path) -> Result:
     except SceneError as err:
         raise RunDirectoryError(f"{path / 'scene.toml'}: {err}") from None
     columns = for_scene(scene)
-    if _steps_written(path / "history.csv"):
-        history = read_history(path / "history.csv")
-        rows = np.column_stack([history[c.name] for c in columns])
+    names = tuple(c.name for c in columns)
+    history_file = history_path(path)
+    if history_file.exists():
+        history = read_history(history_file, empty=True)
+        if history.names != names:
+            raise RunDirectoryError(
+                f"{path / 'scene.toml'} does not describe {history_file} (the scene records "
+                f"{','.join(names)}; the file holds {','.join(history.names)}): was it edited?")
+        rows = history.rows
     else:  # killed before its first checkpoint: no step on the disk yet
         rows = np.zeros((0, len(columns)))
     try:
@@ -190,23 +206,22 @@ def load(path: str | Path) -> Result:
     summary = {**summary, "status": state(path) or summary.get("status", "gone")}
     if isinstance(summary.get("scene"), str):  # the scene it was run from, not scene.toml
         scene = dataclasses.replace(scene, source=summary["scene"])
-    summary.setdefault("iterations_max", int(rows[:, -1].max()) if len(rows) else 0)
+    iterations = rows[:, names.index("iterations")]
+    summary.setdefault("iterations_max", int(iterations.max()) if len(rows) else 0)
     summary.setdefault("loop_seconds", float("nan"))
-    fields = None
-    if (path / "fields.xdmf").is_file():
-        try:
-            fields = read_fields(path / "fields.xdmf")
-        except FieldsError as err:
-            raise RunDirectoryError(str(err)) from None
+    fields = _fields_of(path) if (path / "fields.xdmf").is_file() else None
     return Result(scene, summary, named_history(rows, columns), fields, path)
 
 
+def _fields_of(path: Path) -> Callable[[], Fields]:
+    """What reads a run directory's fields.xdmf when called (RunDirectoryError, one line)."""
 
-def _steps_written(path: Path) -> bool:
-    """Whether a history.csv exists with at least one row after its header."""
-    try:
-        with open(path, encoding="utf-8") as file:
-            file.readline()
-            return bool(file.readline().strip())
-    except (OSError, UnicodeDecodeError):
-        return path.exists()  # read_history says what is wrong
+    def read() -> Fields:
+        from rodfem.output.readers import FieldsError, RunDirectoryError, read_fields
+
+        try:
+            return read_fields(path / "fields.xdmf")
+        except FieldsError as err:
+            raise RunDirectoryError(str(err)) from None
+
+    return read

@@ -24,6 +24,7 @@ from rodfem.output.files import write_json, write_text
 from rodfem.output.history import History
 from rodfem.output.pointwise import Pointwise
 from rodfem.output.progress import Progress
+from rodfem.output.sizes import save_every
 from rodfem.scene import Scene
 from rodfem.solver.compiled import compiled_loop
 from rodfem.solver.errors import NotConverged, NotFinite
@@ -163,17 +164,17 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     kept = FieldFile(None, disc, pointwise=pointwise) if files is None and keep_fields else None
     energy = EnergyMonitor(**meta.get("energy", {}))
     iterations = Iterations(**meta.get("iterations", {}))
-    steps, every, dt = scene.steps, scene["output.every"], scene["time.dt"]
+    steps, every, dt = scene.steps, save_every(scene), scene["time.dt"]
     on_terminal = sys.stderr.isatty() or force_progress
     bar = Progress(steps, enabled=progress and comm.rank == 0 and on_terminal)
     io_error: list[str] = []
 
     def flush() -> None:
         rows = history.take()
-        rows_out.append(rows)
         steps_of = np.rint(rows[:, INDEX["t"]] / dt).astype(int)
         energy.update(steps_of, rows[:, INDEX["energy"]])
         iterations.update(steps_of, rows[:, INDEX["iterations"]].astype(int))
+        rows_out.append(rows[steps_of % scene["output.history_every"] == 0])
 
     def state_meta() -> dict:
         return {"step": method.n, "scene": scene.data(), "source": scene.source,

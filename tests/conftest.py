@@ -56,3 +56,10 @@ def small_disk(tmp_path):
         pytest.skip(f"cannot mount a tmpfs here ({mounted.stderr.strip()})")
     yield disk
     subprocess.run(["umount", "-l", str(disk)], check=False)
+
+
+def history_rows(out) -> "np.ndarray":  # noqa: F821 (NumPy is the reader's)
+    """A run directory's history as its file holds it: steps × columns, float64."""
+    from rodfem.output.readers import HISTORY, read_history
+
+    return read_history(Path(out) / HISTORY, empty=True).rows

@@ -145,7 +145,7 @@ def test_load_reads_a_run_killed_before_its_first_checkpoint(shared_dir):
 
         marker = json.loads((out / "rodfem.json").read_text())
         (out / "rodfem.json").write_text(json.dumps({**marker, "status": "running"}))
-        for name in ("summary.json", "history.csv", "fields.xdmf"):
+        for name in ("summary.json", "history.h5", "fields.xdmf"):
             (out / name).unlink()
     COMM.barrier()
     r = rodfem.load(out)

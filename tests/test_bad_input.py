@@ -3,7 +3,7 @@ output directory; nothing runs before the whole scene is valid."""
 
 import pytest
 
-from conftest import COMM
+from conftest import COMM, history_rows
 from rodfem.cli import main
 
 CASES = [
@@ -48,7 +48,9 @@ CASES = [
     (["obstacle.kind=rigid"], "solver.method: \"picard\" cannot solve obstacle.kind = \"rigid\""),
     (["solver.tol=0"], "solver.tol: must be >= 1e-300"),
     (["solver.max_iterations=0"], "solver.max_iterations: must be >= 1"),
-    (["output.every=0"], "output.every: must be >= 1"),
+    (["output.every=-1"], "output.every: must be >= 0"),
+    (["output.history_every=0"], "output.history_every: must be >= 1"),
+    (["output.history_every=2.5"], "output.history_every: must be an integer"),
     (["model.zeta"], "--set model.zeta: must be section.key=value"),
     (["time.scheme=bdf2"], 'time.scheme: must be one of "paper" | "crank-nicolson"'),
     (["time.scheme=crank-nicolson", "model.b=0", "model.zeta=0", "solver.method=direct"],
@@ -170,4 +172,4 @@ def test_force_replaces_a_run(shared_dir, capsys):
     assert main(argv) == 2
     assert main(argv + ["--force", "--set", "time.end=0.02"]) == 0
     if COMM.rank == 0:
-        assert len((out / "history.csv").read_text().splitlines()) == 1 + 21
+        assert len(history_rows(out)) == 21

@@ -7,6 +7,7 @@ from dolfinx import fem
 
 import forms.copetti as copetti
 import rodfem.scene
+from conftest import history_rows
 from rodfem.discrete import compat
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.history import History
@@ -18,7 +19,7 @@ EPS = np.finfo(float).eps
 @pytest.mark.parametrize("scene", rodfem.scene.BUILTIN)
 def test_energy_non_increasing_on_paper_scenes(simulate, scene):
     result, out = simulate(scene, "output.every=100000")
-    history = np.loadtxt(out / "history.csv", delimiter=",", skiprows=1)
+    history = history_rows(out)
     energy = history[:, 5]
     increase = np.diff(energy)[1:]  # Êⁿ − Êⁿ⁻¹ for n ≥ 2
     assert increase.max() <= 64 * EPS * np.abs(energy).max()

@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 
-from conftest import COMM
+from conftest import COMM, history_rows
 from rodfem.cli import main
 
 
@@ -18,7 +18,7 @@ def test_picard_failure_is_reported_and_results_kept(shared_dir, capsys):
     assert code == 3
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "failed"
-    history = np.loadtxt(out / "history.csv", delimiter=",", skiprows=1, ndmin=2)
+    history = history_rows(out)
     assert history.shape[0] == summary["steps"] + 1 >= 2
     assert (out / "fields.xdmf").is_file() and (out / "scene.toml").is_file()
     if COMM.rank == 0:
@@ -63,7 +63,7 @@ def test_newton_failure_is_reported(shared_dir, capsys):
                  "--set", "time.dt=0.05", "--set", "obstacle.epsilon=1e-4", "--set", "time.end=2",
                  "--set", "solver.method=newton"])
     assert code == 0
-    history = np.loadtxt(shared_dir / "newton2" / "history.csv", delimiter=",", skiprows=1)
+    history = history_rows(shared_dir / "newton2")
     assert history[step, 6] == 2
 
 
@@ -82,7 +82,7 @@ def test_scene_toml_repeats_the_run(simulate, shared_dir):
     again = load(str(first / "scene.toml"))
     assert again.description == 'ζ = 1, ε → 0 😀 "quoted"'
     _, second = simulate(str(first / "scene.toml"))
-    assert (first / "history.csv").read_bytes() == (second / "history.csv").read_bytes()
+    assert history_rows(first).tobytes() == history_rows(second).tobytes()
 
 
 def test_source_that_is_not_finite_mid_run_stops_it(shared_dir, capsys):
@@ -97,5 +97,5 @@ def test_source_that_is_not_finite_mid_run_stops_it(shared_dir, capsys):
     assert summary["status"] == "failed" and summary["steps"] == 49
     if COMM.rank == 0:
         assert "source.heat is not finite at t = 0.5" in err and err.count("\n") == 1
-    history = np.loadtxt(out / "history.csv", delimiter=",", skiprows=1)
+    history = history_rows(out)
     assert history.shape[0] == 50 and np.isfinite(history).all()

@@ -1,9 +1,9 @@
-"""fields.xdmf holds θ, u and σ at the saved steps, consistent with history.csv and with the
+"""fields.xdmf holds θ, u and σ at the saved steps, consistent with history.h5 and with the
 definitions θ = Θ − θ_A r and σ = u_x + ζ u_xt − aθ."""
 
 import numpy as np
 
-from conftest import COMM
+from conftest import COMM, history_rows
 from rodfem.post.fields import read_fields
 
 
@@ -19,7 +19,7 @@ def test_fields_match_history_and_definitions(simulate):
     if COMM.rank != 0:
         return
     x, cells, fields = read(out)
-    history = np.loadtxt(out / "history.csv", delimiter=",", skiprows=1)
+    history = history_rows(out)
     saved = np.arange(0, result.summary["steps"] + 1, every)
     assert fields["u"].shape[0] == saved.size
     right = np.flatnonzero(x == 1.0)[0]
@@ -46,13 +46,13 @@ def test_fields_match_history_and_definitions(simulate):
 
 def test_vtk_reads_the_fields_at_full_precision(simulate):
     """ParaView's reader (VTK's XDMF 3 reader, through pyvista) reads θ, u and σ as float64: u(1)
-    at every saved time equals history.csv's u_1 to 1e-12 (a float32 read is off by ~1e-8)."""
+    at every saved time equals history.h5's u_1 to 1e-12 (a float32 read is off by ~1e-8)."""
     pyvista = __import__("pytest").importorskip("pyvista")
     every = 5
     result, out = simulate("paper1", "mesh.cells=20", "time.end=0.2", f"output.every={every}")
     if COMM.rank != 0:
         return
-    history = np.loadtxt(out / "history.csv", delimiter=",", skiprows=1)
+    history = history_rows(out)
     reader = pyvista.get_reader(str(out / "fields.xdmf"))
     times = np.asarray(reader.time_values)
     np.testing.assert_allclose(times, history[::every, 0], rtol=0, atol=1e-12)

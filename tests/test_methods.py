@@ -21,7 +21,7 @@ import pytest
 from reference import simulate as reference
 
 import rodfem.scene
-from conftest import COMM
+from conftest import COMM, history_rows
 from rodfem.cli import main
 
 EPS = np.finfo(float).eps
@@ -70,7 +70,7 @@ def theta_scale(name, overrides):
 
 
 def history_of(out):
-    return np.loadtxt(out / "history.csv", delimiter=",", skiprows=1)
+    return history_rows(out)
 
 
 def assert_histories_agree(history, expected, tol, what):
@@ -181,7 +181,7 @@ RIGID_HORIZON, RIGID_AMPLIFIED = 2.0, 1e-9
 @pytest.mark.parametrize("method", ["direct", "newton"])
 @pytest.mark.parametrize("scene", RIGID)
 def test_rigid_obstacle_agrees_with_the_oracle(simulate, scene, method):
-    """Signorini's condition at x = 1, from history.csv: Uⁿ(1) ≤ g to round-off (a few ulps of g;
+    """Signorini's condition at x = 1, from history.h5: Uⁿ(1) ≤ g to round-off (a few ulps of g;
     the oracle and rodfem are at g exactly), σ(1) = −λⁿ ≤ 0, λⁿ(Uⁿ(1) − g) = 0: where U(1) < g,
     λ is at most the round-off of the forces at x = 1, 64 ε_mach max(max λ, a θ_A) (newton takes
     λ from its converged residual, −F_U(1), which is not exactly 0 where the bound is inactive:
@@ -284,7 +284,7 @@ def test_picard_fails_where_the_exact_methods_do_not(shared_dir, capsys):
         summary = json.loads((out / "summary.json").read_text())
         assert summary["status"] == "complete" and summary["steps"] == 200
         assert summary["energy_non_increasing"] is True, summary
-        history = np.loadtxt(out / "history.csv", delimiter=",", skiprows=1)
+        history = history_rows(out)
         assert history.shape == (201, 7) and np.isfinite(history).all()
         assert (history[:, 4] < 0).any()
 

@@ -29,7 +29,7 @@ def test_paper_index_sets_each_figure_beside_the_paper(shared_dir, capsys):
     index = (out / "index.md").read_text(encoding="utf-8")
     for experiment in EXPERIMENTS:
         assert experiment.says in index
-        assert (out / experiment.scene / "history.csv").is_file()
+        assert (out / experiment.scene / "history.h5").is_file()
     images = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", index)
     assert len(images) == 6 * len(EXPERIMENTS) + 2
     drawn = sorted(p.relative_to(out).as_posix() for p in out.rglob("*")

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import serial_only
+from conftest import history_rows, serial_only
 
 RODFEM = Path(sys.executable).with_name("rodfem")
 MPI_ENV = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
@@ -25,7 +25,7 @@ def rodfem_run(tmp_path, ranks, *args):
     if ranks > 1:
         command = ["mpirun", "-n", str(ranks), *command]
     subprocess.run(command, check=True, env=MPI_ENV, capture_output=True, timeout=600)
-    return np.loadtxt(out / "history.csv", delimiter=",", skiprows=1)
+    return history_rows(out)
 
 
 @serial_only

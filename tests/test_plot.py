@@ -1,5 +1,5 @@
 """``rodfem plot``: every figure is written, is an image and is not blank, for one run and for two
-runs overlaid; the fields read back agree with history.csv and with the definitions of θ and σ;
+runs overlaid; the fields read back agree with history.h5 and with the definitions of θ and σ;
 a directory that is not a run gets exit code 2, one line, and nothing written.
 
 Runs are simulated collectively (as the suite also runs under mpirun); figures are drawn and
@@ -114,7 +114,7 @@ def test_two_runs_overlaid_through_the_command(runs, capsys):
 
 
 def test_fields_read_back(runs):
-    """u(1) matches history.csv at the saved steps; θ(0) = θ_A; at t = 0, where u₀ = 0 and
+    """u(1) matches history.h5 at the saved steps; θ(0) = θ_A; at t = 0, where u₀ = 0 and
     u_t = u₁ = 20x(x − 1)², σ = ζ (u₁)_x − aθ̄ per cell (θ̄ the cell mean of the P1 θ)."""
     if COMM.rank != 0:
         return
@@ -148,14 +148,19 @@ def _not_a_run(root: Path, case: str) -> Path:
     if case == "bad-header":
         for name in ("scene.toml", "fields.xdmf"):
             (path / name).write_text("")
-        (path / "history.csv").write_text("time,u\n0,0\n")
+        (path / "history.csv").write_text("time,u\n0,0\n")  # an earlier rodfem's history
+    if case == "junk-history":
+        for name in ("scene.toml", "fields.xdmf"):
+            (path / name).write_text("")
+        (path / "history.h5").write_bytes(b"junk" * 100)
     return path
 
 
 @pytest.mark.parametrize("case, message", [
     ("missing", "is not a directory"),
-    ("empty", "is not a rodfem run directory (it has no history.csv)"),
+    ("empty", "is not a rodfem run directory (it has no history.h5)"),
     ("bad-header", "is not a rodfem history"),
+    ("junk-history", "cannot read"),
 ])
 def test_not_a_run_directory(case, message, runs, shared_dir, capsys):
     bad = _not_a_run(shared_dir, case) if COMM.rank == 0 else None

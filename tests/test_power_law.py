@@ -546,7 +546,7 @@ def test_picard_failure_names_the_contraction(shared_dir, capsys):
     assert "contracts by about w m [u(1) − g]₊^(m−1)/ε at the deepest iterate = " in err
     assert re.search(r"at the deepest iterate = [0-9.e+-]+ \(needs < 1; w = ", err)
     assert "(status: failed)" in err
-    assert (out / "history.csv").exists()
+    assert (out / "history.h5").exists()
 
 
 def test_picard_failure_reports_a_contraction_that_fails(shared_dir, capsys):

@@ -15,6 +15,7 @@ the final fields, max over the nodes against max |reference field|.
 
 import numpy as np
 import pytest
+from conftest import history_rows
 from reference import simulate as reference
 
 import rodfem.scene
@@ -40,7 +41,7 @@ def run_reference(scene, increment):
 
 def compare(simulate, name, overrides, increment):
     result, out = simulate(name, "output.every=100000", *overrides)
-    history = np.loadtxt(out / "history.csv", delimiter=",", skiprows=1)
+    history = history_rows(out)
     ref = run_reference(rodfem.scene.load(name, ["output.every=100000", *overrides]), increment)
     expected = ref["history"]
     assert history.shape == expected.shape

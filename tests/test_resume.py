@@ -13,12 +13,13 @@ import sys
 import time
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 
 from conftest import serial_only
 from rodfem.output.directories import state
-from rodfem.post.fields import read_fields
+from rodfem.output.readers import read_fields, read_history
 
 RODFEM = str(Path(sys.executable).with_name("rodfem"))
 ENV = {**os.environ, "PYTHONUNBUFFERED": "1", "OMPI_ALLOW_RUN_AS_ROOT": "1",
@@ -51,13 +52,11 @@ def reference(tmp_path_factory):
 
 
 def assert_whole(out: Path) -> None:
-    """Every file of a stopped run is whole: history.csv has only whole rows, the fields up to
+    """Every file of a stopped run is whole: history.h5 has only whole rows, the fields up to
     the last checkpoint are readable, the marker and checkpoint parse."""
-    text = (out / "history.csv").read_text()
-    assert text.endswith("\n")
-    lines = text.splitlines()
-    assert lines[0] == "t,u_1,u_half,ut_1,sigma_1,energy,iterations"
-    rows = np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
+    history = read_history(out / "history.h5", empty=True)
+    assert history.names == ("t", "u_1", "u_half", "ut_1", "sigma_1", "energy", "iterations")
+    rows = history.rows
     assert rows.shape[1:] == (7,) or rows.size == 0
     if rows.size:
         np.testing.assert_array_equal(np.rint(rows[:, 0] / 1e-3), np.arange(len(rows)))
@@ -66,7 +65,8 @@ def assert_whole(out: Path) -> None:
 
 
 def assert_same_run(out: Path, reference: Path) -> None:
-    assert (out / "history.csv").read_bytes() == (reference / "history.csv").read_bytes()
+    a, b = read_history(out / "history.h5"), read_history(reference / "history.h5")
+    assert a.names == b.names and a.rows.tobytes() == b.rows.tobytes()
     a, b = read_fields(out / "fields.xdmf"), read_fields(reference / "fields.xdmf")
     assert a.names == b.names
     for name in ("t", "x", *a.names):
@@ -127,7 +127,7 @@ def test_stopped_anywhere_resumes_to_the_same_run(tmp_path, reference, sent, ran
         assert state(out) == "gone"
     else:
         assert state(out) == "interrupted"
-    if (out / "history.csv").exists():
+    if (out / "history.h5").exists():
         assert_whole(out)
     again = rodfem("resume", out, "--quiet", ranks=ranks)
     assert again.returncode == 0, again.stderr
@@ -162,7 +162,7 @@ def test_chosen_outputs_resume_to_the_same_run(tmp_path, ranks):
     rodfem("resume", short, "--set", "time.end=1", "--quiet", ranks=ranks, check=0)
     rodfem("run", *scene, "--set", "time.end=1", "--out", long, "--quiet", ranks=ranks, check=0)
     assert_same_run(short, long)
-    header = (short / "history.csv").read_text().splitlines()[0]
+    header = ",".join(read_history(short / "history.h5").names)
     assert header.endswith(",contact,u@0.3,theta@0.3,sigma@0.3,u@0.5,theta@0.5,sigma@0.5,"
                            "u@1,theta@1,sigma@1")
     assert read_fields(short / "fields.xdmf").names == ("u", "velocity", "heat_flux")
@@ -191,18 +191,23 @@ def test_resume_refuses_what_it_cannot_continue_exactly(tmp_path):
     done = rodfem("resume", out, "--set", "time.end=0.4")
     assert done.returncode == 2 and "was it edited" in done.stderr
     (out / "scene.toml").write_bytes(before["scene.toml"])
-    history = out / "history.csv"
-    for damaged in (before["history.csv"][:-30], before["history.csv"].replace(b"0.1", b"0.2")):
+    history = out / "history.h5"
+    with h5py.File(history, "a") as file:  # one number of one row changed by an ulp
+        file["history"][100, 1] = np.nextafter(file["history"][100, 1], 1.0)
+    done = rodfem("resume", out, "--set", "time.end=0.4")
+    assert done.returncode == 2 and "no longer holds the rows" in done.stderr, done.stderr
+    for damaged in (before["history.h5"][:-3000], b"junk" * 1000):
         history.write_bytes(damaged)
         done = rodfem("resume", out, "--set", "time.end=0.4")
-        assert done.returncode == 2 and "no longer holds the rows" in done.stderr, done.stderr
-    history.write_bytes(before["history.csv"])
+        assert done.returncode == 2 and "cannot read" in done.stderr, done.stderr
+        assert str(history) in done.stderr and len(done.stderr.strip().splitlines()) == 1
+    history.write_bytes(before["history.h5"])
     for damaged in (b"not a checkpoint", before["checkpoint.npz"][:5000]):
         (out / "checkpoint.npz").write_bytes(damaged)
         done = rodfem("resume", out, "--set", "time.end=0.4")
         assert done.returncode == 2 and "not a readable checkpoint" in done.stderr, done.stderr
         assert len(done.stderr.strip().splitlines()) == 1
-    for name in ("history.csv", "summary.json", "scene.toml"):
+    for name in ("history.h5", "summary.json", "scene.toml"):
         assert (out / name).read_bytes() == before[name]
     assert state(out) == "complete"
     assert (out / "rodfem.json").read_bytes() == marker

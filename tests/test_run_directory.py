@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import COMM, serial_only
+from conftest import COMM, history_rows, serial_only
 from rodfem.cli import main
 from rodfem.output.directories import LOCK, MARKER
 
@@ -70,7 +70,7 @@ def test_force_keeps_a_file_added_to_a_run(shared_dir, capsys):
     COMM.barrier()
     code, err = run(out, "--force", capsys=capsys)
     assert code == 2 and "(it holds notes.txt)" in err
-    assert (out / "notes.txt").read_text() == "mine\n" and (out / "history.csv").exists()
+    assert (out / "notes.txt").read_text() == "mine\n" and (out / "history.h5").exists()
 
 
 def test_force_refuses_links(shared_dir, capsys):
@@ -95,7 +95,7 @@ def test_force_replaces_a_run_and_its_figures(shared_dir):
     COMM.barrier()
     assert run(out, "--force", "--set", "time.end=0.02")[0] == 0
     assert not (out / "figures").exists()
-    assert len((out / "history.csv").read_text().splitlines()) == 1 + 21
+    assert len(history_rows(out)) == 21
 
 
 def test_force_keeps_an_image_rodfem_did_not_draw(shared_dir, capsys):
@@ -121,7 +121,7 @@ def test_force_never_replaces_the_current_directory_or_its_parent(shared_dir, wh
                           cwd=out / where, capture_output=True, text=True)
     assert done.returncode == 2, done.stderr
     assert "is the current directory or holds it" in done.stderr
-    assert (out / "history.csv").exists()
+    assert (out / "history.h5").exists()
 
 
 @serial_only
@@ -211,8 +211,7 @@ def test_two_runs_at_once_never_mix(shared_dir):
     marker = json.loads((out / MARKER).read_text())
     summary = json.loads((out / "summary.json").read_text())
     assert marker["status"] == summary["status"] == "complete"
-    rows = (out / "history.csv").read_text().splitlines()
-    assert len(rows) == 1 + summary["steps"] + 1
+    assert len(history_rows(out)) == summary["steps"] + 1
     scene = (out / "scene.toml").read_text()
     assert f"end = {summary['steps'] * 0.001!r}" in scene or summary["steps"] in (500, 600, 700,
                                                                                    800)

@@ -21,7 +21,7 @@ import pytest
 from mpi4py import MPI
 
 import rodfem.scene
-from conftest import COMM, serial_only
+from conftest import COMM, history_rows, serial_only
 from rodfem.cli import main
 from rodfem.output.directories import finish
 from rodfem.studies import stability as st
@@ -119,7 +119,7 @@ def _run(shared_dir, name, overrides, capsys):
         argv += ["--set", item]
     code = main(argv)
     err = capsys.readouterr().err
-    history = np.loadtxt(out / "history.csv", delimiter=",", skiprows=1, ndmin=2)
+    history = history_rows(out)
 
     return code, err, history, json.loads((out / "summary.json").read_text())
 

@@ -1,14 +1,15 @@
 """Checkpoints: what a run needs to continue exactly where it was (``rodfem resume``).
 
 ``checkpoint.npz`` holds the method's state (:meth:`rodfem.solver.methods.base.Method.saved_state`)
-and, as JSON in its entry ``meta``, the step, the length of history.csv at that step, the saved
-fields, the energy monitor and the iteration counts, the seconds spent, and the resolved scene it
-belongs to. It is written last at each checkpoint, after history.csv and the fields it counts are
+and, as JSON in its entry ``meta``, the step, the rows of history.h5 at that step, the saved
+fields, the SHA-256 of each file it counts (the history's rows, the mesh, every segment of
+fields), the energy monitor and the iteration counts, the seconds spent, and the resolved scene it
+belongs to. It is written last at each checkpoint, after history.h5 and the fields it counts are
 on the disk, by write-then-rename: it is whole or the previous one. Whatever the process met
 afterwards (Ctrl-C, SIGKILL, a full disk, a power cut), the run continues from it to the history
 it would have had.
 
-:class:`RunFiles` is a run's files together: history.csv, the fields, the checkpoint, and when to
+:class:`RunFiles` is a run's files together: history.h5, the fields, the checkpoint, and when to
 write them.
 """
 
@@ -24,11 +25,12 @@ import numpy as np
 
 from rodfem.output.atomic import TEMPORARY, replacing, sync_directory
 from rodfem.output.columns import for_scene
-from rodfem.output.fields import DIRECTORY, SEGMENT, FieldFile, segment_name
-from rodfem.output.files import HistoryFile
+from rodfem.output.fields import DIRECTORY, MESH, SEGMENT, FieldFile, file_digest, segment_name
+from rodfem.output.files import HistoryFile, rows_digest
+from rodfem.output.readers import DATASET, HISTORY
 
 NAME = "checkpoint.npz"
-FORMAT = 1
+FORMAT = 2  # 1: history.csv counted in bytes
 
 
 class CheckpointError(ValueError):
@@ -57,7 +59,7 @@ def read_checkpoint(out: Path) -> tuple[dict[str, np.ndarray], dict]:
 
 
 class RunFiles:
-    """history.csv, fields.xdmf (+ fields/) and checkpoint.npz of a run in ``out`` (every rank
+    """history.h5, fields.xdmf (+ fields/) and checkpoint.npz of a run in ``out`` (every rank
     calls every method; rank 0 writes).
 
     A checkpoint is written at a field save once ``interval`` seconds of wall time have passed
@@ -67,11 +69,12 @@ class RunFiles:
     def __init__(self, out: Path, disc, interval: float, resume: dict | None = None,
                  pointwise=None):
         self.out, self.comm, self.interval = out, disc.comm, interval
-        self.history = HistoryFile(out / "history.csv", self.comm, for_scene(disc.scene),
-                                   keep=resume["history_bytes"] if resume else None)
+        self.history = HistoryFile(out / HISTORY, self.comm, for_scene(disc.scene),
+                                   keep=resume["history_rows"] if resume else None)
         saves = resume["saves"] if resume else None
         self.fields = FieldFile(out / "fields.xdmf", disc, saves,
-                                resume["segments"] if resume else 0, pointwise)
+                                resume["segments"] if resume else 0, pointwise,
+                                resume["digests"] if resume else None)
         if self.comm.rank == 0:
             self._remove_leftovers(resume["segments"] if resume else 0)
         self.last = time.perf_counter()
@@ -89,7 +92,7 @@ class RunFiles:
         for entry in self.out.iterdir():
             match = TEMPORARY.match(entry.name)
             if match and entry.is_file() and not entry.is_symlink() and match["name"] in (
-                    "history.csv", "fields.xdmf", "summary.json", "scene.toml", NAME,
+                    HISTORY, "fields.xdmf", "summary.json", "scene.toml", NAME,
                     "rodfem.json") and int(match["pid"]) != os.getpid():
                 entry.unlink()
 
@@ -104,12 +107,9 @@ class RunFiles:
         it is not finite) the previous checkpoint stays."""
         started = time.perf_counter()
         self.fields.checkpoint()
-        size = self.history.checkpoint()
+        self.history.checkpoint()
         if arrays is not None and self.comm.rank == 0:
-            write_checkpoint(self.out, arrays, {**meta, "history_bytes": size,
-                                                "history_sha256": self.history.digest.hexdigest(),
-                                                "saves": self.fields.saves,
-                                                "segments": self.fields.segments})
+            write_checkpoint(self.out, arrays, {**meta, **self.counted()})
         if self.comm.rank == 0:
             sync_directory(self.out)
         self.last = time.perf_counter()
@@ -117,3 +117,43 @@ class RunFiles:
 
     def close(self) -> None:
         self.history.close()
+
+
+    def counted(self) -> dict:
+        """What the checkpoint counts of the files (rank 0): the history's rows and the saved
+        fields, with the SHA-256 of each (:func:`check_counted` checks them on resuming)."""
+        return {"history_rows": self.history.rows,
+                "history_sha256": self.history.digest.hexdigest(),
+                "saves": self.fields.saves, "segments": self.fields.segments,
+                "digests": self.fields.digests()}
+
+
+def check_counted(out: Path, meta: dict) -> None:
+    """CheckpointError (one line, naming the file) unless the files a checkpoint counts are as
+    it left them: the first ``history_rows`` rows of history.h5, the mesh and every segment of
+    fields, each by its SHA-256. Reads only."""
+    import h5py
+
+    history, rows = out / HISTORY, meta["history_rows"]
+    try:
+        with h5py.File(history, "r") as file:
+            kept = file[DATASET][:rows]
+    except (OSError, KeyError, TypeError, ValueError) as err:
+        raise CheckpointError(f"cannot read {history} ({err}); the run cannot continue "
+                              "from it") from None
+    if len(kept) != rows or rows_digest(kept).hexdigest() != meta["history_sha256"]:
+        raise CheckpointError(f"{history} no longer holds the rows of the run's checkpoint (was "
+                              "it edited or cut?); the run cannot continue from it")
+    digests = meta["digests"]
+    for name, digest in ((MESH, digests["mesh"]),
+                         *((segment_name(k), d) for k, d in enumerate(digests["segments"]))):
+        path = out / DIRECTORY / name
+        if not path.is_file():
+            raise CheckpointError(f"{path} is missing: the run's fields cannot be continued")
+        try:
+            same = file_digest(path) == digest
+        except OSError as err:
+            raise CheckpointError(f"cannot read {path}: {err.strerror}") from None
+        if not same:
+            raise CheckpointError(f"{path} is not the file the run's checkpoint counts (was it "
+                                  "edited or replaced?); the run's fields cannot be continued")

@@ -34,7 +34,7 @@ import rodfem
 from rodfem.output.atomic import TEMPORARY, replacing
 
 MARKER, LOCK = "rodfem.json", "rodfem.lock"
-RUN_FILES = ("history.csv", "fields.xdmf", "fields", "scene.toml", "summary.json",
+RUN_FILES = ("history.h5", "fields.xdmf", "fields", "scene.toml", "summary.json",
              "checkpoint.npz")
 FIGURE_DIRS = ("figures", "figure5")
 # The names of the figures rodfem draws (rodfem.post; "_<run>" when several runs are drawn).

@@ -19,6 +19,7 @@ leaves every step up to its last checkpoint readable, and files that are each wh
 
 from __future__ import annotations
 
+import hashlib
 import os
 import re
 from pathlib import Path
@@ -42,9 +43,18 @@ def segment_name(k: int) -> str:
     return f"steps-{k:06d}.h5"
 
 
-def _write_h5(path: Path, datasets: dict[str, np.ndarray]) -> None:
+def file_digest(path: Path) -> str:
+    """The SHA-256 of a file's bytes (a checkpoint records those of the files it counts)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as file:
+        for block in iter(lambda: file.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _write_h5(path: Path, datasets: dict[str, np.ndarray]) -> str:
     """An HDF5 file of float64/int64 datasets, written whole (to a temporary file, synced,
-    renamed)."""
+    renamed); its SHA-256."""
     part = temporary(path)
     try:
         with h5py.File(part, "w") as f:
@@ -55,7 +65,9 @@ def _write_h5(path: Path, datasets: dict[str, np.ndarray]) -> None:
             os.fsync(fd)
         finally:
             os.close(fd)
+        digest = file_digest(part)
         os.replace(part, path)
+        return digest
     except BaseException as err:
         part.unlink(missing_ok=True)
         if isinstance(err, OSError):
@@ -67,16 +79,20 @@ class FieldFile:
     """The saved fields of a run (collective: every rank calls :meth:`write`): those of the
     scene's ``output.fields``, from the affine maps of :class:`rodfem.output.pointwise.Pointwise`.
 
-    ``saves``: the steps already on disk (a resumed run), each ``[step, t, segment, row]``.
+    ``saves``: the steps already on disk (a resumed run), each ``[step, t, segment, row]``;
+    ``digests``: the SHA-256 of the mesh and of each segment (:meth:`digests`) then.
     ``path=None``: nothing is written; the saves are kept (:meth:`kept`)."""
 
     def __init__(self, path: Path | None, disc: Discretisation, saves: list | None = None,
-                 segments: int = 0, pointwise: Pointwise | None = None):
+                 segments: int = 0, pointwise: Pointwise | None = None,
+                 digests: dict | None = None):
         self.path, self.comm = path, disc.comm
         self.names = tuple(disc.scene["output.fields"])
         self.pointwise = pointwise or Pointwise(disc)
         self.saves = [list(s) for s in saves or []]
         self.segments = segments
+        self.mesh_digest = (digests or {}).get("mesh")
+        self.segment_digests = list((digests or {}).get("segments", []))
         self._pending: list[tuple[int, float, list[np.ndarray]]] = []
         self.x = self.pointwise.x
         self.cells = self.x.size - 1
@@ -88,8 +104,8 @@ class FieldFile:
                 geometry = np.stack([self.x, np.zeros_like(self.x)], axis=1)
                 topology = np.stack([np.arange(self.cells), np.arange(1, self.cells + 1)],
                                     axis=1).astype(np.int64)
-                _write_h5(path.parent / DIRECTORY / MESH,
-                          {"geometry": geometry, "topology": topology})
+                self.mesh_digest = _write_h5(path.parent / DIRECTORY / MESH,
+                                             {"geometry": geometry, "topology": topology})
             self._write_xdmf()
 
     def write(self, step: int, t: float, state: np.ndarray) -> None:
@@ -119,12 +135,17 @@ class FieldFile:
         if self.comm.rank != 0 or not self._pending or self.path is None:
             return
         k = self.segments
-        _write_h5(self.path.parent / DIRECTORY / segment_name(k),
-                  {name: np.stack([p[2][i] for p in self._pending])
-                   for i, name in enumerate(self.names)})
+        self.segment_digests.append(_write_h5(
+            self.path.parent / DIRECTORY / segment_name(k),
+            {name: np.stack([p[2][i] for p in self._pending])
+             for i, name in enumerate(self.names)}))
         self.saves += [[p[0], p[1], k, row] for row, p in enumerate(self._pending)]
         self.segments, self._pending = k + 1, []
         self._write_xdmf()
+
+    def digests(self) -> dict:
+        """The SHA-256 of the mesh and of every segment written (rank 0), for the checkpoint."""
+        return {"mesh": self.mesh_digest, "segments": list(self.segment_digests)}
 
     def _write_xdmf(self) -> None:
         nodes, cells = self.x.size, self.cells

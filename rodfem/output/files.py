@@ -1,5 +1,5 @@
-"""The text files of a run: history.csv, scene.toml and summary.json (the fields are
-:mod:`rodfem.output.fields`).
+"""The files of a run besides its fields (:mod:`rodfem.output.fields`): history.h5, scene.toml
+and summary.json.
 
 Rank 0 writes them, each whole or not at all (:mod:`rodfem.output.atomic`): the history at every
 checkpoint, so that a run that fails, is interrupted or is killed keeps whole rows up to its last
@@ -11,10 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import queue
 import shutil
-import threading
-import time
 from pathlib import Path
 
 import numpy as np
@@ -22,98 +19,104 @@ from mpi4py import MPI
 
 from rodfem.output.atomic import named, replacing, temporary
 from rodfem.output.columns import COLUMNS
+from rodfem.output.readers import DATASET
+
+CHUNK = 1024  # rows of an HDF5 chunk of the history: 1024 × 7 × 8 bytes = 57 kB by default
+
+
+def rows_digest(rows: np.ndarray) -> hashlib._Hash:
+    """The SHA-256 of history rows as the file holds them (little-endian float64, row after
+    row), to be continued with ``update``: a checkpoint records it for the rows it counts."""
+    digest = hashlib.sha256()
+    digest.update(np.ascontiguousarray(rows, dtype="<f8").tobytes())
+    return digest
 
 
 class HistoryFile:
-    """history.csv, one row per step: whole rows only, whatever happens to the process.
+    """history.h5, one row per kept step (``output.history_every``), in full float64: whole rows
+    only, whatever happens to the process.
 
-    Printing a row's seven default numbers to round-trip precision takes about 2 µs, as long as a compiled
-    step itself, so rank 0 formats the blocks in a thread of its own while the time loop (a C call
-    that releases the GIL) goes on, and keeps the text. :meth:`checkpoint` writes it: a copy of
-    the file with the new rows appended, synced, renamed over it (:mod:`rodfem.output.atomic`).
-    ``keep``: the length in bytes of an existing history to continue (a resumed run); None for a
-    new file of just the header."""
+    The dataset ``/history`` (steps × columns, chunked by :data:`CHUNK` rows, its attribute
+    ``columns`` the names, comma-separated). Rank 0 keeps the rows appended since the last
+    checkpoint; :meth:`checkpoint` writes them: a copy of the file with the dataset extended,
+    synced, renamed over it (:mod:`rodfem.output.atomic`). Binary rows cost nothing to format,
+    and take 8 bytes a number where text took about 24.
+
+    ``keep``: the rows of an existing history to continue (a resumed run: the checkpoint's count);
+    None for a new file without rows. ``digest`` is the SHA-256 of the rows on the disk."""
 
     def __init__(self, path: Path, comm: MPI.Comm, columns=COLUMNS, keep: int | None = None):
         self.path, self.rank0 = path, comm.rank == 0
-        # a row: integers as such, floats to round-trip precision
-        self.row = ",".join("%d" if c.integer else "%.17g" for c in columns) + "\n"
-        self._error: BaseException | None = None
-        self._text: list[str] = []
-        self.size = 0
-        self.digest = hashlib.sha256()  # of the file as written: resume checks it is unchanged
+        self.names = ",".join(c.name for c in columns)
+        self.width = len(columns)
+        self._pending: list[np.ndarray] = []
+        self.rows = 0
+        self.digest = hashlib.sha256()
         if not self.rank0:
             return
-        if keep is None:
-            header = ",".join(c.name for c in columns) + "\n"
-            with replacing(path) as file:
-                file.write(header)
-            self.size = len(header.encode())
-            self.digest.update(header.encode())
-        else:
-            with open(path, "rb") as old:
-                kept = old.read(keep)
-            self.digest.update(kept)
-            if path.stat().st_size != keep:  # rows written after the checkpoint: not kept
-                with replacing(path, "wb") as file:
-                    file.write(kept)
-            self.size = keep
-        self._blocks: queue.Queue = queue.Queue()
-        self._writer = threading.Thread(target=self._format, name="history.csv", daemon=True)
-        self._writer.start()
+        import h5py  # after dolfinx (rodfem.output.readers says why)
 
-    def _format(self) -> None:
-        row = self.row
-        while True:
-            rows = self._blocks.get()
+        if keep is None:
+            self._replace(lambda file: self._create(file), copy=False)
+            return
+        with h5py.File(path, "r") as file:
+            kept = file[DATASET][:keep]
+            longer = file[DATASET].shape[0] > keep
+        self.digest, self.rows = rows_digest(kept), keep
+        if longer:  # rows written after the checkpoint: not kept
+            self._replace(lambda file: file[DATASET].resize(keep, axis=0))
+
+    def _create(self, file) -> None:
+        data = file.create_dataset(DATASET, shape=(0, self.width), maxshape=(None, self.width),
+                                   dtype="<f8", chunks=(CHUNK, self.width))
+        data.attrs["columns"] = self.names
+
+    def _replace(self, change, copy: bool = True) -> None:
+        """Apply ``change`` to a copy of the file (a new file if not ``copy``), sync it and
+        rename it over the file."""
+        import h5py
+
+        part = temporary(self.path)
+        try:
+            if copy:
+                shutil.copyfile(self.path, part)
+            with h5py.File(part, "a" if copy else "w") as file:
+                change(file)
+            fd = os.open(part, os.O_RDONLY)
             try:
-                if rows is None:
-                    return
-                for part in range(0, len(rows), 64):  # short holds of the GIL
-                    self._text.append("".join([row % tuple(r)
-                                               for r in rows[part:part + 64].tolist()]))
-                    time.sleep(0)
-            except BaseException as err:  # noqa: BLE001 (handed to checkpoint)
-                self._error = err
+                os.fsync(fd)
             finally:
-                self._blocks.task_done()
+                os.close(fd)
+            os.replace(part, self.path)
+        except BaseException as err:
+            part.unlink(missing_ok=True)
+            if isinstance(err, OSError):
+                raise named(err, self.path) from None
+            raise
 
     def append(self, rows: np.ndarray) -> None:
-        if self.rank0:
-            self._blocks.put(np.array(rows, copy=True))
+        if self.rank0 and len(rows):
+            self._pending.append(np.array(rows, dtype="<f8", copy=True))
 
     def checkpoint(self) -> int:
-        """Write the rows appended so far (rank 0); return the file's length in bytes."""
-        if not self.rank0:
-            return self.size
-        self._blocks.join()
-        if self._error is not None:
-            raise self._error
-        text = "".join(self._text).encode()
-        if text:
-            part = temporary(self.path)
-            try:
-                shutil.copyfile(self.path, part)
-                with open(part, "ab") as file:
-                    file.write(text)
-                    file.flush()
-                    os.fsync(file.fileno())
-                os.replace(part, self.path)
-            except BaseException as err:
-                part.unlink(missing_ok=True)
-                if isinstance(err, OSError):
-                    raise named(err, self.path) from None
-                raise
-            self.size += len(text)
-            self.digest.update(text)
-            self._text.clear()
-        return self.size
+        """Write the rows appended so far (rank 0); return how many rows the file holds."""
+        if not self.rank0 or not self._pending:
+            return self.rows
+        rows = np.concatenate(self._pending)
+
+        def extend(file) -> None:
+            data = file[DATASET]
+            data.resize(self.rows + len(rows), axis=0)
+            data[self.rows:] = rows
+
+        self._replace(extend)
+        self.rows += len(rows)
+        self.digest.update(np.ascontiguousarray(rows).tobytes())
+        self._pending.clear()
+        return self.rows
 
     def close(self) -> None:
-        """Stop the formatting thread (after a last :meth:`checkpoint`, or without writing)."""
-        if self.rank0 and self._writer.is_alive():
-            self._blocks.put(None)
-            self._writer.join()
+        """Nothing to stop (the history's rows need no formatting thread)."""
 
 
 def write_text(path: Path, text: str, comm: MPI.Comm) -> None:

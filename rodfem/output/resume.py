@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rodfem.output.checkpoint import NAME, CheckpointError, read_checkpoint
+from rodfem.output.checkpoint import NAME, CheckpointError, check_counted, read_checkpoint
+from rodfem.output.sizes import save_every
 from rodfem.scene import SceneError, load, validate
 
 CHANGEABLE = ("time.end",)
@@ -73,7 +74,7 @@ def _plan(out: Path, overrides: list[str], marker: dict, ranks: int):
         raise ResumeError(f"the run is complete at t = {scene['time.end']:g}; --set time.end=T "
                           "extends it")
     _check_files(out, meta)
-    every = scene["output.every"]
+    every = save_every(scene)
     # Saves off the schedule (the last step of an interrupted or finished run) are not an
     # uninterrupted run's: they are dropped (their rows stay in their segments, unlisted).
     meta["saves"] = [s for s in meta["saves"] if s[0] % every == 0]
@@ -82,25 +83,14 @@ def _plan(out: Path, overrides: list[str], marker: dict, ranks: int):
 
 
 def _check_files(out: Path, meta: dict) -> None:
-    """The files the checkpoint counts are there as it left them: history.csv's first
-    ``history_bytes`` bytes (their SHA-256), the mesh and every segment of fields it lists."""
-    import hashlib
-
-    from rodfem.output.fields import DIRECTORY, MESH, segment_name
-
-    history, size = out / "history.csv", meta["history_bytes"]
+    """The files the checkpoint counts are there as it left them (:func:`check_counted`)."""
     try:
-        with open(history, "rb") as file:
-            kept = file.read(size)
-    except OSError as err:
-        raise ResumeError(f"cannot read {history}: {err.strerror}") from None
-    if len(kept) != size or hashlib.sha256(kept).hexdigest() != meta.get("history_sha256"):
-        raise ResumeError(f"{history} no longer holds the rows of the run's checkpoint (was it "
-                          "edited or cut?); the run cannot continue from it")
-    for name in (MESH, *(segment_name(k) for k in range(meta["segments"]))):
-        if not (out / DIRECTORY / name).is_file():
-            raise ResumeError(f"{out / DIRECTORY / name} is missing: the run's fields cannot be "
-                              "continued")
+        check_counted(out, meta)
+    except CheckpointError as err:
+        raise ResumeError(str(err)) from None
+    if len(meta["digests"]["segments"]) != meta["segments"]:
+        raise ResumeError(f"{out / NAME} counts {meta['segments']} segments of fields but holds "
+                          f"the digests of {len(meta['digests']['segments'])}")
 
 
 def plan(out: Path, overrides: list[str], marker: dict, comm):

@@ -4,12 +4,28 @@ go on anyway (``--no-size-check``)."""
 
 from __future__ import annotations
 
+import math
 import shutil
 from pathlib import Path
 
-NUMBER = 24  # bytes of a number of history.csv: 17 digits, sign, exponent and a comma
-BLOCK = 1024  # rows of the history a run holds in memory before it formats them
+NUMBER = 8  # bytes of a number of history.h5: float64
+BLOCK = 1024  # rows of the history a run holds in memory before it hands them on
 STATE_PER_NODE = 4000  # bytes per node of the operators, factors and vectors of a method
+FRAMES = 200  # at most about this many saved steps at the default output.every = 0
+STRIDE = 50  # and no more often than every STRIDE steps
+
+
+def save_every(scene) -> int:
+    """The steps between two field saves: ``output.every``, or for 0 (the default) every 50
+    steps, or less often so that a run saves about :data:`FRAMES` frames at most (the stride a
+    round 1, 2 or 5 × 10ᵏ steps, so that the saved times are round)."""
+    every = scene["output.every"]
+    if every:
+        return every
+    need = max(1, -(-scene.steps // FRAMES))
+    power = 10 ** int(math.log10(need))
+    stride = next(m * power for m in (1, 2, 5, 10) if m * power >= need)
+    return max(STRIDE, stride)
 
 
 class SizeError(ValueError):
@@ -21,15 +37,15 @@ def estimate(scene) -> tuple[int, int]:
     from rodfem.output.columns import for_scene, readings
 
     steps, nodes = scene.steps, scene["mesh.cells"] + 1
-    saves = steps // scene["output.every"] + 2
+    saves = steps // save_every(scene) + 2
     per_save = sum(nodes if name in ("theta", "u", "velocity") else nodes - 1
                    for name in scene["output.fields"])
     fields = saves * per_save * 8
     columns = for_scene(scene)
-    history = (steps + 2) * len(columns) * NUMBER
+    history = (steps // scene["output.history_every"] + 2) * len(columns) * NUMBER
     # the raw rows of a block: the slots, then the readings
     block = BLOCK * (8 + len(readings(columns))) * 8
-    # Between two checkpoints rank 0 keeps the saved fields and the history's text; at most all.
+    # Between two checkpoints rank 0 keeps the saved fields and the history's rows; at most all.
     return fields + history, fields + history + block + nodes * STATE_PER_NODE
 
 

@@ -1,4 +1,4 @@
-"""A run directory as the figures see it: ``history.csv``, ``scene.toml`` and ``fields.xdmf``.
+"""A run directory as the figures see it: ``history.h5``, ``scene.toml`` and ``fields.xdmf``.
 
 Everything a figure needs is read and checked here, before any figure is drawn, so that a bad
 directory stops ``rodfem plot`` with one line and no half-written figures.
@@ -13,8 +13,17 @@ from typing import Any
 
 import numpy as np
 
-from rodfem.output.columns import NAMES as HISTORY_COLUMNS
-from rodfem.post.fields import FUNCTIONS, Fields, FieldsError, read_fields
+from rodfem.output.readers import (  # noqa: F401 (the errors and History are read here)
+    FUNCTIONS,
+    Fields,
+    FieldsError,
+    History,
+    PlotError,
+    RunDirectoryError,
+    history_path,
+    read_fields,
+    read_history,
+)
 from rodfem.scene import BUILTIN, SceneError
 from rodfem.scene import load as load_scene
 
@@ -39,32 +48,6 @@ PAPER_PARAMETERS = ("model.zeta", "obstacle.epsilon", "model.k")
 EXPERIMENT_SECTIONS = ("model.", "obstacle.", "initial.", "source.")
 
 
-class PlotError(ValueError):
-    """``rodfem plot`` cannot draw its figures (exit code 2)."""
-
-
-class RunDirectoryError(PlotError):
-    """A path given to ``rodfem plot`` is not a complete rodfem run directory."""
-
-
-class History:
-    """The columns of ``history.csv`` (:mod:`rodfem.output.columns`) by name, one entry per step
-    n = 0..N: ``history.u_1`` or ``history["u_1"]``."""
-
-    def __init__(self, rows: np.ndarray, names: tuple[str, ...] = HISTORY_COLUMNS):
-        self.names = names
-        self._columns = {name: rows[:, i] for i, name in enumerate(names)}
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        return self._columns[name]
-
-    def __getattr__(self, name: str) -> np.ndarray:
-        try:
-            return self.__dict__["_columns"][name]
-        except KeyError:
-            raise AttributeError(name) from None
-
-
 @dataclass(frozen=True)
 class Run:
     """One run directory, read whole.
@@ -72,7 +55,7 @@ class Run:
     Attributes:
         path: the directory.
         name: its name, used in legends and in per-run file names.
-        history: ``history.csv``.
+        history: ``history.h5`` (or an earlier rodfem's ``history.csv``).
         scene: ``scene.toml``, flattened to ``section.key`` → value.
         fields: ``fields.xdmf``.
     """
@@ -107,31 +90,6 @@ class Run:
         return f"${math_symbol} = {value}$" if math else f"{symbol} = {value}"
 
 
-def read_history(path: Path) -> History:
-    """Read ``history.csv``; raise :class:`RunDirectoryError` unless it is rodfem's: the default
-    columns first, then any the scene chose (distinct names)."""
-    try:
-        with open(path, encoding="utf-8") as file:
-            header = tuple(file.readline().strip().split(","))
-            if header[:len(HISTORY_COLUMNS)] != HISTORY_COLUMNS or len(set(header)) != len(
-                    header):
-                columns = ",".join(HISTORY_COLUMNS)
-                raise RunDirectoryError(f"{path} is not a rodfem history (its header does not "
-                                        f"begin {columns})")
-            lines = file.read().split()
-        if not lines:
-            raise RunDirectoryError(f"{path} holds no steps")
-        rows = np.loadtxt(lines, delimiter=",", ndmin=2)
-    except RunDirectoryError:
-        raise
-    except (OSError, ValueError, UnicodeDecodeError) as err:
-        reason = str(err).split(";")[0]  # without NumPy's advice on loadtxt's arguments
-        raise RunDirectoryError(f"cannot read {path}: {reason}") from None
-    if rows.shape[1] != len(header):
-        raise RunDirectoryError(f"{path} has rows of {rows.shape[1]} values, not {len(header)}")
-    return History(rows, header)
-
-
 def _flatten(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:
     flat = {}
     for key, value in table.items():
@@ -154,7 +112,7 @@ def load_run(path: Path) -> Run:
     """Read a run directory written by ``rodfem run``.
 
     Args:
-        path: the directory holding ``history.csv``, ``scene.toml`` and ``fields.xdmf``.
+        path: the directory holding ``history.h5``, ``scene.toml`` and ``fields.xdmf``.
 
     Raises:
         RunDirectoryError: ``path`` is not a directory, or a file is missing or unreadable.
@@ -162,10 +120,10 @@ def load_run(path: Path) -> Run:
     path = Path(path)
     if not path.is_dir():
         raise RunDirectoryError(f"{path} is not a directory")
-    for name in ("history.csv", "scene.toml", "fields.xdmf"):
+    for name in (history_path(path).name, "scene.toml", "fields.xdmf"):
         if not (path / name).is_file():
             raise RunDirectoryError(f"{path} is not a rodfem run directory (it has no {name})")
-    history = read_history(path / "history.csv")
+    history = read_history(history_path(path))
     try:  # the resolved scene, checked as any scene is (it may have been edited)
         scene = _flatten(load_scene(str(path / "scene.toml")).data())
     except SceneError as err:

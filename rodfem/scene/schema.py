@@ -111,18 +111,22 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "momentum": Key("expression", "0", help="source of the momentum equation, in x and t"),
     },
     "output": {
-        "every": Key("integer", 50, minimum=1, maximum=MAX_STEPS,
-                     help="save fields every n steps"),
+        "every": Key("integer", 0, minimum=0, maximum=MAX_STEPS,
+                     help="save fields every n steps; 0: every 50 steps, or less often in a "
+                     "long run so that it saves about 200 frames at most"),
         "fields": Key("choices", ("theta", "u", "sigma"), choices=FIELDS,
                       help="the fields saved in fields.xdmf: theta (temperature), u "
                       "(displacement), velocity (nodes); sigma (stress), heat_flux (-theta_x, "
                       "per cell); at least one"),
         "history": Key("choices", (), choices=QUANTITIES,
-                       help="quantities history.csv records besides t, u_1, u_half, ut_1, "
+                       help="quantities history.h5 records besides t, u_1, u_half, ut_1, "
                        "sigma_1, energy and iterations (docs/outputs.md)"),
         "probes": Key("reals", (), minimum=0.0, maximum=1.0,
-                      help="points x of the rod where history.csv records u@x, theta@x and "
+                      help="points x of the rod where history.h5 records u@x, theta@x and "
                       "sigma@x"),
+        "history_every": Key("integer", 1, minimum=1, maximum=MAX_STEPS,
+                             help="keep the history's row of every n-th step (n = 0, n, 2n, "
+                             "...); the energy check and iteration counts still see every step"),
         "checkpoint": Key("real", 5.0, minimum=0.0, maximum=BIG,
                           help="write a checkpoint (history, fields and the state to resume "
                           "from) at the first field save this many seconds of wall time after "
