@@ -27,11 +27,13 @@ import shutil
 import socket
 import time
 from pathlib import Path
-
-from mpi4py import MPI
+from typing import TYPE_CHECKING
 
 import rodfem
 from rodfem.output.atomic import TEMPORARY, replacing
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
 
 MARKER, LOCK = "rodfem.json", "rodfem.lock"
 RUN_FILES = ("history.h5", "fields.xdmf", "fields", "scene.toml", "summary.json",
@@ -355,6 +357,8 @@ def release_all(status: str) -> None:
     """Record ``status`` in every directory this process still holds, and release them (a
     command stopped before it could finish them itself). Errors are ignored: the lock is freed
     when the process ends anyway, and a marker that still says running is read as 'gone'."""
+    from mpi4py import MPI  # here: reading a directory (rodfem.load) needs no MPI
+
     for path in list(_held):
         try:
             finish(path, status, MPI.COMM_SELF)
