@@ -151,3 +151,59 @@ def test_load_reads_a_run_killed_before_its_first_checkpoint(shared_dir):
     r = rodfem.load(out)
     assert r.status == "gone" and len(r.history) == 0 and r.fields is None
     assert r.measures == {} and r.scene["mesh.cells"] == 40
+
+
+def test_load_reads_columns_by_the_names_its_files_hold(shared_dir):
+    """A killed run with probes (no summary.json): iterations_max is the largest of its
+    `iterations` column, not of its last column; every column is read by the file's own names;
+    a scene.toml edited to disagree with the history is refused in one line."""
+    out = shared_dir / "probed"
+    rodfem.simulate("paper1", {**SHORT, "output.probes": [0.5], "output.history": ["contact"]},
+                    out=out)
+    COMM.barrier()
+    if COMM.rank == 0:
+        import json
+
+        marker = json.loads((out / "rodfem.json").read_text())
+        (out / "rodfem.json").write_text(json.dumps({**marker, "status": "running"}))
+        (out / "summary.json").unlink()
+    COMM.barrier()
+    r = rodfem.load(out)
+    assert r.status == "gone" and r.history.dtype.names[-4:] == (
+        "contact", "u@0.5", "theta@0.5", "sigma@0.5")
+    assert r.measures["iterations_max"] == r.history["iterations"].max() > 1
+    np.testing.assert_array_equal(r.history["u@0.5"], r.history["u_half"])
+    COMM.barrier()
+    if COMM.rank == 0:
+        scene = (out / "scene.toml").read_text()
+        (out / "scene.toml").write_text(scene.replace("probes = [0.5]", "probes = [0.5, 0.7]"))
+    COMM.barrier()
+    from rodfem.output.readers import RunDirectoryError
+
+    with pytest.raises(RunDirectoryError, match="does not describe") as refused:
+        rodfem.load(out)
+    assert "\n" not in str(refused.value) and "history.h5" in str(refused.value)
+
+
+@serial_only
+def test_load_reads_a_history_without_vtk_and_the_fields_when_asked(tmp_path):
+    out = tmp_path / "run"
+    rodfem.simulate("paper1", SHORT, out=out)
+    code = ("import sys, rodfem; r = rodfem.load(sys.argv[1]); "
+            "assert len(r.history) == 501; "
+            "assert not {'vtkmodules', 'pyvista', 'dolfinx', 'mpi4py.MPI'} & set(sys.modules); "
+            "assert 'fields' not in r.__dict__; r.fields.u; assert 'fields' in r.__dict__; "
+            "assert not {'vtkmodules', 'pyvista'} & set(sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code, str(out)], capture_output=True,
+                          text=True)
+    assert done.returncode == 0, done.stderr
+
+
+def test_history_every_keeps_every_nth_row_and_the_checks_see_every_step():
+    every = rodfem.simulate("paper1", {**SHORT, "output.history_every": 7})
+    full = rodfem.simulate("paper1", SHORT)
+    kept = np.arange(0, 501, 7)
+    assert every.history.tobytes() == full.history[kept].tobytes()
+    for key in ("iterations_total", "iterations_max", "iterations_mean",
+                "energy_non_increasing", "energy_max_increase", "steps"):
+        assert every.summary[key] == full.summary[key], key

@@ -253,3 +253,17 @@ def test_a_checkpoint_of_an_earlier_rodfem_resumes():
     assert identity(_resolved(old)) == identity(scene.data())
     old["model"]["zeta"] = 5.0
     assert identity(_resolved(old)) != identity(scene.data())
+
+
+@pytest.mark.parametrize("end, expected", [(0.2, 50), (8, 50), (10, 50), (10.001, 100),
+                                           (400, 2000), (1000, 5000), (4000, 20000)])
+def test_fields_are_saved_at_a_bounded_number_of_frames_by_default(end, expected):
+    """output.every = 0 (the default): every 50 steps, or the round stride that keeps a long
+    run to about 200 frames; a chosen output.every is kept as it is."""
+    import rodfem.scene
+    from rodfem.output.sizes import FRAMES, save_every
+
+    scene = rodfem.scene.load("paper1", [f"time.end={end}"])
+    assert save_every(scene) == expected
+    assert scene.steps // expected <= FRAMES
+    assert save_every(rodfem.scene.load("paper1", [f"time.end={end}", "output.every=3"])) == 3

@@ -263,3 +263,55 @@ def test_an_ignored_hangup_stays_ignored(tmp_path):
     process.send_signal(signal.SIGHUP)
     assert process.wait(timeout=120) == 0
     assert state(out) == "complete"
+
+
+@serial_only
+@pytest.mark.parametrize("damage", ["junk", "zeroed", "cut", "missing", "mesh", "other run's"])
+def test_resume_refuses_a_segment_of_fields_that_is_not_the_checkpoint_s(tmp_path, damage):
+    """Each segment and the mesh are checked by their SHA-256 before anything changes: a file
+    replaced by junk, zeroed, cut, missing or another run's is refused in one line naming it, and
+    every file stays as it was."""
+    out, other = tmp_path / "run", tmp_path / "other"
+    scene = ["paper1", "--set", "mesh.cells=20", "--set", "time.end=0.2",
+             "--set", "output.every=10", "--set", "output.checkpoint=0"]
+    rodfem("run", *scene, "--out", out, "--quiet", check=0)
+    segment = out / "fields" / ("mesh.h5" if damage == "mesh" else "steps-000003.h5")
+    data = segment.read_bytes()
+    if damage == "junk":
+        segment.write_bytes(b"junk" * (len(data) // 4))
+    elif damage == "zeroed":
+        segment.write_bytes(bytes(len(data)))
+    elif damage == "cut":
+        segment.write_bytes(data[:len(data) // 2])
+    elif damage == "missing":
+        segment.unlink()
+    elif damage == "mesh":
+        segment.write_bytes(data.replace(b"\x00\x00\x00\x00\x00\x00\xf0?", b"\x00" * 8, 1))
+        assert segment.read_bytes() != data
+    else:
+        rodfem("run", *scene, "--set", "model.zeta=0.3", "--out", other, "--quiet", check=0)
+        shutil.copyfile(other / "fields" / segment.name, segment)
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    done = rodfem("resume", out, "--set", "time.end=0.3")
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith("rodfem: error: ") and str(segment) in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1 and "Traceback" not in done.stderr
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    assert state(out) == "complete"
+
+
+@serial_only
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_history_of_every_nth_step_resumes_to_the_same_run(tmp_path, ranks):
+    """output.history_every = 3: the rows of the steps 0, 3, 6, …, and a run stopped and
+    resumed (at a step that is not a multiple of 3) holds what an uninterrupted one does."""
+    short, long = tmp_path / "short", tmp_path / "long"
+    scene = ["paper1", "--set", "mesh.cells=40", "--set", "output.every=7",
+             "--set", "output.history_every=3", "--set", "output.probes=[0.5]"]
+    rodfem("run", *scene, "--set", "time.end=0.5", "--out", short, "--quiet", ranks=ranks,
+           check=0)
+    rodfem("resume", short, "--set", "time.end=1", "--quiet", ranks=ranks, check=0)
+    rodfem("run", *scene, "--set", "time.end=1", "--out", long, "--quiet", ranks=ranks, check=0)
+    assert_same_run(short, long)
+    rows = read_history(long / "history.h5")
+    np.testing.assert_array_equal(np.rint(rows["t"] / 1e-3), np.arange(0, 1001, 3))
