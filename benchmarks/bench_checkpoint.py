@@ -6,7 +6,7 @@ tens of percent between runs; compare only numbers taken together):
 
 * ``bare``: ``simulate(scene, None)``, no files at all (the rows kept in memory);
 * ``files``: into a run directory at the defaults: the loop with its field saves, then the final
-  checkpoint (history.csv, the fields' segment and fields.xdmf, checkpoint.npz, each synced and
+  checkpoint (history.h5, the fields' segment and fields.xdmf, checkpoint.npz, each synced and
   renamed);
 * ``no fsync``: as ``files`` with ``os.fsync`` a no-op: the same files, not flushed to the disk;
   ``files`` − ``no fsync`` is the price of durability;

@@ -61,7 +61,7 @@ def parser() -> argparse.ArgumentParser:
     run = sub.add_parser(
         "run",
         help="simulate a scene",
-        description="Simulate a scene and write history.csv, fields.xdmf, scene.toml and "
+        description="Simulate a scene and write history.h5, fields.xdmf, scene.toml and "
         "summary.json into the output directory.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )

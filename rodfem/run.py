@@ -90,7 +90,7 @@ class RunResult:
     x: np.ndarray | None = None  # the nodes, in order
     theta: np.ndarray | None = None  # the last step's Θ (shifted temperature) at the nodes
     u: np.ndarray | None = None  # the last step's U at the nodes
-    history: np.ndarray | None = None  # the rows of history.csv, for a run without files
+    history: np.ndarray | None = None  # the rows of history.h5, for a run without files
     io_error: str | None = None  # a file could not be written: the line that says which
     signal: int | None = None  # the signal that interrupted the run
     fields: tuple | None = None  # keep_fields: (steps, t, {field: values}) of the saves (rank 0)

@@ -1,8 +1,8 @@
-"""The recorded quantities: the table of history.csv's columns, each made from the raw rows a
+"""The recorded quantities: the table of history.h5's columns, each made from the raw rows a
 time loop stores (:data:`rodfem.solver.record.RAW`, then the scene's readings). Importing this
 module needs NumPy only (the figures read it).
 
-Each column of ``history.csv`` is computed from a block of raw rows by its ``compute``, given the
+Each column of ``history.h5`` is computed from a block of raw rows by its ``compute``, given the
 run's :class:`Context` (Δt, the obstacle of :mod:`rodfem.model.contact`, k). The default columns
 (:data:`COLUMNS`) are always recorded; a scene adds the quantities of :data:`QUANTITIES` it names
 in ``output.history`` and, for each point x of ``output.probes``, the columns of
@@ -36,7 +36,7 @@ class Context:
 
 @dataclasses.dataclass(frozen=True)
 class Column:
-    """One column of history.csv: its name, meaning, and how it is computed from the raw rows
+    """One column of history.h5: its name, meaning, and how it is computed from the raw rows
     (a dict of slot name → array, readings named ``field@x``) and the :class:`Context`."""
 
     name: str
@@ -122,7 +122,7 @@ PROBES = (
 
 
 def for_scene(scene) -> tuple[Column, ...]:
-    """The columns of a scene's history.csv: the default ones, the quantities its
+    """The columns of a scene's history.h5: the default ones, the quantities its
     output.history names, then per probe x the columns of :data:`PROBES`."""
     chosen = {column.name: column for column in QUANTITIES}
     return (*COLUMNS, *(chosen[name] for name in scene["output.history"]),
@@ -130,7 +130,7 @@ def for_scene(scene) -> tuple[Column, ...]:
 
 
 def named(names) -> tuple[Column, ...]:
-    """The columns of a history.csv header (KeyError for a name rodfem does not write)."""
+    """The columns of a history.h5 header (KeyError for a name rodfem does not write)."""
     table = {column.name: column for column in (*COLUMNS, *QUANTITIES)}
     makers = {pattern.split("@")[0]: make for pattern, _, make in PROBES}
 
@@ -154,7 +154,7 @@ def readings(columns) -> tuple[tuple[str, float], ...]:
 
 def columns_of(raw_rows: np.ndarray, context: Context, columns=COLUMNS,
                reads: tuple[tuple[str, float], ...] = ()) -> np.ndarray:
-    """The history.csv rows of a block of raw rows (the raw slots, then the readings
+    """The history.h5 rows of a block of raw rows (the raw slots, then the readings
     ``reads``)."""
     raw = {slot.name: raw_rows[:, i] for i, slot in enumerate(RAW)}
     raw.update({reading_name(*r): raw_rows[:, len(RAW) + i] for i, r in enumerate(reads)})

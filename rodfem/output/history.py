@@ -1,4 +1,4 @@
-"""What a run records at every step: the rows of ``history.csv``.
+"""What a run records at every step: the rows of ``history.h5``.
 
 The state is held whole, in node order, on every rank (:mod:`rodfem.discrete.nodes`), so every
 rank computes the same rows; rank 0 writes them. A method keeps Θⁿ, ΔUⁿ = Uⁿ − Uⁿ⁻¹ and Uⁿ in one

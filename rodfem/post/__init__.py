@@ -1,7 +1,7 @@
 """Figures of rodfem runs, drawn off-screen with pyvista: ``rodfem plot DIR [DIR ...]``.
 
 The end of the chain scene → forms → solver → output → post: it reads a run's files
-(``history.csv``, ``scene.toml``, ``fields.xdmf``) and imports nothing from the solver side.
+(``history.h5``, ``scene.toml``, ``fields.xdmf``) and imports nothing from the solver side.
 """
 
 from rodfem.post import backend  # noqa: F401 (loads VTK before anything else: see there)

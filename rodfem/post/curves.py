@@ -1,4 +1,4 @@
-"""Curves against time from ``history.csv``: the paper's four panels and ln(Ê + 0.01).
+"""Curves against time from ``history.h5``: the paper's four panels and ln(Ê + 0.01).
 
 Drawn with matplotlib (its figures, not pyplot's: nothing global, no backend to choose), which
 lays out what VTK's charts cannot: a legend outside the axes, below them, so that it never covers

@@ -1,7 +1,7 @@
 """The raw row a time loop stores per step, in Python (:class:`rodfem.output.history.History`)
 or compiled: the slots of ``RAW`` in that order. The compiled loops name the same slots in
 ``rodfem/solver/compiled/record.h``, checked against ``RAW`` when they are built; the columns of
-history.csv are made from these rows (:mod:`rodfem.output.columns`). NumPy-free.
+history.h5 are made from these rows (:mod:`rodfem.output.columns`). NumPy-free.
 """
 
 from __future__ import annotations

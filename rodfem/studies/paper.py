@@ -18,7 +18,7 @@ from mpi4py import MPI
 import rodfem
 import rodfem.scene
 from rodfem.model.stationary import stationary
-from rodfem.output.columns import INDEX
+from rodfem.output.readers import history_path, read_history
 from rodfem.output.directories import finish, prepare_directory
 from rodfem.output.files import write_text
 from rodfem.run import simulate
@@ -71,8 +71,8 @@ def plural(count: int, noun: str) -> str:
 
 def measured(scene: rodfem.scene.Scene, run: Path, result) -> str:
     """One paragraph of what the run shows, set against the stationary state."""
-    history = np.loadtxt(run / "history.csv", delimiter=",", skiprows=1)
-    t, u_1, sigma_1 = (history[:, INDEX[name]] for name in ("t", "u_1", "sigma_1"))
+    history = read_history(history_path(run))
+    t, u_1, sigma_1 = (history[name] for name in ("t", "u_1", "sigma_1"))
     gap, epsilon = scene["obstacle.gap"], scene["obstacle.epsilon"]
     touching = u_1 > gap
     starts = np.flatnonzero(np.diff(touching.astype(int)) == 1) + 1

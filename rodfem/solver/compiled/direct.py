@@ -13,7 +13,7 @@ the operators off a method and its history once and runs ``steps`` steps in ``di
     Θⁿ = Θⁿ⁻¹ + ΔΘⁿ, Uⁿ = Uⁿ⁻¹ + ΔUⁿ, Dⁿ = ΔUⁿ (Crank–Nicolson with inertia: 2ΔUⁿ − Dⁿ⁻¹)
 
 and for each new state the raw row of :data:`rodfem.solver.record.RAW` (record.h), which
-:meth:`rodfem.output.history.History.take` turns into rows of ``history.csv`` as it does the
+:meth:`rodfem.output.history.History.take` turns into rows of ``history.h5`` as it does the
 PETSc loop's.
 
 A redistributed mass (:mod:`rodfem.solver.methods.massless`) changes only the end x = 1:
