@@ -207,3 +207,19 @@ def test_history_every_keeps_every_nth_row_and_the_checks_see_every_step():
     for key in ("iterations_total", "iterations_max", "iterations_mean",
                 "energy_non_increasing", "energy_max_increase", "steps"):
         assert every.summary[key] == full.summary[key], key
+
+
+@serial_only
+def test_the_documented_csv_export_and_an_earlier_rodfem_s_history_csv_read_back(tmp_path):
+    """docs/outputs.md's one-liner writes the history as CSV to round-trip precision; a run
+    directory of an earlier rodfem (history.csv, no history.h5) loads to the same history."""
+    out = tmp_path / "run"
+    written = rodfem.simulate("paper1", {**SHORT, "output.probes": [0.25]}, out=out)
+    code = ("import numpy as np, rodfem; h = rodfem.load('.').history; "
+            "np.savetxt('history.csv', [list(r) for r in h.tolist()], fmt='%.17g', "
+            "delimiter=',', header=','.join(h.dtype.names), comments='')")
+    subprocess.run([sys.executable, "-c", code], cwd=out, check=True)
+    (out / "history.h5").unlink()
+    earlier = rodfem.load(out)
+    assert earlier.history.dtype == written.history.dtype
+    assert earlier.history.tobytes() == written.history.tobytes()
