@@ -9,7 +9,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from conftest import COMM, history_rows, serial_only
+from conftest import COMM, serial_only
 from rodfem.output.columns import NAMES
 from rodfem.post.fields import read_fields
 

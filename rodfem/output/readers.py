@@ -6,10 +6,10 @@
 collection of grids that include the mesh by reference and carry one attribute each), with the
 heavy data in HDF5: its own runs as rows (hyperslabs) of the segments in ``fields/``, dolfinx's
 files as one dataset per step in ``fields.h5``. This reader reads both with h5py and the standard
-library's XML parser (h5py imported where it reads: imported before dolfinx, Debian's serial
-build aborts a run under mpirun). (Stock meshio 5 cannot: it does not know the topology name "PolyLine",
+library's XML parser. (Stock meshio 5 cannot: it does not know the topology name "PolyLine",
 which the XDMF specification and dolfinx use for interval meshes, and it reads a single
-collection per file.)
+collection per file.) h5py is imported where a file is read: imported before dolfinx, Debian's
+serial h5py aborts a run under mpirun.
 """
 
 from __future__ import annotations

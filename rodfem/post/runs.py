@@ -11,8 +11,6 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from rodfem.output.readers import (  # noqa: F401 (the errors and History are read here)
     FUNCTIONS,
     Fields,
