@@ -22,6 +22,7 @@ from rodfem.output.directories import finish
 from rodfem.output.fields import FieldFile
 from rodfem.output.files import write_json, write_text
 from rodfem.output.history import History
+from rodfem.output.measures import Contact
 from rodfem.output.pointwise import Pointwise
 from rodfem.output.progress import Progress
 from rodfem.output.sizes import save_every
@@ -164,6 +165,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     kept = FieldFile(None, disc, pointwise=pointwise) if files is None and keep_fields else None
     energy = EnergyMonitor(**meta.get("energy", {}))
     iterations = Iterations(**meta.get("iterations", {}))
+    contact = Contact(**meta.get("contact", {}))  # over every step, whatever rows are kept
     steps, every, dt = scene.steps, save_every(scene), scene["time.dt"]
     on_terminal = sys.stderr.isatty() or force_progress
     bar = Progress(steps, enabled=progress and comm.rank == 0 and on_terminal)
@@ -174,12 +176,15 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
         steps_of = np.rint(rows[:, INDEX["t"]] / dt).astype(int)
         energy.update(steps_of, rows[:, INDEX["energy"]])
         iterations.update(steps_of, rows[:, INDEX["iterations"]].astype(int))
+        contact.update(steps_of, rows[:, INDEX["u_1"]], rows[:, INDEX["sigma_1"]],
+                       scene["obstacle.gap"])
         rows_out.append(rows[steps_of % scene["output.history_every"] == 0])
 
     def state_meta() -> dict:
         return {"step": method.n, "scene": scene.data(), "source": scene.source,
                 "mpi_ranks": comm.size,
                 "energy": dataclasses.asdict(energy), "iterations": dataclasses.asdict(iterations),
+                "contact": dataclasses.asdict(contact),
                 "loop_seconds": loop_before + time.perf_counter() - loop_started}
 
     def checkpoint(state_valid: bool = True) -> None:
@@ -279,6 +284,7 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
             flush()
         summary = _summary(scene, status, error, iterations, energy, setup_seconds, loop_seconds,
                            comm, resumed=bool(resume))
+        summary["contact"] = dataclasses.asdict(contact)
         if files is not None:
             summary["checkpoint_seconds"] = files.seconds  # rank 0's: it writes them
         if io_error:

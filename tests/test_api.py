@@ -205,8 +205,19 @@ def test_history_every_keeps_every_nth_row_and_the_checks_see_every_step():
     kept = np.arange(0, 501, 7)
     assert every.history.tobytes() == full.history[kept].tobytes()
     for key in ("iterations_total", "iterations_max", "iterations_mean",
-                "energy_non_increasing", "energy_max_increase", "steps"):
+                "energy_non_increasing", "energy_max_increase", "steps", "contact"):
         assert every.summary[key] == full.summary[key], key
+    # the measures of contact are kept over every step: those of the full history, bit for bit
+    from rodfem.output.measures import MEASURES, TIMINGS
+
+    history = {name: full.history[name] for name in full.history.dtype.names}
+    without = {k: v for k, v in full.summary.items() if k != "contact"}
+    for measure in MEASURES:
+        if measure.name in TIMINGS or measure.name.endswith("_final"):
+            continue
+        kept, rows = every.measures[measure.name], measure.compute(history, full.scene, without)
+        assert np.array_equal(kept, rows, equal_nan=True), measure.name
+    assert full.measures["contact_intervals"] >= 1
 
 
 @serial_only

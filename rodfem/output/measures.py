@@ -6,6 +6,11 @@ run. Importing this module needs NumPy only.
 The rod is *in contact* at tⁿ when the obstacle pushes on it: σ(1, tⁿ) < 0 (the elastic laws:
 u(1, tⁿ) > g; the rigid obstacle: a positive multiplier). Counts and fractions are over the steps
 n = 1 … N that the run took (the initial state, n = 0, is data, not a step).
+
+A run keeps the measures of contact over every step as it goes (:class:`Contact`, in its summary
+as ``contact``), so that they are the same whatever rows its history keeps
+(``output.history_every``); without that record (a run killed before it wrote its summary) they
+are computed from the history's rows.
 """
 
 from __future__ import annotations
@@ -36,21 +41,69 @@ def _final(name: str):
     return lambda history, scene, summary: float(history[name][-1])
 
 
+@dataclasses.dataclass
+class Contact:
+    """The measures of contact over every step, updated block by block as a run records its
+    rows (and continued from a checkpoint): what :data:`MEASURES` computes from a history of
+    every step, bit for bit."""
+
+    steps: int = 0  # steps n ≥ 1 seen
+    touching: int = 0  # of them in contact
+    intervals: int = 0
+    last_change: int | None = None  # the step n of the last change of contact state
+    was: bool = False  # in contact at the last step seen (none: not)
+    max_penetration: float = 0.0  # max over n ≥ 0 of [u(1, tⁿ) − g]₊
+
+    def update(self, steps: np.ndarray, u_1: np.ndarray, sigma_1: np.ndarray,
+               gap: float) -> None:
+        if steps.size == 0:
+            return
+        self.max_penetration = max(self.max_penetration,
+                                   float(np.max(np.maximum(u_1 - gap, 0.0))))
+        taken = steps >= 1
+        touching = sigma_1[taken] < 0.0
+        if touching.size == 0:
+            return
+        change = np.diff(touching.astype(np.int8), prepend=np.int8(self.was))
+        self.steps += int(touching.size)
+        self.touching += int(np.count_nonzero(touching))
+        self.intervals += int(np.count_nonzero(change == 1))
+        changed = np.flatnonzero(change != 0)
+        if changed.size:
+            self.last_change = int(steps[taken][changed[-1]])
+        self.was = bool(touching[-1])
+
+
+def _kept(summary: dict) -> dict | None:
+    """The run's record of contact over every step (:class:`Contact`), if it has one."""
+    kept = summary.get("contact")
+    return kept if isinstance(kept, dict) else None
+
+
 def _max_penetration(history, scene, summary) -> float:
+    if (kept := _kept(summary)) is not None:
+        return float(kept["max_penetration"])
     return float(np.max(np.maximum(history["u_1"] - scene["obstacle.gap"], 0.0)))
 
 
 def _contact_fraction(history, scene, summary) -> float:
+    if (kept := _kept(summary)) is not None:
+        return kept["touching"] / kept["steps"] if kept["steps"] else 0.0
     touching = in_contact(history)
     return float(touching.mean()) if touching.size else 0.0
 
 
 def _contact_intervals(history, scene, summary) -> int:
+    if (kept := _kept(summary)) is not None:
+        return int(kept["intervals"])
     touching = in_contact(history).astype(np.int8)
     return int(np.count_nonzero(np.diff(touching, prepend=0) == 1))
 
 
 def _last_contact_change(history, scene, summary) -> float:
+    if (kept := _kept(summary)) is not None:
+        step = kept["last_change"]
+        return float(step * scene["time.dt"]) if step is not None else float("nan")
     touching = in_contact(history)
     changed = np.flatnonzero(np.diff(touching.astype(np.int8), prepend=0) != 0)
     return float(history["t"][1:][changed[-1]]) if changed.size else float("nan")
