@@ -118,7 +118,6 @@ class RunFiles:
     def close(self) -> None:
         self.history.close()
 
-
     def counted(self) -> dict:
         """What the checkpoint counts of the files (rank 0): the history's rows and the saved
         fields, with the SHA-256 of each (:func:`check_counted` checks them on resuming)."""
@@ -139,7 +138,8 @@ def check_counted(out: Path, meta: dict) -> None:
         with h5py.File(history, "r") as file:
             kept = file[DATASET][:rows]
     except (OSError, KeyError, TypeError, ValueError) as err:
-        raise CheckpointError(f"cannot read {history} ({err}); the run cannot continue "
+        reason = " ".join(str(err).split())
+        raise CheckpointError(f"cannot read {history} ({reason}); the run cannot continue "
                               "from it") from None
     if len(kept) != rows or rows_digest(kept).hexdigest() != meta["history_sha256"]:
         raise CheckpointError(f"{history} no longer holds the rows of the run's checkpoint (was "

@@ -57,7 +57,7 @@ class HistoryFile:
         import h5py  # after dolfinx (rodfem.output.readers says why)
 
         if keep is None:
-            self._replace(lambda file: self._create(file), copy=False)
+            self._replace(self._create, copy=False)
             return
         with h5py.File(path, "r") as file:
             kept = file[DATASET][:keep]
