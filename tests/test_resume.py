@@ -315,3 +315,20 @@ def test_a_history_of_every_nth_step_resumes_to_the_same_run(tmp_path, ranks):
     assert_same_run(short, long)
     rows = read_history(long / "history.h5")
     np.testing.assert_array_equal(np.rint(rows["t"] / 1e-3), np.arange(0, 1001, 3))
+
+
+@serial_only
+def test_rows_written_after_the_checkpoint_are_cut_back(tmp_path):
+    """A run killed after it wrote rows of history.h5 but before the checkpoint that counts
+    them: resume keeps the checkpoint's rows only (checked by their digest) and continues to the
+    uninterrupted run's history, bit for bit."""
+    short, long = tmp_path / "short", tmp_path / "long"
+    scene = ["paper1", "--set", "mesh.cells=40", "--set", "output.every=7"]
+    rodfem("run", *scene, "--set", "time.end=0.5", "--out", short, "--quiet", check=0)
+    with h5py.File(short / "history.h5", "a") as file:  # rows of steps the checkpoint lacks
+        data = file["history"]
+        data.resize(data.shape[0] + 5, axis=0)
+        data[-5:] = 1.0e300
+    rodfem("resume", short, "--set", "time.end=1", "--quiet", check=0)
+    rodfem("run", *scene, "--set", "time.end=1", "--out", long, "--quiet", check=0)
+    assert_same_run(short, long)
