@@ -108,7 +108,7 @@ def read_history(path: Path, empty: bool = False) -> History:
     except RunDirectoryError:
         raise
     except (OSError, ValueError, KeyError, TypeError, UnicodeDecodeError) as err:
-        reason = str(err).split(";")[0]  # without NumPy's advice on loadtxt's arguments
+        reason = " ".join(str(err).split(";")[0].split())  # one line, without NumPy's advice
         raise RunDirectoryError(f"cannot read {path}: {reason}") from None
     if not len(rows) and not empty:
         raise RunDirectoryError(f"{path} holds no steps")
