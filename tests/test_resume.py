@@ -332,3 +332,19 @@ def test_rows_written_after_the_checkpoint_are_cut_back(tmp_path):
     rodfem("resume", short, "--set", "time.end=1", "--quiet", check=0)
     rodfem("run", *scene, "--set", "time.end=1", "--out", long, "--quiet", check=0)
     assert_same_run(short, long)
+
+
+@serial_only
+def test_an_extended_run_saves_its_fields_at_the_stride_of_its_new_end(tmp_path):
+    """At the default output.every = 0 the stride follows the run's length: extended from 12,000
+    steps (a frame every 100) to 30,000 (every 200), the frames off the new stride are left out,
+    and the run is the uninterrupted one's, fields and history, bit for bit."""
+    short, long = tmp_path / "short", tmp_path / "long"
+    scene = ["paper1", "--set", "mesh.cells=20"]
+    rodfem("run", *scene, "--set", "time.end=12", "--out", short, "--quiet", check=0)
+    assert read_fields(short / "fields.xdmf").t.size == 12_000 // 100 + 1
+    rodfem("resume", short, "--set", "time.end=30", "--quiet", check=0)
+    rodfem("run", *scene, "--set", "time.end=30", "--out", long, "--quiet", check=0)
+    assert_same_run(short, long)
+    steps = np.rint(read_fields(short / "fields.xdmf").t / 1e-3).astype(int)
+    np.testing.assert_array_equal(steps, np.arange(0, 30_001, 200))
