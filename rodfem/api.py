@@ -46,6 +46,7 @@ class Result:
             default) at every saved step, with ``t``, ``x`` and ``x_cells``
             (:class:`rodfem.output.readers.Fields`); None where none were saved. A run
             directory's are read when first asked for.
+        saved_fields: the fields, or what reads them (for :attr:`fields`).
         path: the run directory, or None for a run in memory.
     """
 
