@@ -32,6 +32,7 @@ from mpi4py import MPI
 
 import rodfem
 from rodfem.output.atomic import TEMPORARY, replacing
+from rodfem.output.writers import live_writer, marker_error
 
 MARKER, LOCK = "rodfem.json", "rodfem.lock"
 RUN_FILES = ("history.csv", "fields.xdmf", "fields", "scene.toml", "summary.json",
@@ -133,6 +134,13 @@ def _foreign(path: Path, mounts: list[Path] | None = None) -> str | None:
     return None
 
 
+def _refuse_live(path: Path, marker: dict | None) -> None:
+    """OutputError if ``marker`` names a live process writing ``path``."""
+    writer = live_writer(marker) if marker is not None else None
+    if writer is not None:
+        raise OutputError(f"{path} is in use by {writer}; wait for it to end, or stop it")
+
+
 def _holder(command: str) -> bytes:
     """What the lock file says of the process that holds it."""
     return (f"rodfem {command} (pid {os.getpid()} on {socket.gethostname()}, since "
@@ -210,6 +218,7 @@ def _claim(path: Path, force: bool, keep: Path | None, command: str) -> int:
         # taking its lock would write into a directory not ours
         raise OutputError(f"{path} is not a rodfem output directory (it has no {MARKER}); not "
                           "replacing it, even with --force")
+    _refuse_live(path, read_marker(path))
     fd = _lock(path, command)
     try:
         why = None if _unmarked_claim(path) else _foreign(path)
@@ -298,6 +307,11 @@ def reopen(path: Path, comm: MPI.Comm) -> dict:
             if before is None or before.get("command") not in ("run", "sweep"):
                 raise OutputError(f"{path} is not a directory of 'rodfem run' or 'rodfem sweep' "
                                   f"(no {MARKER} of a run or a sweep)")
+            why = marker_error(before)
+            if why is not None:
+                raise OutputError(f"{path / MARKER} is not a marker rodfem wrote ({why}); "
+                                  "the run cannot be resumed from it")
+            _refuse_live(path, before)
             _held[path.resolve()] = (_lock(path, "resume"), before)
         except OSError as err:
             error = f"cannot resume {path}: {err.strerror or err}"
