@@ -25,6 +25,7 @@ import numpy as np
 
 from rodfem.output.atomic import TEMPORARY, replacing, sync_directory
 from rodfem.output.columns import for_scene
+from rodfem.output.directories import keep_lock
 from rodfem.output.fields import DIRECTORY, SEGMENT, FieldFile, segment_name
 from rodfem.output.files import HistoryFile
 
@@ -202,6 +203,8 @@ class RunFiles:
         checkpoint that counts them. Without ``arrays`` (the state is not one to continue from:
         it is not finite) the previous checkpoint stays."""
         started = time.perf_counter()
+        if self.comm.rank == 0:
+            keep_lock(self.out)
         self.fields.checkpoint()
         size = self.history.checkpoint()
         if arrays is not None and self.comm.rank == 0:

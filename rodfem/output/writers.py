@@ -61,6 +61,13 @@ def live_writer(marker: dict) -> str | None:
             f"{marker.get('resumed') or marker.get('started')})")
 
 
+def in_use(path: Path, marker: dict | None) -> str | None:
+    """The line that refuses ``path`` if ``marker`` names a live process writing it, or None."""
+    writer = live_writer(marker) if marker is not None else None
+    return None if writer is None else (f"{path} is in use by {writer}; wait for it to end, or "
+                                        "stop it")
+
+
 # A marker's fields and their types (those a command reads; others are kept as they are).
 MARKER_FIELDS = {"rodfem": str, "command": str, "status": str, "pid": int, "host": str,
                  "started": str, "resumed": str, "finished": str}
@@ -77,7 +84,8 @@ def marker_error(marker: dict) -> str | None:
         if name not in marker:
             return f"it has no {name}"
     if marker["status"] not in STATUSES:
-        return f"its status is {json.dumps(marker['status'])[:40]}, not one of {', '.join(STATUSES)}"
+        return (f"its status is {json.dumps(marker['status'])[:40]}, not one of "
+                f"{', '.join(STATUSES)}")
     if not all(isinstance(name, str) for name in marker["files"]):
         return "its files are not names"
     return None
