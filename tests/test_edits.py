@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from conftest import serial_only
@@ -264,7 +264,8 @@ def test_any_edit_is_used_or_refused(runs, data, name, stopped):
         shutil.copytree(source, out)
         data.draw(EDITS[name](out / name), label=f"edit of {name}")
         before = snapshot(out)
-        used_or_refused(out, extra, runs["reference"], before)
+        outcome = used_or_refused(out, extra, runs["reference"], before)
+        event("used" if outcome == "used" else "refused")
 
 
 def test_a_checkpoint_holds_its_digest():
