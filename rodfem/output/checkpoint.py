@@ -203,10 +203,10 @@ class RunFiles:
         checkpoint that counts them. Without ``arrays`` (the state is not one to continue from:
         it is not finite) the previous checkpoint stays."""
         started = time.perf_counter()
-        if self.comm.rank == 0:
-            keep_lock(self.out)
         self.fields.checkpoint()
         size = self.history.checkpoint()
+        if self.comm.rank == 0:  # after the ranks' collective writes: only rank 0 may raise
+            keep_lock(self.out)
         if arrays is not None and self.comm.rank == 0:
             write_checkpoint(self.out, arrays, {**meta, "history_bytes": size,
                                                 "history_sha256": self.history.digest.hexdigest(),
