@@ -148,9 +148,10 @@ def _wrong_arrays(arrays: dict[str, np.ndarray], meta: dict) -> str | None:
                               or nodes < 2):
             return f"its {name} is {a.dtype} of shape {a.shape}"
     step, pressure = arrays["step"], arrays["pressure"]
-    if step.dtype != np.int64 or step.shape != (2,) or int(step[0]) != meta["step"] \
-            or int(step[1]) < 0:
+    if step.dtype != np.int64 or step.shape != (2,) or int(step[1]) < 0:
         return f"its step is {step.dtype} {step.tolist() if step.size < 5 else step.shape}"
+    if int(step[0]) != meta["step"]:
+        return f"its state is of step {int(step[0])}, its metadata of step {meta['step']}"
     if pressure.dtype != np.float64 or pressure.shape != (1,):
         return f"its pressure is {pressure.dtype} of shape {pressure.shape}"
     return None
