@@ -142,6 +142,13 @@ def simulate(scene: str | Path | Mapping | Scene, overrides=None, out: str | Pat
         SceneError: a mistake in the scene or the overrides (the CLI's one-line message).
         rodfem.OutputError: ``out`` cannot be used.
     """
+    from rodfem.output import interrupts
+
+    with interrupts.call():  # a signal stops this call, not the next
+        return _simulate(scene, overrides, out, comm, force, progress)
+
+
+def _simulate(scene, overrides, out, comm, force: bool, progress: bool) -> Result:
     from mpi4py import MPI
 
     from rodfem.output.directories import prepare_directory

@@ -104,6 +104,8 @@ def parser() -> argparse.ArgumentParser:
     _overrides(resume, "a later end, time.end=T (the only value a resumed run may change)")
     resume.add_argument("--quiet", action="store_true", help="no progress bar and no final line")
     _progress(resume, "draw the progress bar even when output is not a terminal (mpirun)")
+    resume.add_argument("--no-size-check", dest="large", action="store_true",
+                        help="go on even if the estimated output or memory exceeds what is free")
     plot = sub.add_parser(
         "plot",
         help="draw the figures of runs",

@@ -193,9 +193,13 @@ def resume(args: argparse.Namespace) -> int:
     if marker.get("command") == "sweep":
         return _resume_sweep(args, out, marker)
     try:
-        scene, checkpoint = plan(out, args.overrides, marker, comm)
+        scene, checkpoint = plan(out, args.overrides, marker, comm, large=args.large)
         mark_running(out, comm)
-    except (ResumeError, OutputError) as err:
+    except ResumeError as err:  # a complete run (exit 0), bad input (2), a full disk (4)
+        release(out, comm)  # untouched
+        say(err.line(), sys.stdout if err.code == 0 else None)
+        return err.code
+    except OutputError as err:
         release(out, comm)  # untouched
         say(f"rodfem: error: {err}")
         return EXIT_INPUT

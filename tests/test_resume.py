@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from conftest import serial_only
+from test_edits import snapshot
 from rodfem.output.directories import state
 from rodfem.output.readers import read_fields, read_history
 
@@ -140,8 +141,12 @@ def test_a_finished_run_extends_to_a_later_end(tmp_path):
     short, long = tmp_path / "short", tmp_path / "long"
     scene = ["paper1", "--set", "mesh.cells=40", "--set", "output.every=7"]
     rodfem("run", *scene, "--set", "time.end=0.5", "--out", short, "--quiet", check=0)
-    refused = rodfem("resume", short)
-    assert refused.returncode == 2 and "is complete" in refused.stderr
+    before = snapshot(short)
+    # nothing to do: exit 0 (a job script that always resumes after a requeue goes on), one line
+    done = rodfem("resume", short)
+    assert done.returncode == 0 and "is a complete run" in done.stdout, done.stderr
+    assert done.stdout.count("\n") == 1 and done.stderr == ""
+    assert snapshot(short) == before
     rodfem("resume", short, "--set", "time.end=1", "--quiet", check=0)
     rodfem("run", *scene, "--set", "time.end=1", "--out", long, "--quiet", check=0)
     assert_same_run(short, long)
@@ -348,3 +353,116 @@ def test_an_extended_run_saves_its_fields_at_the_stride_of_its_new_end(tmp_path)
     assert_same_run(short, long)
     steps = np.rint(read_fields(short / "fields.xdmf").t / 1e-3).astype(int)
     np.testing.assert_array_equal(steps, np.arange(0, 30_001, 200))
+
+
+@serial_only
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_live_run_whose_lock_was_removed_is_not_taken(tmp_path, reference, ranks):
+    """The lock of a running run removed: resume and run --force still see the live process
+    (its marker names it) and refuse in one line; the run takes a new lock at its next
+    checkpoint and ends as an uninterrupted run."""
+    out = tmp_path / "run"
+    # a few times the reference's steps: seconds of loop for the commands that try to take it
+    end = {1: 480, 2: 240}[ranks]
+    command = [RODFEM, "run", *SCENE, "--set", f"time.end={end}", "--out", str(out), "--quiet"]
+    process = subprocess.Popen(["mpirun", "-n", str(ranks), *command] if ranks > 1 else command,
+                               env=ENV)
+    deadline = time.monotonic() + 120
+    while not (out / "rodfem.lock").exists() or not (out / "rodfem.lock").stat().st_size:
+        assert time.monotonic() < deadline and process.poll() is None
+        time.sleep(0.02)
+    (out / "rodfem.lock").unlink()
+    for args in (["resume", out], ["resume", out, "--set", "time.end=200"],
+                 ["run", *SCENE, "--out", out, "--force"]):
+        done = rodfem(*args, ranks=ranks)
+        lines = [line for line in done.stderr.splitlines() if line.startswith("rodfem")]
+        assert done.returncode == 2 and len(lines) == 1, done.stderr
+        assert "is in use by rodfem run (pid" in lines[0], done.stderr
+    assert process.poll() is None  # refused while it ran
+    assert process.wait(timeout=300) == 0
+    assert (out / "rodfem.lock").read_bytes() == b""  # taken again, and released
+    assert state(out) == "complete"
+    # the reference's rows first, then the rest, each step once: no other process wrote it
+    rows = read_history(out / "history.h5").rows
+    first = read_history(reference[ranks] / "history.h5").rows
+    assert rows[:len(first)].tobytes() == first.tobytes()
+    assert len(rows) == end * 1000 + 1
+    np.testing.assert_array_equal(np.rint(rows[:, 0] / 1e-3), np.arange(end * 1000 + 1))
+
+
+@serial_only
+def test_a_marker_of_a_dead_process_whose_number_was_reused_is_not_live(tmp_path):
+    """A killed run's process number given to a later process: that process started after the
+    run marked its directory, so it is not the run, and resume goes on."""
+    from rodfem.output.writers import live_writer
+
+    marker = {"status": "running", "command": "run", "pid": os.getppid(),
+              "host": __import__("socket").gethostname(), "started": "2000-01-01T00:00:00+0000"}
+    assert live_writer(marker) is None
+    marker["started"] = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+    assert live_writer(marker).startswith(f"rodfem run (pid {os.getppid()} on")
+    assert live_writer({**marker, "status": "complete"}) is None
+    assert live_writer({**marker, "host": "elsewhere"}) is None
+    assert live_writer({**marker, "pid": "1"}) is None
+
+
+@serial_only
+def test_resume_applies_the_size_check_of_run(small_disk):
+    out = small_disk / "run"
+    scene = ["paper1", "--set", "mesh.cells=20", "--set", "time.end=0.1"]
+    rodfem("run", *scene, "--out", out, "--quiet", check=0)
+    before = snapshot(out)
+    done = rodfem("resume", out, "--set", "time.end=100")  # about 17 MB into 1 MiB
+    assert done.returncode == 2 and "would write about" in done.stderr, done.stderr
+    assert done.stderr.count("\n") == 1 and "--no-size-check" in done.stderr
+    assert snapshot(out) == before
+
+
+@serial_only
+def test_resume_on_a_full_disk_names_the_file_and_exits_4(tmp_path, small_disk):
+    out = small_disk / "run"
+    scene = ["paper1", "--set", "mesh.cells=20", "--set", "output.every=7"]
+    rodfem("run", *scene, "--set", "time.end=0.1", "--out", out, "--quiet", check=0)
+    before = snapshot(out)
+    filler = small_disk / "filler"
+    fd = os.open(filler, os.O_WRONLY | os.O_CREAT)
+    try:
+        with pytest.raises(OSError):  # the disk full
+            while True:
+                os.write(fd, b"\0" * 4096)
+    finally:
+        os.close(fd)
+    done = rodfem("resume", out, "--set", "time.end=0.2", "--no-size-check")
+    assert done.returncode == 4, done.stderr
+    assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
+    assert f"cannot write {out / 'scene.toml'}: No space left on device" in done.stderr
+    assert snapshot(out) == before
+    filler.unlink()  # room again: the same command continues it
+    rodfem("resume", out, "--set", "time.end=0.2", "--quiet", check=0)
+    reference = tmp_path / "reference"
+    rodfem("run", *scene, "--set", "time.end=0.2", "--out", reference, "--quiet", check=0)
+    assert_same_run(out, reference)
+
+
+@serial_only
+def test_a_signal_stops_one_simulate_call_and_not_the_next(monkeypatch):
+    """Ctrl-C during rodfem.simulate stops that run (interrupted, at the end of a step); the
+    next call runs whole, and the caller's handler is back."""
+    import rodfem
+    from rodfem.output.progress import Progress
+
+    handler = signal.getsignal(signal.SIGINT)
+    update = Progress.update
+
+    def interrupting(self, n):
+        os.kill(os.getpid(), signal.SIGINT)  # in the time loop: noted, not raised
+        update(self, n)
+
+    scene = {"mesh.cells": 20, "time.end": 0.2}
+    with monkeypatch.context() as patch:
+        patch.setattr(Progress, "update", interrupting)
+        stopped = rodfem.simulate("paper1", scene)
+    assert stopped.status == "interrupted" and len(stopped.history) < 201
+    assert signal.getsignal(signal.SIGINT) is handler
+    again = rodfem.simulate("paper1", scene)
+    assert again.status == "complete" and len(again.history) == 201

@@ -264,3 +264,36 @@ def test_a_mistake_in_the_arguments_is_one_line(capsys):
         assert stop.value.code == 2
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and "error" in err and "--help" in err, err
+
+
+@serial_only
+def test_a_removed_lock_is_taken_again_and_a_taken_one_stops_the_writer(shared_dir):
+    """At each checkpoint the writer holds its lock still: removed, it is made and taken again;
+    taken meanwhile by another process, the writer stops holding the directory and leaves its
+    marker to the other."""
+    from rodfem.output.directories import finish, keep_lock, prepare_directory
+
+    out = shared_dir / "run"
+    prepare_directory(out, False, COMM)
+    (out / LOCK).unlink()
+    keep_lock(out)
+    fd = os.open(out / LOCK, os.O_RDONLY)
+    try:
+        with pytest.raises(BlockingIOError):
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # held again
+    finally:
+        os.close(fd)
+    (out / LOCK).unlink()
+    (out / LOCK).touch()
+    holder = subprocess.Popen([sys.executable, "-c", HOLD, str(out / LOCK)],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(OSError, match="rodfem.lock"):
+            keep_lock(out)
+        marker = (out / MARKER).read_bytes()
+        finish(out, "complete", COMM)
+        assert (out / MARKER).read_bytes() == marker  # not this process's to write any more
+    finally:
+        holder.kill()
+        holder.wait()

@@ -15,6 +15,7 @@ write them.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import time
@@ -25,12 +26,13 @@ import numpy as np
 
 from rodfem.output.atomic import TEMPORARY, replacing, sync_directory
 from rodfem.output.columns import for_scene
+from rodfem.output.directories import keep_lock
 from rodfem.output.fields import DIRECTORY, MESH, SEGMENT, FieldFile, file_digest, segment_name
 from rodfem.output.files import HistoryFile, rows_digest
 from rodfem.output.readers import DATASET, HISTORY
 
 NAME = "checkpoint.npz"
-FORMAT = 2  # 1: history.csv counted in bytes
+FORMAT = 2  # 1: an earlier rodfem's (history.csv counted in bytes, no digest): not resumed
 
 
 class CheckpointError(ValueError):
@@ -38,12 +40,29 @@ class CheckpointError(ValueError):
 
 
 def write_checkpoint(out: Path, arrays: dict[str, np.ndarray], meta: dict) -> None:
+    meta = json.loads(json.dumps({"format": FORMAT, **meta}))  # as it will be read back
+    meta["digest"] = digest(arrays, meta)
     with replacing(out / NAME, "wb") as file:
-        np.savez(file, meta=np.array(json.dumps({"format": FORMAT, **meta})), **arrays)
+        np.savez(file, meta=np.array(json.dumps(meta)), **arrays)
+
+
+def digest(arrays: dict[str, np.ndarray], meta: dict) -> str:
+    """The SHA-256 of a checkpoint's content: every array's name, type, shape and bytes, and
+    the metadata but its digest. A checkpoint changed in any way (a value scaled by 1 + 1e-12,
+    an array stored as float32, a number of its metadata) no longer matches it."""
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(json.dumps([name, a.dtype.str, list(a.shape)]).encode())
+        h.update(a.tobytes())
+    h.update(json.dumps({k: v for k, v in meta.items() if k != "digest"},
+                        sort_keys=True).encode())
+    return h.hexdigest()
 
 
 def read_checkpoint(out: Path) -> tuple[dict[str, np.ndarray], dict]:
-    """The arrays and the metadata of ``out``'s checkpoint; CheckpointError (one line)."""
+    """The arrays and the metadata of ``out``'s checkpoint, checked whole (its digest) and
+    field by field; CheckpointError (one line) otherwise."""
     path = out / NAME
     try:
         with np.load(path, allow_pickle=False) as data:
@@ -53,9 +72,99 @@ def read_checkpoint(out: Path) -> tuple[dict[str, np.ndarray], dict]:
         raise CheckpointError(f"{path} does not exist") from None
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
         raise CheckpointError(f"{path} is not a readable checkpoint ({err})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+    except RecursionError:
+        raise CheckpointError(f"{path} is not a readable checkpoint") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT \
+            or isinstance(meta.get("format"), bool):
         raise CheckpointError(f"{path} is not a checkpoint this version of rodfem reads")
+    if meta.get("digest") != digest(arrays, meta):
+        raise CheckpointError(f"{path} does not match its digest (was it edited, cut or "
+                              "damaged?); the run cannot continue from it")
+    why = _wrong_meta(meta) or _wrong_arrays(arrays, meta)
+    if why is not None:
+        raise CheckpointError(f"{path} is not a checkpoint rodfem wrote: {why}")
     return arrays, meta
+
+
+def _integer(value, low: int = 0) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= low
+
+
+def _sha256(value) -> bool:
+    return isinstance(value, str) and len(value) == 64
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+# The metadata's fields, and what each must be (the energy monitor's and the iteration counts'
+# fields are those of rodfem.run's EnergyMonitor and Iterations).
+META = {
+    "step": _integer,
+    "scene": lambda v: isinstance(v, dict) and all(isinstance(s, dict) or isinstance(s, str)
+                                                   for s in v.values()),
+    "source": lambda v: isinstance(v, str),
+    "mpi_ranks": lambda v: _integer(v, 1),
+    "energy": lambda v: isinstance(v, dict) and set(v) == {"last", "max_increase", "scale",
+                                                            "finite"}
+    and all(_number(v[k]) for k in ("last", "max_increase", "scale"))
+    and isinstance(v["finite"], bool),
+    "iterations": lambda v: isinstance(v, dict) and set(v) == {"total", "max", "after_first",
+                                                                "rows"}
+    and all(_integer(x) for x in v.values()),
+    "loop_seconds": lambda v: _number(v) and v >= 0,
+    "history_rows": _integer,
+    "history_sha256": _sha256,
+    "digests": lambda v: isinstance(v, dict) and set(v) == {"mesh", "segments"}
+    and _sha256(v["mesh"]) and isinstance(v["segments"], list)
+    and all(_sha256(d) for d in v["segments"]),
+    "saves": lambda v: isinstance(v, list) and all(
+        isinstance(s, list) and len(s) == 4 and _integer(s[0]) and _number(s[1])
+        and _integer(s[2]) and _integer(s[3]) for s in v),
+    "segments": _integer,
+}
+
+
+def _wrong_meta(meta: dict) -> str | None:
+    """What is wrong with a checkpoint's metadata (a field missing or of the wrong type), or
+    None."""
+    for name, right in META.items():
+        if name not in meta:
+            return f"its metadata has no {name}"
+        if not right(meta[name]):
+            return f"its metadata's {name} is {json.dumps(meta[name])[:40]}"
+    if any(s[0] > meta["step"] or s[2] >= meta["segments"] for s in meta["saves"]):
+        return "its metadata's saves are not those of its step and segments"
+    if len(meta["digests"]["segments"]) != meta["segments"]:
+        return "its metadata's digests are not those of its segments"
+    return None
+
+
+def _wrong_arrays(arrays: dict[str, np.ndarray], meta: dict) -> str | None:
+    """What is wrong with a checkpoint's arrays (the method's state: see
+    :meth:`rodfem.solver.methods.base.Method.saved_state`), or None."""
+    shapes = {"state": 3, "u_prev": 1, "guess": 2}  # [Θ; D; U], Uⁿ⁻¹, Newton's [ΔΘ; ΔU]
+    for name in ("state", "u_prev", "step", "pressure"):
+        if name not in arrays:
+            return f"it has no {name}"
+    unknown = set(arrays) - {*shapes, "step", "pressure"}
+    if unknown:
+        return f"it holds {sorted(unknown)[0]}, which is not rodfem's"
+    nodes = arrays["u_prev"].shape[0] if arrays["u_prev"].ndim == 1 else 0
+    for name, per_node in shapes.items():
+        a = arrays.get(name)
+        if a is not None and (a.dtype != np.float64 or a.shape != (per_node * nodes,)
+                              or nodes < 2):
+            return f"its {name} is {a.dtype} of shape {a.shape}"
+    step, pressure = arrays["step"], arrays["pressure"]
+    if step.dtype != np.int64 or step.shape != (2,) or int(step[1]) < 0:
+        return f"its step is {step.dtype} {step.tolist() if step.size < 5 else step.shape}"
+    if int(step[0]) != meta["step"]:
+        return f"its state is of step {int(step[0])}, its metadata of step {meta['step']}"
+    if pressure.dtype != np.float64 or pressure.shape != (1,):
+        return f"its pressure is {pressure.dtype} of shape {pressure.shape}"
+    return None
 
 
 class RunFiles:
@@ -108,6 +217,8 @@ class RunFiles:
         started = time.perf_counter()
         self.fields.checkpoint()
         self.history.checkpoint()
+        if self.comm.rank == 0:  # after the ranks' collective writes: only rank 0 may raise
+            keep_lock(self.out)
         if arrays is not None and self.comm.rank == 0:
             write_checkpoint(self.out, arrays, {**meta, **self.counted()})
         if self.comm.rank == 0:
@@ -145,13 +256,13 @@ def check_counted(out: Path, meta: dict) -> None:
         raise CheckpointError(f"{history} no longer holds the rows of the run's checkpoint (was "
                               "it edited or cut?); the run cannot continue from it")
     digests = meta["digests"]
-    for name, digest in ((MESH, digests["mesh"]),
-                         *((segment_name(k), d) for k, d in enumerate(digests["segments"]))):
+    for name, expected in ((MESH, digests["mesh"]),
+                           *((segment_name(k), d) for k, d in enumerate(digests["segments"]))):
         path = out / DIRECTORY / name
         if not path.is_file():
             raise CheckpointError(f"{path} is missing: the run's fields cannot be continued")
         try:
-            same = file_digest(path) == digest
+            same = file_digest(path) == expected
         except OSError as err:
             raise CheckpointError(f"cannot read {path}: {err.strerror}") from None
         if not same:

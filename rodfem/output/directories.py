@@ -7,7 +7,9 @@ Every command that writes a directory (``run``, ``paper``, ``stability``, ``veri
 write-then-rename, so that it is whole or absent. :func:`finish` replaces it, the same way, with
 the final status. For the command's life the directory is locked: an exclusive ``flock`` on
 ``rodfem.lock`` beside the marker, which the system releases when the process ends however it
-ends, so that the lock of a killed run is free again (a stale lock is taken over).
+ends, so that the lock of a killed run is free again (a stale lock is taken over). A lock file
+removed while its command runs is no way in: the marker still names the live process
+(:mod:`rodfem.output.writers`), and the command takes a new lock at its next checkpoint.
 
 ``--force`` empties a directory of its entries and keeps the directory and its lock, and only
 where the marker proves it is rodfem's: every entry is one its marker lists (a subdirectory
@@ -19,6 +21,8 @@ nothing is touched.
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import fcntl
 import json
 import os
@@ -31,6 +35,7 @@ from typing import TYPE_CHECKING
 
 import rodfem
 from rodfem.output.atomic import TEMPORARY, replacing
+from rodfem.output.writers import in_use, marker_error
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -157,7 +162,8 @@ def _lock(path: Path, command: str) -> int:
         raise OutputError(f"{path} is in use by {holder}; wait for it to end, or stop it") from None
     try:
         os.ftruncate(fd, 0)
-        os.pwrite(fd, _holder(command), 0)
+        with contextlib.suppress(OSError):  # a full disk: held all the same, holder unnamed
+            os.pwrite(fd, _holder(command), 0)
     except BaseException:
         os.close(fd)
         raise
@@ -212,6 +218,8 @@ def _claim(path: Path, force: bool, keep: Path | None, command: str) -> int:
         # taking its lock would write into a directory not ours
         raise OutputError(f"{path} is not a rodfem output directory (it has no {MARKER}); not "
                           "replacing it, even with --force")
+    if (writer := in_use(path, read_marker(path))) is not None:
+        raise OutputError(writer)
     fd = _lock(path, command)
     try:
         why = None if _unmarked_claim(path) else _foreign(path)
@@ -267,6 +275,28 @@ def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None
         raise OutputError(error)
 
 
+def keep_lock(path: Path) -> None:
+    """Hold ``path``'s lock still (rank 0, at each checkpoint): a lock file removed or replaced
+    meanwhile is made and taken again. OSError if another process took it first (this one then
+    holds it no more, and writes no marker)."""
+    held = _held.get(path.resolve())
+    if held is None:
+        return
+    fd, marker = held
+    with contextlib.suppress(FileNotFoundError):
+        if os.stat(path / LOCK).st_ino == os.fstat(fd).st_ino:
+            return
+    try:
+        new = _lock(path, marker.get("command", "run"))
+    except OutputError as err:
+        _held.pop(path.resolve(), None)
+        os.close(fd)
+        raise OSError(errno.EBUSY, f"{err} (its lock file was removed)", str(path / LOCK)) \
+            from None
+    _held[path.resolve()] = (new, marker)
+    os.close(fd)
+
+
 def finish(path: Path, status: str, comm: MPI.Comm) -> None:
     """Record the command's final ``status`` in the marker (complete, failed, interrupted) and
     release the directory's lock (rank 0; nothing if this process does not hold it)."""
@@ -300,6 +330,12 @@ def reopen(path: Path, comm: MPI.Comm) -> dict:
             if before is None or before.get("command") not in ("run", "sweep"):
                 raise OutputError(f"{path} is not a directory of 'rodfem run' or 'rodfem sweep' "
                                   f"(no {MARKER} of a run or a sweep)")
+            why = marker_error(before)
+            if why is not None:
+                raise OutputError(f"{path / MARKER} is not a marker rodfem wrote ({why}); "
+                                  "the run cannot be resumed from it")
+            if (writer := in_use(path, before)) is not None:
+                raise OutputError(writer)
             _held[path.resolve()] = (_lock(path, "resume"), before)
         except OSError as err:
             error = f"cannot resume {path}: {err.strerror or err}"

@@ -13,7 +13,8 @@ job) stays ignored. Where it stops depends on when the signal comes:
   as interrupted. Under MPI the ranks agree on the step (:func:`requested`).
 
 :func:`install` is called by the ``rodfem`` command first thing; a library caller who did not call
-it gets the handlers inside :func:`deferred` only, and its own handlers back afterwards.
+it gets the handlers inside :func:`deferred` only, and its own handlers back afterwards; inside
+:func:`call`, a signal received is forgotten when the call ends.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGUSR1)
 
 _received: list[int] = []  # the signals this process has received
 _depth = [0]  # > 0 inside deferred(): a signal is noted, not raised
+_depth_calls = [0]  # > 0 inside call()
 
 
 class Interrupted(Exception):
@@ -93,6 +95,20 @@ def deferred():
         for s, handler in zip(SIGNALS, previous, strict=True):
             if handler is not None:
                 signal.signal(s, handler)
+
+
+@contextlib.contextmanager
+def call():
+    """A library call (``rodfem.simulate``) that a signal may stop: a signal received during
+    it concerns it alone, so the next call starts as if none had come. The handlers are
+    restored on the way out by :func:`deferred`."""
+    _depth_calls[0] += 1
+    try:
+        yield
+    finally:
+        _depth_calls[0] -= 1
+        if _depth_calls[0] == 0:
+            _received.clear()
 
 
 def requested(comm, n: int, every: int, also: bool = False) -> bool:

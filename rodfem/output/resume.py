@@ -19,6 +19,29 @@ CHANGEABLE = ("time.end",)
 class ResumeError(ValueError):
     """The run cannot be continued (exit code 2, nothing touched)."""
 
+    code = 2
+
+    def line(self) -> str:
+        """What ``rodfem resume`` says, on one line."""
+        return f"rodfem: error: {self}"
+
+
+class Complete(ResumeError):
+    """Nothing to continue: the run is complete (exit code 0, nothing touched), so that a job
+    script that always resumes after a requeue does not fail."""
+
+    code = 0
+
+    def line(self) -> str:
+        return f"rodfem: {self}"
+
+
+class WriteError(ResumeError):
+    """The scene of an extended run could not be written (exit code 4: a full disk; the run's
+    files unchanged)."""
+
+    code = 4
+
 
 def identity(data: dict) -> dict:
     """A scene's values without those a resumed run may change."""
@@ -39,7 +62,7 @@ def _resolved(data: dict) -> dict:
         return data
 
 
-def _plan(out: Path, overrides: list[str], marker: dict, ranks: int):
+def _plan(out: Path, overrides: list[str], marker: dict, ranks: int, large: bool):
     for item in overrides:
         key = item.split("=", 1)[0].strip()
         if key not in CHANGEABLE:
@@ -54,26 +77,22 @@ def _plan(out: Path, overrides: list[str], marker: dict, ranks: int):
     except SceneError as err:
         raise ResumeError(str(err)) from None
     if not (out / NAME).exists():
+        _check_room(scene, out, 0, large)
         return scene, None
     try:
         arrays, meta = read_checkpoint(out)
     except CheckpointError as err:
         raise ResumeError(str(err)) from None
-    if identity(_resolved(meta.get("scene", {}))) != identity(base.data()):
-        raise ResumeError(f"{out / 'scene.toml'} is not the scene of the run's checkpoint (was "
-                          "it edited?); a run resumes with the scene it was run with")
-    if meta.get("mpi_ranks") != ranks:
-        raise ResumeError(f"the run was made on {meta.get('mpi_ranks')} MPI rank(s); resume it "
-                          f"on as many (mpirun -n {meta.get('mpi_ranks')}), for the same result "
-                          "bit for bit")
+    _check_same_run(out, scene, base, arrays, meta, ranks)
     step, steps = meta["step"], scene.steps
     if steps < step:
         raise ResumeError(f"time.end = {scene['time.end']:g} is before the checkpoint's "
                           f"t = {step * scene['time.dt']:g}")
     if steps == step and marker.get("status") == "complete":
-        raise ResumeError(f"the run is complete at t = {scene['time.end']:g}; --set time.end=T "
-                          "extends it")
+        raise Complete(f"{out} is a complete run (t = {scene['time.end']:g}); nothing was "
+                       f"changed ('rodfem resume {out} --set time.end=T' extends it)")
     _check_files(out, meta)
+    _check_room(scene, out, _written(out, meta), large)
     every = save_every(scene)
     # Saves off the schedule (the last step of an interrupted or finished run) are not an
     # uninterrupted run's: they are dropped (their rows stay in their segments, unlisted).
@@ -82,39 +101,82 @@ def _plan(out: Path, overrides: list[str], marker: dict, ranks: int):
     return scene, (arrays, meta)
 
 
+def _check_same_run(out: Path, scene, base, arrays: dict, meta: dict, ranks: int) -> None:
+    """The checkpoint is this run's: of its scene, on as many ranks, of its method."""
+    if identity(_resolved(meta["scene"])) != identity(base.data()):
+        raise ResumeError(f"{out / 'scene.toml'} is not the scene of the run's checkpoint (was "
+                          "it edited?); a run resumes with the scene it was run with")
+    if meta["mpi_ranks"] != ranks:
+        raise ResumeError(f"the run was made on {meta['mpi_ranks']} MPI rank(s); resume it "
+                          f"on as many (mpirun -n {meta['mpi_ranks']}), for the same result "
+                          "bit for bit")
+    newton = scene["solver.method"] == "newton"  # the one method with a state of its own
+    if ("guess" in arrays) != newton or (ranks == 1 and arrays["u_prev"].size
+                                         != scene["mesh.cells"] + 1):
+        raise ResumeError(f"{out / NAME} is not a checkpoint of the scene in "
+                          f"{out / 'scene.toml'}; the run cannot continue from it")
+
+
+def _written(out: Path, meta: dict) -> int:
+    """The bytes a run has written up to its checkpoint (its history and fields; the files
+    :func:`check_counted` found whole)."""
+    from rodfem.output.fields import DIRECTORY
+    from rodfem.output.readers import HISTORY
+
+    fields = sum(f.stat().st_size for f in (out / DIRECTORY).glob("*.h5") if f.is_file())
+    return (out / HISTORY).stat().st_size + fields
+
+
+def _check_room(scene, out: Path, already: int, large: bool) -> None:
+    """The size check of ``rodfem run``, for what the run has still to write."""
+    from rodfem.output.sizes import room_error
+
+    error = None if large else room_error(scene, out, already)
+    if error is not None:
+        raise ResumeError(error)
+
+
 def _check_files(out: Path, meta: dict) -> None:
     """The files the checkpoint counts are there as it left them (:func:`check_counted`)."""
     try:
         check_counted(out, meta)
     except CheckpointError as err:
         raise ResumeError(str(err)) from None
-    if len(meta["digests"]["segments"]) != meta["segments"]:
-        raise ResumeError(f"{out / NAME} counts {meta['segments']} segments of fields but holds "
-                          f"the digests of {len(meta['digests']['segments'])}")
 
 
-def plan(out: Path, overrides: list[str], marker: dict, comm):
+def plan(out: Path, overrides: list[str], marker: dict, comm, large: bool = False):
     """The scene and checkpoint (arrays, metadata) to resume ``out`` from, on every rank; the
-    checkpoint is None if the run has none yet (it starts again). ResumeError otherwise."""
+    checkpoint is None if the run has none yet (it starts again). Everything is checked before
+    anything is written: ResumeError (or its kinds :class:`Complete`, :class:`WriteError`, with
+    their exit codes) otherwise, with nothing changed. ``large``: no size check."""
     result, error = None, None
     if comm.rank == 0:
         try:
-            scene, checkpoint = _plan(Path(out), list(overrides), marker, comm.size)
+            scene, checkpoint = _plan(Path(out), list(overrides), marker, comm.size, large)
             if overrides:
-                from rodfem.output.atomic import replacing
-
-                with replacing(Path(out) / "scene.toml") as file:
-                    file.write(scene.to_toml())
+                _write_scene(Path(out), scene)
             source = checkpoint[1].get("source", scene.source) if checkpoint else scene.source
             result = (scene.data(), source, checkpoint)
         except ResumeError as err:
-            error = str(err)
+            error = err
         except OSError as err:
-            error = f"cannot resume {out}: {err.strerror or err}"
+            error = ResumeError(f"cannot resume {out}: {err.strerror or err}")
     result, error = comm.bcast((result, error), root=0)
     if error:
-        raise ResumeError(error)
+        raise error
     from rodfem.scene import validate
 
     data, source, checkpoint = result
     return validate(data, source), checkpoint
+
+
+def _write_scene(out: Path, scene) -> None:
+    """The extended run's scene.toml, whole or not at all."""
+    from rodfem.output.atomic import io_line, replacing
+
+    try:
+        with replacing(out / "scene.toml") as file:
+            file.write(scene.to_toml())
+    except OSError as err:
+        raise WriteError(f"{io_line(err)}; nothing was changed in {out}, and once there is "
+                         "room the same command continues it") from None

@@ -74,24 +74,30 @@ def _size(n: float) -> str:
     return f"{n:.3g} TB"
 
 
+def room_error(scene, out: Path, already: int = 0) -> str | None:
+    """Why the run of ``scene`` into ``out`` would not fit, of which ``already`` bytes are
+    written (a resumed run's), or None."""
+    written, memory = estimate(scene)
+    written -= already
+    try:
+        disk = shutil.disk_usage(_existing(out)).free
+    except OSError:
+        disk = None
+    ram = _free_memory()
+    advice = ("fewer steps, fields saved less often (output.every) or fewer of them "
+              "(output.fields), fewer probes, or --no-size-check to run anyway")
+    if disk is not None and written > disk:
+        return (f"the run would write about {_size(written)} into {out}, where "
+                f"{_size(disk)} is free; use {advice}")
+    if ram is not None and memory > ram:
+        return (f"the run would hold about {_size(memory)} in memory, and "
+                f"{_size(ram)} is free; use {advice}")
+    return None
+
+
 def check_room(scene, out: Path, comm, allow: bool = False) -> None:
     """SizeError (on every rank, one line) if the run of ``scene`` into ``out`` would not fit."""
-    error = None
-    if comm.rank == 0 and not allow:
-        written, memory = estimate(scene)
-        try:
-            disk = shutil.disk_usage(_existing(out)).free
-        except OSError:
-            disk = None
-        ram = _free_memory()
-        advice = ("fewer steps, fields saved less often (output.every) or fewer of them "
-                  "(output.fields), fewer probes, or --no-size-check to run anyway")
-        if disk is not None and written > disk:
-            error = (f"the run would write about {_size(written)} into {out}, where "
-                     f"{_size(disk)} is free; use {advice}")
-        elif ram is not None and memory > ram:
-            error = (f"the run would hold about {_size(memory)} in memory, and "
-                     f"{_size(ram)} is free; use {advice}")
+    error = room_error(scene, out) if comm.rank == 0 and not allow else None
     error = comm.bcast(error, root=0)
     if error:
         raise SizeError(error)
