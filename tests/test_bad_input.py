@@ -49,7 +49,8 @@ CASES = [
     (["initial.u1=1"], "initial.u1: must equal 0 at x = 0"),
     (["initial.u0=true"], "initial.u0: True must be a string expression in x"),
     (["initial.u1=log(x)"], "initial.u1: not finite at x = 0"),
-    (["discretisation.mass=lumpy"], 'discretisation.mass: must be one of "lumped" | "consistent" | "redistributed" | "redistributed-lumped"'),
+    (["discretisation.mass=lumpy"], 'discretisation.mass: must be one of "lumped" | '
+     '"consistent" | "redistributed" | "redistributed-lumped"'),
     (["solver.method=gauss"], "solver.method: must be one of \"direct\" | \"newton\" | \"picard\""),
     (["obstacle.kind=rigid"], "solver.method: \"picard\" cannot solve obstacle.kind = \"rigid\""),
     (["solver.tol=0"], "solver.tol: must be >= 1e-300"),
@@ -60,7 +61,8 @@ CASES = [
     (["time.scheme=crank-nicolson", "model.b=0", "model.zeta=0", "solver.method=direct"],
      'time.scheme: "crank-nicolson" needs inertia or viscosity'),
     (["time.scheme=crank-nicolson", "obstacle.kind=rigid", "solver.method=direct"],
-     'time.scheme: "crank-nicolson" models obstacle.kind = "rigid" only with discretisation.mass = "redistributed"'),
+     'time.scheme: "crank-nicolson" models obstacle.kind = "rigid" only with '
+     'discretisation.mass = "redistributed"'),
     (["discretisation.mass=redistributed", "time.scheme=crank-nicolson", "model.zeta=0"],
      'model.a: must be 0 with discretisation.mass = "redistributed"'),
     (["discretisation.mass=redistributed", "time.scheme=crank-nicolson", "model.zeta=0",

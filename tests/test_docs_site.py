@@ -153,9 +153,9 @@ def test_formulas_are_typeset():
     assert done.stdout.count('class="mjx-chtml') >= 10, done.stderr[-2000:]
 
 
-# Run in a page once MathJax has typeset it (MathJax 2's hooks): how wide the page is against the window, and each
-# display equation's box and content widths. The page is read from a copy whose <base> is the
-# site, so that its styles and MathJax load as they do from the site itself.
+# Run in a page once MathJax has typeset it (MathJax 2's hooks): how wide the page is against
+# the window, and each display equation's box, content width and overflow. The page is read
+# from a copy whose <base> is the site, so that its styles and MathJax load as from the site.
 MEASURE = """<script>
 window.addEventListener("load", function () {  // MathJax itself loads asynchronously
  MathJax.Hub.Register.StartupHook("End", function () {  // after the page is typeset

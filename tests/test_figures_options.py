@@ -326,8 +326,8 @@ def test_drawing_processes(runs, out):
     if COMM.rank != 0:
         return
     from rodfem.post.plot import prepare
-    from rodfem.post.tasks import Task
     from rodfem.post.pool import Drawer
+    from rodfem.post.tasks import Task
 
     tasks = prepare(runs[:1], out, force=True)[:3]
     bad = Task("spacetime", tasks[0].runs, tasks[0].labels, out / "bad.png", field="nope")

@@ -35,7 +35,6 @@ from rodfem.post.spacetime import MAPS
 from rodfem.post.tasks import Task, draw
 from rodfem.scene.expressions import shorten
 
-
 # A label's characters at most, as drawn: a legend's column or a figure's title holds about as
 # many, and a label of thousands would overflow the text's raster.
 LABEL_WIDTH = 60
