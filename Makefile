@@ -4,8 +4,8 @@ PY := .venv/bin/python
 MPIRUN := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 \
   PRTE_MCA_rmaps_default_mapping_policy=:oversubscribe mpirun
 
-.PHONY: setup demo test test-serial test-mpi fuzz bench clean container-test container-test-sid \
-  docs test-docs notebooks
+.PHONY: setup demo test test-serial test-mpi check fuzz bench clean container-test \
+  container-test-sid docs test-docs notebooks
 
 setup:
 	@scripts/setup.sh
@@ -21,6 +21,21 @@ test-serial:
 
 test-mpi:
 	$(MPIRUN) -n 2 $(PY) -m mpi4py -m pytest -q tests
+
+# A quick look at every layer (under two minutes on two cores; `make test` runs everything, 10 to
+# 25 minutes): scenes and the command line's refusals, the forms against the NumPy reference, each
+# method, a resumed run bit for bit, a sweep, the figures; then the parallel answer on two ranks.
+CHECK_MPI := "tests/test_reference.py::test_paper_scenes_agree_with_reference[paper1-lumped]" \
+  "tests/test_methods.py::test_methods_agree_on_the_paper_scenes[paper1]" \
+  tests/test_sweep.py::test_rows_equal_single_runs_serially_and_under_mpirun tests/test_bad_input.py
+CHECK_SERIAL := tests/test_architecture.py tests/test_expressions.py tests/test_scene_fuzz.py \
+  $(CHECK_MPI) \
+  tests/test_sweep.py::test_bad_sweep_files_are_one_line_exit_2_nothing_written \
+  tests/test_resume.py::test_a_finished_run_extends_to_a_later_end tests/test_plot.py::test_one_run
+
+check: setup
+	$(PY) -m pytest -q $(CHECK_SERIAL)
+	$(MPIRUN) -n 2 $(PY) -m mpi4py -m pytest -q $(CHECK_MPI)
 
 # Scene loading fuzzed with 10^4 examples per property (the suite runs 150).
 fuzz: setup

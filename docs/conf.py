@@ -8,8 +8,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent / "_ext"))
 import rodfem  # noqa: E402
 
 project = "rodfem"
-author = "the rodfem authors"
-copyright = "the rodfem authors, MIT licence"
+author = "the rodfem developers"
+copyright = "the rodfem developers, MIT licence"
 release = version = rodfem.__version__
 
 extensions = [
@@ -48,7 +48,9 @@ napoleon_numpy_docstring = False
 
 html_theme = "furo"
 html_title = f"rodfem {release}"
-html_static_path = []
+# rodfem.css: display equations wider than the page scroll in their own box.
+html_static_path = ["_static"]
+html_css_files = ["rodfem.css"]
 html_show_sourcelink = False
 # MathJax 2 from Debian (libjs-mathjax), copied into _static/mathjax by rodfem_docs: the pages
 # render their formulas without a network.

@@ -16,6 +16,7 @@ cd "$(dirname "$0")/.."
 APT_PACKAGES=(
   python3-dolfinx python3-petsc4py python3-mpi4py python3-ufl python3-basix python3-ffcx
   python3-meshio python3-h5py python3-scipy python3-numpy python3-venv python3-pip python3-cffi
+  python3-packaging  # reads Debian's packages' requirements into pip's constraints (below)
   openmpi-bin libopenmpi-dev build-essential
   python3-mpmath  # the tests: high-precision references of the contact laws
   python3-hypothesis  # the tests: property-based fuzzing of scene loading
@@ -67,6 +68,25 @@ stamp=.venv/.rodfem-installed
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ "$0" -nt "$stamp" ]; then
   echo "setup: pip install -e .[$extras] ($numpy_pin)"
   echo "$numpy_pin" > .venv/constraints.txt
+  # pip weighs only what it installs, not the Debian packages the venv sees, and reports (in red)
+  # any of theirs it breaks: pyvista's cyclopts needs a newer rich than Debian 12's, whose newest
+  # markdown-it-py (4) Debian 12's MyST and mdit-py-plugins refuse (<3). So every version bound
+  # of an installed Debian package is a constraint too: pip then takes a markdown-it-py that both
+  # accept (2.2 on Debian 12; on Debian 13 its own 3.0, which its MyST 4 asks for, is kept).
+  # Should they leave pip no choice, it installs without them (and says what it breaks).
+  # (-I: the interpreter alone, without the current directory and so without rodfem's egg-info.)
+  /usr/bin/python3 -I -c 'import importlib.metadata as m
+from packaging.requirements import InvalidRequirement, Requirement
+bounds = set()
+for dist in m.distributions():
+    for text in dist.requires or ():
+        try:
+            req = Requirement(text)
+        except InvalidRequirement:
+            continue
+        if req.specifier and (req.marker is None or req.marker.evaluate({"extra": ""})):
+            bounds.add(f"{req.name}{req.specifier}")
+print("\n".join(sorted(bounds)))' > .venv/debian-bounds.txt
   if [ "$extras" != test ]; then
     # The same for Sphinx, MyST and docutils: Debian's own, which its Furo theme and MathJax fit.
     # Unpinned, jupytext's requirements let pip replace them with PyPI's newest, a Sphinx that
@@ -75,7 +95,13 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ "$0" -nt "$stamp" ]
 for name in ("sphinx", "myst-parser", "docutils", "mdit-py-plugins"):
     print(f"{name}=={m.version(name)}")' >> .venv/constraints.txt
   fi
-  .venv/bin/python -m pip install -q --disable-pip-version-check -c .venv/constraints.txt \
-    "$numpy_pin" -e ".[$extras]"
+  pip=(.venv/bin/python -m pip install -q --disable-pip-version-check -c .venv/constraints.txt)
+  if "${pip[@]}" -c .venv/debian-bounds.txt "$numpy_pin" -e ".[$extras]" 2>.venv/pip.log; then
+    cat .venv/pip.log >&2  # whatever pip had to say
+  else
+    echo "setup: pip cannot also meet every Debian package's version bounds" \
+      "(.venv/pip.log); installing without them"
+    "${pip[@]}" "$numpy_pin" -e ".[$extras]"
+  fi
   touch "$stamp"
 fi

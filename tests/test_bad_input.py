@@ -1,10 +1,16 @@
 """Every mistake in a scene gets exit code 2, one line naming the key and what is allowed, and no
 output directory; nothing runs before the whole scene is valid."""
 
-import pytest
+import os
+from pathlib import Path
 
+import pytest
+from mpi4py import MPI
+
+import rodfem
 from conftest import COMM, history_rows
 from rodfem.cli import main
+from rodfem.scene import SceneError
 
 CASES = [
     # (--set overrides, expected fragment of the message)
@@ -43,7 +49,8 @@ CASES = [
     (["initial.u1=1"], "initial.u1: must equal 0 at x = 0"),
     (["initial.u0=true"], "initial.u0: True must be a string expression in x"),
     (["initial.u1=log(x)"], "initial.u1: not finite at x = 0"),
-    (["discretisation.mass=lumpy"], 'discretisation.mass: must be one of "lumped" | "consistent" | "redistributed" | "redistributed-lumped"'),
+    (["discretisation.mass=lumpy"], 'discretisation.mass: must be one of "lumped" | '
+     '"consistent" | "redistributed" | "redistributed-lumped"'),
     (["solver.method=gauss"], "solver.method: must be one of \"direct\" | \"newton\" | \"picard\""),
     (["obstacle.kind=rigid"], "solver.method: \"picard\" cannot solve obstacle.kind = \"rigid\""),
     (["solver.tol=0"], "solver.tol: must be >= 1e-300"),
@@ -56,7 +63,8 @@ CASES = [
     (["time.scheme=crank-nicolson", "model.b=0", "model.zeta=0", "solver.method=direct"],
      'time.scheme: "crank-nicolson" needs inertia or viscosity'),
     (["time.scheme=crank-nicolson", "obstacle.kind=rigid", "solver.method=direct"],
-     'time.scheme: "crank-nicolson" models obstacle.kind = "rigid" only with discretisation.mass = "redistributed"'),
+     'time.scheme: "crank-nicolson" models obstacle.kind = "rigid" only with '
+     'discretisation.mass = "redistributed"'),
     (["discretisation.mass=redistributed", "time.scheme=crank-nicolson", "model.zeta=0"],
      'model.a: must be 0 with discretisation.mass = "redistributed"'),
     (["discretisation.mass=redistributed", "time.scheme=crank-nicolson", "model.zeta=0",
@@ -173,3 +181,85 @@ def test_force_replaces_a_run(shared_dir, capsys):
     assert main(argv + ["--force", "--set", "time.end=0.02"]) == 0
     if COMM.rank == 0:
         assert len(history_rows(out)) == 21
+
+
+def _one_line(code, err, message):
+    assert code == 2
+    if COMM.rank == 0:
+        assert message in err, err
+        assert err.count("\n") == 1 and err.startswith("rodfem: error: ") and "Traceback" not in err
+
+
+@pytest.mark.parametrize("command", ["run", "sweep"])
+@pytest.mark.parametrize("kind", ["character device", "pipe", "directory"])
+def test_devices_pipes_and_directories_are_refused_unread(command, kind, shared_dir, capsys):
+    """/dev/zero would be read without end and a pipe without a writer would wait forever: a
+    scene or a sweep file must be a regular file, refused otherwise before it is opened for
+    reading (a pipe opened to be read would block here)."""
+    path = {"character device": Path("/dev/zero"), "pipe": shared_dir / "pipe",
+            "directory": shared_dir / "dir"}[kind]
+    if COMM.rank == 0 and kind == "pipe":
+        os.mkfifo(path)
+    if COMM.rank == 0 and kind == "directory":
+        path.mkdir()
+    COMM.barrier()
+    out = shared_dir / "out"
+    code, err = _run([command, str(path), "--out", str(out)], capsys)
+    _one_line(code, err, f"not a regular file but a {kind}; give a TOML file")
+    assert not out.exists()
+
+
+def test_a_sweeps_base_scene_must_be_a_regular_file(shared_dir, capsys):
+    sweep = shared_dir / "sweep.toml"
+    if COMM.rank == 0:
+        os.mkfifo(shared_dir / "pipe")
+        sweep.write_text('scene = "pipe"\n[grid]\n"model.k" = [1, 2]\n')
+    COMM.barrier()
+    out = shared_dir / "out"
+    code, err = _run(["sweep", str(sweep), "--out", str(out)], capsys)
+    _one_line(code, err, "scene '")
+    if COMM.rank == 0:
+        assert "pipe': not a regular file but a pipe" in err
+    assert not out.exists()
+
+
+SPACED = {
+    "leading": ('[grid]\n" model.k" = [1, 2]\n', '" model.k" has a space in it'),
+    "trailing, beside the key": ('[grid]\n"model.k" = [1, 2]\n"model.k " = [3, 4]\n',
+                                 '"model.k " has a space in it; write the key alone, "model.k"'),
+    "set, and spaced in grid": ('[set]\n"model.k" = 1\n[grid]\n"model.k\t" = [3, 4]\n',
+                                '"model.k\\t" has a space in it'),
+    "inside": ('[zip]\n"model. k" = [1, 2]\n', '"model. k" has a space in it'),
+    "sampled": ('[sample]\ncount = 2\n[sample.ranges]\n"model.k " = [1, 2]\n',
+                '"model.k " has a space in it'),
+}
+
+
+@pytest.mark.parametrize("case", sorted(SPACED))
+def test_sweep_keys_with_spaces_are_refused(case, shared_dir, capsys):
+    """A key with spaces would be another key to the sweep's table (rows labelled with one
+    key's values, run with the other's) and the same key to the scene."""
+    body, message = SPACED[case]
+    sweep = shared_dir / "sweep.toml"
+    if COMM.rank == 0:
+        sweep.write_text(f'scene = "paper1"\n{body}')
+    COMM.barrier()
+    out = shared_dir / "out"
+    code, err = _run(["sweep", str(sweep), "--out", str(out)], capsys)
+    _one_line(code, err, message)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("item", [" model.k=2", "model.k =2", "model .k=2"])
+def test_set_keys_with_spaces_are_refused(item, shared_dir, capsys):
+    out = shared_dir / "out"
+    code, err = _run(["run", "paper1", "--out", str(out), "--set", item], capsys)
+    _one_line(code, err, "has a space in it; write the key alone")
+    assert not out.exists()
+
+
+def test_python_sweep_keys_with_spaces_are_refused(tmp_path):
+    with pytest.raises(SceneError, match="has a space in it"):
+        rodfem.sweep({"scene": "paper1", "grid": {"model.k": [1, 2], "model.k ": [3, 4]}},
+                     out=tmp_path / "out", comm=MPI.COMM_SELF)
+    assert not (tmp_path / "out").exists()

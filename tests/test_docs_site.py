@@ -153,6 +153,62 @@ def test_formulas_are_typeset():
     assert done.stdout.count('class="mjx-chtml') >= 10, done.stderr[-2000:]
 
 
+# Run in a page once MathJax has typeset it (MathJax 2's hooks): how wide the page is against
+# the window, and each display equation's box, content width and overflow. The page is read
+# from a copy whose <base> is the site, so that its styles and MathJax load as from the site.
+MEASURE = """<script>
+window.addEventListener("load", function () {  // MathJax itself loads asynchronously
+ MathJax.Hub.Register.StartupHook("End", function () {  // after the page is typeset
+ MathJax.Hub.Queue(function () {
+  var displays = Array.prototype.map.call(document.querySelectorAll("div.math"), function (box) {
+    return {right: box.getBoundingClientRect().right, content: box.scrollWidth,
+            shown: box.clientWidth, typeset: box.querySelector(".mjx-chtml") !== null,
+            overflow: getComputedStyle(box).overflowX};
+  });
+  document.body.setAttribute("data-measured", JSON.stringify({
+    window: window.innerWidth, page: document.documentElement.scrollWidth, displays: displays}));
+ });
+ });
+});
+</script>"""
+
+
+def _measured(page: Path, tmp_path: Path, width: int) -> dict:
+    import json
+
+    text = page.read_text(encoding="utf-8")
+    base = f'<head><base href="{page.parent.as_uri()}/">'
+    copy = tmp_path / page.name
+    copy.write_text(text.replace("<head>", base, 1).replace("</body>", MEASURE + "</body>", 1),
+                    encoding="utf-8")
+    done = _headless(f"--window-size={width},900", "--dump-dom", copy.as_uri())
+    found = re.search(r'data-measured="([^"]*)"', done.stdout)
+    assert found, f"{page.name}: not measured\n{done.stderr[-2000:]}"
+    return json.loads(found.group(1).replace("&quot;", '"'))
+
+
+def test_wide_equations_scroll_in_their_box_on_a_phone(tmp_path):
+    """At a phone's width (500 px, the narrowest window headless Chromium opens) no display
+    equation widens the page or is cut off by it: each one wider than the page scrolls sideways
+    in its own box (docs/_static/rodfem.css)."""
+    with_math = [p for p in sorted(HTML.rglob("*.html"))
+                 if '<div class="math notranslate' in p.read_text(encoding="utf-8")]
+    assert len(with_math) >= 4  # the model, the time schemes and two demos
+    wider = 0
+    for page in with_math:
+        measured = _measured(page, tmp_path, 500)
+        displays = measured["displays"]
+        assert measured["window"] == 500, measured["window"]
+        assert displays and all(d["typeset"] for d in displays), page.name
+        assert measured["page"] <= measured["window"], (page.name, measured["page"])
+        for display in displays:
+            assert display["right"] <= measured["window"] + 1, (page.name, display)
+            if display["content"] > display["shown"]:
+                assert display["overflow"] in ("auto", "scroll"), (page.name, display)
+                wider += 1
+    assert wider > 0  # some equations are wider than a phone: they are the ones that scroll
+
+
 def test_api_reference_documents_the_api():
     import rodfem
 

@@ -122,6 +122,39 @@ def test_labels(runs, out, capsys):
     assert [t.labels for t in tasks if t.kind == "rod"] == [("a $x$",), ("b",)]
 
 
+def test_many_runs_and_a_long_label(runs, out, capsys):
+    """Sixty runs overlaid: the legend holds what fits in its rows and counts the rest, the
+    panels keep their height. A label of 10,000 characters is cut to a legend's column (it
+    overflowed the text's raster), with the per-run figures' titles."""
+    from rodfem.post.curves import LEGEND_ROWS, _columns, _fitted, contact_figure, energy_figure
+    from rodfem.post.options import Options
+    from rodfem.post.plot import LABEL_WIDTH, plan
+    from rodfem.post.runs import load_run
+
+    long = "x" * 10_000
+    code, written, err = plot(runs[:2], out, "--labels", f"{long},b", "--only", "contact,rod",
+                              capsys=capsys)
+    assert code == 0, err
+    if COMM.rank != 0:
+        return
+    assert [p.name for p in written] == ["contact.png", "rod_zeta02.gif", "rod_zeta1.gif"]
+    assert_figure(out / "contact.png", size=(1200, 900))
+    loaded = [load_run(r) for r in runs]
+    tasks = plan(loaded[:2], out, Options(labels=(long, "b")))
+    assert {len(label) for task in tasks for label in task.labels} == {LABEL_WIDTH, 1}
+    many = loaded * 20
+    labels = [f"run {i}" for i in range(len(many))]
+    handles, names = _fitted([object()] * 62, [*labels, "gap", "contact"], len(many))
+    room = LEGEND_ROWS * _columns(names)
+    assert len(names) == room == len(handles)
+    assert names[-3:] == [f"… and {60 - (room - 3)} more runs", "gap", "contact"]
+    assert names[:room - 3] == labels[:room - 3]
+    for figure in (contact_figure, energy_figure):
+        path = figure(many, labels, out / f"{figure.__name__}.png")
+        assert_figure(path, size=(1200, 900))
+    assert _fitted([1, 2], ["a", "b"], 2) == ([1, 2], ["a", "b"])  # what fits is left alone
+
+
 def _has_colour(path: Path, rgb, tolerance: int = 2) -> int:
     image = frames(path)[0].astype(int)
     return int((np.abs(image - np.array(rgb)).max(axis=2) <= tolerance).sum())
@@ -293,8 +326,8 @@ def test_drawing_processes(runs, out):
     if COMM.rank != 0:
         return
     from rodfem.post.plot import prepare
-    from rodfem.post.tasks import Task
     from rodfem.post.pool import Drawer
+    from rodfem.post.tasks import Task
 
     tasks = prepare(runs[:1], out, force=True)[:3]
     bad = Task("spacetime", tasks[0].runs, tasks[0].labels, out / "bad.png", field="nope")

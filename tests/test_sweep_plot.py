@@ -111,6 +111,22 @@ def test_failed_scenes_are_left_out(tmp_path):
     assert grey_pixels(complete / "figures" / "sweep_u_1_final.png") < 1_000
 
 
+def test_expressions_that_look_like_numbers_on_two_grid_axes(tmp_path):
+    """results.csv reads a column of "0", "1" as numbers, sweep.json keeps the strings: the map
+    places each scene in its cell all the same (it raised "0.0 is not in list"), and the lines
+    group the scenes by the second axis."""
+    out = sweep(tmp_path, '[grid]\n"source.heat" = ["0", "1"]\n'
+                          '"source.momentum" = ["0", "0.5", "1"]\n')
+    written = plot_sweep(out, only=["u_1_final"])
+    check(written, out / "figures", ["sweep_u_1_final.png", "sweep_u_1_final_lines.png"])
+    assert grey_pixels(written[0]) < 1_000  # no empty cell (one is over 10,000 pixels)
+    with Image.open(written[1]) as image:
+        legend = np.asarray(image.convert("RGB")).astype(int)
+    # the lines' colours (tab10's first three), one per value of source.momentum
+    for colour in ((31, 119, 180), (255, 127, 14), (44, 160, 44)):
+        assert np.all(np.abs(legend - colour) <= 2, axis=-1).sum() > 50, colour
+
+
 def test_edited_rows_failed_and_nan(tmp_path):
     out = sweep(tmp_path, ONE)
     path = out / "results.csv"

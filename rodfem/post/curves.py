@@ -28,6 +28,8 @@ PANELS = (
     ("stress at the end", r"$\sigma(1, t)$", "sigma_1"),
 )
 ENERGY_FLOOR = 0.01  # the paper plots ln(Ê + 0.01)
+# The legend's rows at most: the panels keep two thirds of the figure however many runs it shows.
+LEGEND_ROWS = 8
 
 
 def _in_window(t: np.ndarray, window: tuple[float, float] | None) -> np.ndarray:
@@ -65,6 +67,18 @@ def _columns(labels: list[str]) -> int:
     """Legend columns: as many as fit the figure's width for labels of this length."""
     longest = max((len(label) for label in labels), default=1)
     return max(1, min(len(labels), 4 if longest < 28 else 3 if longest < 40 else 2))
+
+
+def _fitted(handles: list, names: list[str], runs: int) -> tuple[list, list[str]]:
+    """The legend's entries, the runs' first (``runs`` of them), then the others (the gap, the
+    contact shading), which are always shown. Where they do not fit in ``LEGEND_ROWS`` rows, the
+    runs' entries that do but one, and one that counts the runs left out."""
+    room = LEGEND_ROWS * _columns(names) - (len(names) - runs)
+    if runs <= room:
+        return handles, names
+    keep = room - 1
+    return ([*handles[:keep], Line2D([], [], color="none"), *handles[runs:]],
+            [*names[:keep], f"… and {runs - keep} more runs", *names[runs:]])
 
 
 def _axes(fig: Figure, rows: int, columns: int, labels: list[str], bar: bool, top: float):
@@ -119,6 +133,7 @@ def contact_figure(runs: list[Run], labels: list[str], path: Path,
     if intervals:
         handles.append(Patch(color=style.CONTACT_SHADE))
         names.append("contact: $u(1, t) > g$")
+    handles, names = _fitted(handles, names, 0 if mappable else len(runs))
     with style.mpl_fonts():
         fig = Figure(figsize=style.MPL_SIZE, dpi=style.MPL_DPI)
         axes, box, bar = _axes(fig, 2, 2, names, mappable is not None, top=0.96)
@@ -166,15 +181,17 @@ def energy_figure(runs: list[Run], labels: list[str], path: Path,
     colours, mappable = style.run_colours(runs, colour_by)
     t_range = _t_range(runs, window)
     names = [] if mappable else list(labels)
+    handles = [Line2D([], [], color=c, lw=style.MPL_LINE_WIDTH) for c in colours[:len(names)]]
+    handles, names = _fitted(handles, names, len(names))
     with style.mpl_fonts():
         fig = Figure(figsize=style.MPL_SIZE, dpi=style.MPL_DPI)
         axes, box, bar = _axes(fig, 1, 1, names, mappable is not None, top=0.91)
-        ax, handles, curves = axes[0, 0], [], []
+        ax, curves = axes[0, 0], []
         for run, colour in zip(runs, colours, strict=True):
             keep = _in_window(run.history.t, window)
             shifted = run.history.energy[keep] + ENERGY_FLOOR
             t, y = run.history.t[keep], np.log(np.where(shifted > 0, shifted, np.nan))
-            handles += ax.plot(t, y, color=colour, lw=style.MPL_LINE_WIDTH)
+            ax.plot(t, y, color=colour, lw=style.MPL_LINE_WIDTH)
             curves.append((t, y))
         ax.set_title(energy_title(runs) + "\n" + r"$\hat{E}$: the discrete energy of Remark 4.4")
         ax.set_xlabel("$t$")
@@ -182,7 +199,7 @@ def energy_figure(runs: list[Run], labels: list[str], path: Path,
         ax.grid(True, color="0.9")
         _limits(ax, curves, t_range)
         _colour_bar(fig, bar, mappable, colour_by)
-        _legend(box, handles if names else [], names)
+        _legend(box, handles, names)
         return _save(fig, path)
 
 

@@ -33,13 +33,20 @@ from rodfem.post.runs import (
 )
 from rodfem.post.spacetime import MAPS
 from rodfem.post.tasks import Task, draw
+from rodfem.scene.expressions import shorten
+
+# A label's characters at most, as drawn: a legend's column or a figure's title holds about as
+# many, and a label of thousands would overflow the text's raster.
+LABEL_WIDTH = 60
 
 
 def _labels(runs: list[Run], options: Options) -> tuple[list[str], list[str]]:
     """The runs' labels in mathtext (legends) and in plain text (titles of per-run figures):
-    the user's, drawn as written (a "$" is a dollar sign), or made of names and values."""
+    the user's, drawn as written (a "$" is a dollar sign) and cut to ``LABEL_WIDTH``, or made of
+    names and values."""
     if options.labels is not None:
-        return [label.replace("$", r"\$") for label in options.labels], list(options.labels)
+        plain = [shorten(label, LABEL_WIDTH) for label in options.labels]
+        return [label.replace("$", r"\$") for label in plain], plain
     return legend_labels(runs), [legend_labels([run], math=False)[0] for run in runs]
 
 

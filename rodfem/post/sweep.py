@@ -79,10 +79,15 @@ def load_sweep(path: Path) -> tuple[Layout, dict[str, np.ndarray]]:
 
 
 def _key(value) -> float | str:
-    """A value as a comparable key: numbers as floats, anything else as its text in the table."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
-        return str(value).lower() if isinstance(value, (bool, np.bool_)) else str(value)
-    return float(value)
+    """A value as a comparable key, the same from sweep.json as from results.csv, which reads a
+    column of text that all looks like numbers (expressions such as "0" and "1") as numbers:
+    numbers, and text that reads as one, as floats; anything else as its text in the table."""
+    if isinstance(value, (bool, np.bool_)):
+        return str(value).lower()
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return str(value)
 
 
 def _positions(values) -> tuple[np.ndarray, list | None]:

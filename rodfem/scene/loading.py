@@ -2,25 +2,21 @@
 
 A scene is a TOML file with the sections below; every key has a default (the paper's common data
 and its first experiment), so a scene names only what differs. The built-in scenes ``paper1`` …
-``paper5`` are the paper's five experiments. Every value is checked here, and each mistake is
-reported as a :class:`SceneError` whose message is one line naming the key and what is allowed.
+``paper5`` are the paper's five experiments. Every value is checked (one key's value in
+:mod:`rodfem.scene.values`, the keys together here; the file is read by :mod:`rodfem.scene.files`),
+and each mistake is reported as a :class:`SceneError` whose message is one line naming the key and
+what is allowed.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import difflib
-import json
-import math
-import stat
-import tomllib
-from importlib import resources
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from rodfem.scene.expressions import Expression, ExpressionError, shorten
+from rodfem.scene.expressions import Expression, shorten
+from rodfem.scene.files import _parse_toml, read  # noqa: F401 (re-exported)
 from rodfem.scene.schema import (  # noqa: F401 (re-exported)
     BIG,
     BUILTIN,
@@ -37,6 +33,7 @@ from rodfem.scene.schema import (  # noqa: F401 (re-exported)
     Key,
     SceneError,
 )
+from rodfem.scene.values import _check_value, _suggest, _toml_value
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,75 +98,6 @@ def _is_zero(text: str) -> bool:
         return False
 
 
-def _toml_value(value: Any) -> str:
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    if isinstance(value, str):
-        return json.dumps(value, ensure_ascii=False)  # a TOML basic string, any character
-    return repr(value)
-
-
-def _suggest(name: str, allowed) -> str:
-    close = difflib.get_close_matches(name, list(allowed), n=1, cutoff=0.5)
-    hint = f"did you mean '{close[0]}'? " if close else ""
-    return f"{hint}allowed: {', '.join(allowed)}"
-
-
-def _check_list(dotted: str, spec: Key, value: Any) -> list:
-    """A list key's value: a list of distinct values, each checked as the key's element kind."""
-    example = spec.default or ([spec.choices[0]] if spec.choices else [0.5])
-    if not isinstance(value, (list, tuple)):
-        raise SceneError(f"{dotted}: must be a list, e.g. {_toml_value(list(example))}, "
-                         f"got {shorten(_toml_value(value), 60)}")
-    element = dataclasses.replace(spec, kind=spec.kind[:-1])  # "reals" -> "real"
-    items = [_check_value(f"{dotted}[{i}]", element, v) for i, v in enumerate(value)]
-    if spec.kind == "reals":
-        items = [x + 0.0 for x in items]  # -0.0 is 0
-    if spec.kind == "choices" and dotted == "output.fields" and not items:
-        raise SceneError(f"{dotted}: must name at least one of {', '.join(spec.choices)}")
-    seen = set()
-    for item in items:
-        if item in seen:
-            raise SceneError(f"{dotted}: {_toml_value(item)} is listed twice")
-        seen.add(item)
-    return items  # a list, as JSON holds it (a checkpoint's scene)
-
-
-def _check_value(dotted: str, spec: Key, value: Any) -> Any:
-    if spec.kind in ("reals", "choices"):
-        return _check_list(dotted, spec, value)
-    if spec.kind in ("real", "integer"):
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            noun = "a number" if spec.kind == "real" else "an integer"
-            raise SceneError(f"{dotted}: must be {noun}, got {_toml_value(value)}")
-        if spec.kind == "integer" and not isinstance(value, int):
-            raise SceneError(f"{dotted}: must be an integer, got {value!r}")
-        shown = shorten(repr(value), 30)
-        if isinstance(value, float) and not math.isfinite(value):
-            raise SceneError(f"{dotted}: must be finite, got {shown}")
-        if spec.minimum is not None and value < spec.minimum:
-            raise SceneError(f"{dotted}: must be >= {spec.minimum:g}, got {shown}")
-        if spec.above is not None and value <= spec.above:
-            raise SceneError(f"{dotted}: must be > {spec.above:g}, got {shown}")
-        if spec.maximum is not None and value > spec.maximum:
-            raise SceneError(f"{dotted}: must be <= {spec.maximum:g}, got {shown}")
-        return float(value) if spec.kind == "real" else int(value)
-    if spec.kind == "choice":
-        if value not in spec.choices:
-            choices = " | ".join(f'"{c}"' for c in spec.choices)
-            raise SceneError(f"{dotted}: must be one of {choices}, got {_toml_value(value)}")
-        return value
-    assert spec.kind == "expression"
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        value = repr(value)  # a constant is an expression too: u0 = 0
-    try:
-        Expression(value, SOURCE_NAMES if dotted.startswith("source.") else MODEL_NAMES)
-    except ExpressionError as err:
-        shown = _toml_value(shorten(value)) if isinstance(value, str) else _toml_value(value)
-        raise SceneError(f"{dotted}: {shown} {err}") from None
-    return value
-
-
 def validate(data: dict[str, Any], source: str = "") -> Scene:
     """Check a scene's raw TOML data and fill in the defaults.
 
@@ -218,6 +146,14 @@ def _check_magnitude(key: str, values: np.ndarray, x: np.ndarray, given, t=None)
 
 
 def _check_consistency(scene: Scene) -> None:
+    """What no single key's range says: keys that do not go together, the steps, the data."""
+    _check_combinations(scene)
+    _check_steps(scene)
+    _check_data(scene)
+
+
+def _check_combinations(scene: Scene) -> None:
+    """Choices of obstacle, method, scheme and mass that do not go together."""
     if scene["obstacle.kind"] == "rigid" and scene["obstacle.law"] != "linear":
         raise SceneError(
             f'obstacle.law: "{scene["obstacle.law"]}" is a law of the elastic obstacle; '
@@ -262,6 +198,10 @@ def _check_consistency(scene: Scene) -> None:
                 '"crank-nicolson" and model.zeta = 0 (the end x = 1 is then in equilibrium and '
                 "eliminated, without a source); use model.zeta > 0 or another mass"
             )
+
+
+def _check_steps(scene: Scene) -> None:
+    """A whole number of steps, not too many of them."""
     dt, end = scene["time.dt"], scene["time.end"]
     if dt > end:
         raise SceneError(f"time.dt: must be <= time.end = {end!r}, got {dt!r}")
@@ -273,6 +213,11 @@ def _check_consistency(scene: Scene) -> None:
             f"time.end: must be a whole number of steps of time.dt = {dt!r}, got {end!r} "
             f"({ratio:.6g} steps)"
         )
+
+
+def _check_data(scene: Scene) -> None:
+    """The initial data and the sources: finite and within bounds where the run evaluates
+    them, and the initial data compatible with the boundary conditions at x = 0."""
     # The initial data are interpolated at the nodes; they must be finite there and, since the
     # rod is clamped at a temperature θ_A, compatible with the boundary conditions at x = 0.
     x = np.linspace(0.0, 1.0, scene["mesh.cells"] + 1)
@@ -309,10 +254,12 @@ def _check_consistency(scene: Scene) -> None:
 
 
 def _parse_override(item: str) -> tuple[str, str, Any]:
+    """A ``--set section.key=value`` as (section, key, value): the value as TOML, or else as a
+    bare string (an expression, a choice)."""
     if "=" not in item or "." not in item.split("=", 1)[0]:
         raise SceneError(f"--set {item}: must be section.key=value, e.g. model.zeta=1")
     dotted, text = item.split("=", 1)
-    section, key = dotted.strip().split(".", 1)
+    section, key = split_key(dotted, f"--set {shorten(item)}")
     try:
         value = _parse_toml(f"v = {text}", f"--set {shorten(item)}")["v"]
     except SceneError as err:
@@ -322,55 +269,9 @@ def _parse_override(item: str) -> tuple[str, str, Any]:
     return section, key, value
 
 
-def _parse_toml(text: str, what: str) -> dict:
-    """TOML text as a dict; SceneError (one line) for anything tomllib refuses, including what
-    it refuses with other errors: integers of more than 4,300 digits (ValueError), nesting
-    deeper than Python's recursion limit (RecursionError)."""
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise SceneError(f"{what}: invalid TOML ({err})") from None
-    except ValueError as err:
-        raise SceneError(f"{what}: a value TOML cannot hold ({err})") from None
-    except RecursionError:
-        raise SceneError(f"{what}: nested too deeply to read") from None
-
-
-def read(scene: str | Path) -> tuple[dict, str]:
-    """The raw TOML data of a built-in scene (by name) or a TOML file (by path), and its source:
-    the name, or the path as given.
-
-    Raises:
-        SceneError: if the scene cannot be read.
-    """
-    scene = str(scene)
-    if scene in BUILTIN or scene in EXTRA:
-        text = resources.files("rodfem.scene").joinpath("builtin", f"{scene}.toml").read_text()
-        return _parse_toml(text, f"scene '{scene}'"), scene
-    path = Path(scene)
-    try:
-        # stat, not is_file(): since Python 3.14 is_file() says False for a name longer than
-        # the system allows, where stat raises the error that says why
-        is_file = stat.S_ISREG(path.stat().st_mode)
-    except (FileNotFoundError, NotADirectoryError):
-        is_file = False
-    except (OSError, ValueError) as err:  # e.g. a name longer than the system allows
-        raise SceneError(f"scene '{shorten(scene)}': cannot be read "
-                         f"({getattr(err, 'strerror', None) or err})") from None
-    if not is_file:
-        raise SceneError(
-            f"scene '{scene}': not a built-in scene ({', '.join(BUILTIN + EXTRA)}) nor a TOML "
-            "file"
-        )
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise SceneError(f"scene '{scene}': cannot be read ({err})") from None
-    return _parse_toml(text, f"scene '{shorten(scene)}'"), str(path)
-
-
 def split_key(dotted: Any, what: str) -> tuple[str, str]:
-    """``"section.key"`` as (section, key), the section one of the schema's.
+    """``"section.key"`` as (section, key), a key of the schema's, written exactly: a key with
+    spaces around it would be another key to a sweep's table and the same one to the scene.
 
     Raises:
         SceneError: naming ``what`` (where the key was given) if it is not.
@@ -378,7 +279,10 @@ def split_key(dotted: Any, what: str) -> tuple[str, str]:
     if not isinstance(dotted, str) or dotted.count(".") != 1:
         raise SceneError(f"{what}: {_toml_value(str(dotted))} must be section.key, e.g. "
                          "model.zeta")
-    section, key = dotted.strip().split(".")
+    if any(c.isspace() for c in dotted):
+        raise SceneError(f"{what}: {_toml_value(dotted)} has a space in it; write the key alone, "
+                         f"{_toml_value(''.join(dotted.split()))}")
+    section, key = dotted.split(".")
     if section not in SCHEMA:
         raise SceneError(f"{what}: unknown section '{section}': {_suggest(section, SCHEMA)}")
     if key not in SCHEMA[section]:
@@ -413,9 +317,6 @@ def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
     data, source = read(scene)
     for item in overrides:
         section, key, value = _parse_override(item)
-        if section not in SCHEMA:
-            hint = _suggest(section, SCHEMA)
-            raise SceneError(f"--set {item}: unknown section '{section}': {hint}")
         data.setdefault(section, {})
         if not isinstance(data[section], dict):
             raise SceneError(f"{section}: must be a section [{section}]")

@@ -41,7 +41,8 @@ from typing import Any
 import numpy as np
 
 from rodfem.scene import SCHEMA, Scene, SceneError, read, split_key, validate, with_values
-from rodfem.scene.loading import _parse_toml, _suggest, _toml_value
+from rodfem.scene.files import read_file
+from rodfem.scene.loading import _suggest, _toml_value
 
 SECTIONS = ("scene", "description", "set", "grid", "zip", "sample")
 SAMPLE_KEYS = ("method", "count", "seed", "ranges")
@@ -286,9 +287,4 @@ def parse(data: dict, name: str, directory: Path | None = None,
 def load(path: str | Path) -> Sweep:
     """Read and check a sweep file (a path)."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError, ValueError) as err:
-        raise SceneError(f"sweep '{path}': cannot be read "
-                         f"({getattr(err, 'strerror', None) or err})") from None
-    return parse(_parse_toml(text, f"sweep '{path}'"), path.name, path.parent)
+    return parse(read_file(path, f"sweep '{path}'"), path.name, path.parent)

@@ -1,0 +1,96 @@
+"""Reading the files a user names (a scene, a sweep) as TOML, apart from checking what they say.
+
+Only a regular file is read: a device such as /dev/zero would be read without end, and a pipe
+without a writer would wait forever. Each refusal and each failure to read is a one-line
+:class:`SceneError`.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import tomllib
+from importlib import resources
+from pathlib import Path
+
+from rodfem.scene.expressions import shorten
+from rodfem.scene.schema import BUILTIN, EXTRA, SceneError
+
+
+def _parse_toml(text: str, what: str) -> dict:
+    """TOML text as a dict; SceneError (one line) for anything tomllib refuses, including what
+    it refuses with other errors: integers of more than 4,300 digits (ValueError), nesting
+    deeper than Python's recursion limit (RecursionError)."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SceneError(f"{what}: invalid TOML ({err})") from None
+    except ValueError as err:
+        raise SceneError(f"{what}: a value TOML cannot hold ({err})") from None
+    except RecursionError:
+        raise SceneError(f"{what}: nested too deeply to read") from None
+
+
+# What a path names if not a regular file, for the message that refuses it.
+_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a pipe"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISSOCK, "a socket"))
+
+
+def read_text(path: Path, what: str) -> str | None:
+    """The text of the regular file ``path``, or None if there is no such file. The file is
+    opened without waiting for a writer and checked once open, so what is read is what was
+    checked.
+
+    Raises:
+        SceneError: ``what`` and why, on one line, for a path that names something else (a
+            directory, a device, a pipe) or cannot be read (no permission, a name longer than
+            the system allows, text that is not UTF-8).
+    """
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY)
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except (OSError, ValueError) as err:  # ValueError: a NUL character in the name
+        raise SceneError(f"{what}: cannot be read "
+                         f"({getattr(err, 'strerror', None) or err})") from None
+    try:
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            kind = next((name for test, name in _KINDS if test(mode)), "not a file")
+            raise SceneError(f"{what}: not a regular file but {kind}; give a TOML file")
+        with open(fd, encoding="utf-8", closefd=False) as file:
+            return file.read()
+    except (OSError, UnicodeDecodeError) as err:
+        raise SceneError(f"{what}: cannot be read ({err})") from None
+    finally:
+        os.close(fd)
+
+
+def read_file(path: str | Path, what: str) -> dict:
+    """The TOML data of the file ``path`` (a sweep's, say), refused as ``what`` in one line where
+    there is no such regular file or it cannot be read."""
+    text = read_text(Path(path), what)
+    if text is None:
+        raise SceneError(f"{what}: no such file")
+    return _parse_toml(text, what)
+
+
+def read(scene: str | Path) -> tuple[dict, str]:
+    """The raw TOML data of a built-in scene (by name) or a TOML file (by path), and its source:
+    the name, or the path as given.
+
+    Raises:
+        SceneError: if the scene cannot be read.
+    """
+    scene = str(scene)
+    if scene in BUILTIN or scene in EXTRA:
+        text = resources.files("rodfem.scene").joinpath("builtin", f"{scene}.toml").read_text()
+        return _parse_toml(text, f"scene '{scene}'"), scene
+    text = read_text(Path(scene), f"scene '{shorten(scene)}'")
+    if text is None:
+        raise SceneError(
+            f"scene '{scene}': not a built-in scene ({', '.join(BUILTIN + EXTRA)}) nor a TOML "
+            "file"
+        )
+    return _parse_toml(text, f"scene '{shorten(scene)}'"), str(Path(scene))

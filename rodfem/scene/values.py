@@ -1,0 +1,95 @@
+"""One scene value checked against its key's kind: a number in its range, one of the choices, an
+expression, or a list of distinct such values; and the words the messages quote it with.
+
+Every mistake is a :class:`SceneError` whose one line names the key (a list's element by its
+index, ``output.probes[1]``) and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import json
+import math
+from typing import Any
+
+from rodfem.scene.expressions import Expression, ExpressionError, shorten
+from rodfem.scene.schema import MODEL_NAMES, SOURCE_NAMES, Key, SceneError
+
+
+def _toml_value(value: Any) -> str:
+    """A value written as TOML: how the messages quote what a user gave, and how a resolved
+    scene is written."""
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)  # a TOML basic string, any character
+    return repr(value)
+
+
+def _suggest(name: str, allowed) -> str:
+    """The closest allowed name, if one is close, and every allowed name."""
+    close = difflib.get_close_matches(name, list(allowed), n=1, cutoff=0.5)
+    hint = f"did you mean '{close[0]}'? " if close else ""
+    return f"{hint}allowed: {', '.join(allowed)}"
+
+
+def _check_list(dotted: str, spec: Key, value: Any) -> list:
+    """A list key's value: a list of distinct values, each checked as the key's element kind."""
+    example = spec.default or ([spec.choices[0]] if spec.choices else [0.5])
+    if not isinstance(value, (list, tuple)):
+        raise SceneError(f"{dotted}: must be a list, e.g. {_toml_value(list(example))}, "
+                         f"got {shorten(_toml_value(value), 60)}")
+    element = dataclasses.replace(spec, kind=spec.kind[:-1])  # "reals" -> "real"
+    items = [_check_value(f"{dotted}[{i}]", element, v) for i, v in enumerate(value)]
+    if spec.kind == "reals":
+        items = [x + 0.0 for x in items]  # -0.0 is 0
+    if spec.kind == "choices" and dotted == "output.fields" and not items:
+        raise SceneError(f"{dotted}: must name at least one of {', '.join(spec.choices)}")
+    seen = set()
+    for item in items:
+        if item in seen:
+            raise SceneError(f"{dotted}: {_toml_value(item)} is listed twice")
+        seen.add(item)
+    return items  # a list, as JSON holds it (a checkpoint's scene)
+
+
+def _check_number(dotted: str, spec: Key, value: Any) -> int | float:
+    """A real or integer key's value: a finite number of its kind within the key's range."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        noun = "a number" if spec.kind == "real" else "an integer"
+        raise SceneError(f"{dotted}: must be {noun}, got {_toml_value(value)}")
+    if spec.kind == "integer" and not isinstance(value, int):
+        raise SceneError(f"{dotted}: must be an integer, got {value!r}")
+    shown = shorten(repr(value), 30)
+    if isinstance(value, float) and not math.isfinite(value):
+        raise SceneError(f"{dotted}: must be finite, got {shown}")
+    if spec.minimum is not None and value < spec.minimum:
+        raise SceneError(f"{dotted}: must be >= {spec.minimum:g}, got {shown}")
+    if spec.above is not None and value <= spec.above:
+        raise SceneError(f"{dotted}: must be > {spec.above:g}, got {shown}")
+    if spec.maximum is not None and value > spec.maximum:
+        raise SceneError(f"{dotted}: must be <= {spec.maximum:g}, got {shown}")
+    return float(value) if spec.kind == "real" else int(value)
+
+
+def _check_value(dotted: str, spec: Key, value: Any) -> Any:
+    """The value of the key ``dotted`` (described by ``spec``) as the scene holds it."""
+    if spec.kind in ("reals", "choices"):
+        return _check_list(dotted, spec, value)
+    if spec.kind in ("real", "integer"):
+        return _check_number(dotted, spec, value)
+    if spec.kind == "choice":
+        if value not in spec.choices:
+            choices = " | ".join(f'"{c}"' for c in spec.choices)
+            raise SceneError(f"{dotted}: must be one of {choices}, got {_toml_value(value)}")
+        return value
+    assert spec.kind == "expression"
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = repr(value)  # a constant is an expression too: u0 = 0
+    try:
+        Expression(value, SOURCE_NAMES if dotted.startswith("source.") else MODEL_NAMES)
+    except ExpressionError as err:
+        shown = _toml_value(shorten(value)) if isinstance(value, str) else _toml_value(value)
+        raise SceneError(f"{dotted}: {shown} {err}") from None
+    return value
