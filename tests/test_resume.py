@@ -372,13 +372,20 @@ def test_a_live_run_whose_lock_was_removed_is_not_taken(tmp_path, reference, ran
         assert time.monotonic() < deadline and process.poll() is None
         time.sleep(0.02)
     (out / "rodfem.lock").unlink()
-    for args in (["resume", out], ["resume", out, "--set", "time.end=200"],
-                 ["run", *SCENE, "--out", out, "--force"]):
-        done = rodfem(*args, ranks=ranks)
-        lines = [line for line in done.stderr.splitlines() if line.startswith("rodfem")]
-        assert done.returncode == 2 and len(lines) == 1, done.stderr
-        assert "is in use by rodfem run (pid" in lines[0], done.stderr
-    assert process.poll() is None  # refused while it ran
+    # The run's rank 0 held still while the others try, so that it cannot end meanwhile (the
+    # other ranks wait for it at their next exchange).
+    writer = json.loads((out / "rodfem.json").read_text())["pid"]
+    os.kill(writer, signal.SIGSTOP)
+    try:
+        for args in (["resume", out], ["resume", out, "--set", "time.end=200"],
+                     ["run", *SCENE, "--out", out, "--force"]):
+            done = rodfem(*args, ranks=ranks)
+            lines = [line for line in done.stderr.splitlines() if line.startswith("rodfem")]
+            assert done.returncode == 2 and len(lines) == 1, done.stderr
+            assert "is in use by rodfem run (pid" in lines[0], done.stderr
+        assert process.poll() is None  # refused while it ran
+    finally:
+        os.kill(writer, signal.SIGCONT)
     assert process.wait(timeout=300) == 0
     assert (out / "rodfem.lock").read_bytes() == b""  # taken again, and released
     assert state(out) == "complete"
