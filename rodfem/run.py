@@ -7,10 +7,8 @@ import sys
 import time
 from pathlib import Path
 
-import dolfinx
 import numpy as np
 from mpi4py import MPI
-from petsc4py import PETSc
 
 import rodfem
 from rodfem.discrete.discretisation import Discretisation
@@ -167,8 +165,9 @@ class Simulation:
         if out is not None and resume is None:
             write_text(out / "scene.toml", scene.to_toml(), comm)
         self.scene, self.out, self.comm, self.resumed = scene, out, comm, bool(resume)
+        # a run of its own keeps its operators for the next (rodfem.discrete.cache)
         disc = self.disc = (setups.discretisation(scene, comm) if setups
-                            else Discretisation(scene, comm))
+                            else Discretisation(scene, comm, cache=True))
         method = self.method = make_method(disc)
         self.saving = out is not None or keep_fields
         # the recorded fields as maps of the state, read once: for the fields and the readings
@@ -190,6 +189,8 @@ class Simulation:
         if resume:
             method.restore(resume[0])
         self.kernel = compiled_loop(method, self.history)
+        self.library_version = disc.library_version()
+        disc.keep()
         self.loop_before = meta.get("loop_seconds", 0.0)
         self.loop_started = time.perf_counter()
 
@@ -311,7 +312,8 @@ class Simulation:
         else:
             self.flush()
         summary = _summary(self.scene, status, error, self.iterations, self.energy,
-                           setup_seconds, loop_seconds, self.comm, resumed=self.resumed)
+                           setup_seconds, loop_seconds, self.comm, resumed=self.resumed,
+                           dolfinx=self.library_version)
         if files is not None:
             summary["checkpoint_seconds"] = files.seconds  # rank 0's: it writes them
         if io_error:
@@ -338,7 +340,9 @@ class Simulation:
 
 
 def _summary(scene, status, error, iterations, energy, setup_seconds, loop_seconds, comm,
-             resumed: bool) -> dict:
+             resumed: bool, dolfinx: str) -> dict:
+    from petsc4py import PETSc
+
     done = iterations.rows - 1
     summary = {
         "status": status,
@@ -362,7 +366,7 @@ def _summary(scene, status, error, iterations, energy, setup_seconds, loop_secon
         "resumed": resumed,
         "versions": {
             "rodfem": rodfem.__version__,
-            "dolfinx": dolfinx.__version__,
+            "dolfinx": dolfinx,
             "petsc": ".".join(map(str, PETSc.Sys.getVersion())),
         },
     }
