@@ -170,6 +170,9 @@ class Discretisation:
         weights are h at x = 1 − h and 0 at x = 1, so that the node x = 1 has no mass and the
         total mass is kept; elsewhere the base mass, lumped or consistent. (density, measure)
         pairs for ``forms.copetti.inertia``; χ marks the last cell."""
+        import ufl
+        from dolfinx import fem
+
         h = 1.0 / self.scene["mesh.cells"]
         W = self.W
         χ = fem.Function(W)
