@@ -77,12 +77,29 @@ def test_a_broken_file_is_assembled_again_and_replaced(cache):
     expected = run("paper1")
     (path,) = operator_files(cache)
     whole = path.read_bytes()
-    for broken in (b"junk", whole[: len(whole) // 2], whole.replace(b"\x00\x00\x00\x00",
-                                                                     b"\x00\x00\x01\x00", 1)):
+    middle = len(whole) // 2
+    for broken in (b"junk", whole[:middle],
+                   whole[:middle] + bytes([whole[middle] ^ 1]) + whole[middle + 1:]):
         path.write_bytes(broken)
         assert_same_bits(run("paper1"), expected)
         assert path.read_bytes() != broken  # replaced by a whole file
     assert_same_bits(run("paper1"), expected)
+
+
+@pytest.mark.skipif(COMM.size > 1, reason="the cache is serial")
+def test_an_edited_array_fails_the_checksum(cache):
+    """A whole file whose arrays were changed (the zip itself consistent) is not used."""
+    expected = run("paper1")
+    (path,) = operator_files(cache)
+    with np.load(path) as data:
+        arrays = dict(data)
+    names = [str(name) for name in arrays["names"]]
+    edited = f"a{names.index(next(n for n in names if n.endswith('|values')))}"
+    arrays[edited] = arrays[edited] * (1.0 + 1e-12)
+    np.savez(path, **arrays)
+    assert_same_bits(run("paper1"), expected)
+    with np.load(path) as data:
+        assert data[edited].tobytes() != arrays[edited].tobytes()  # replaced
 
 
 @pytest.mark.skipif(COMM.size > 1, reason="the cache is serial")

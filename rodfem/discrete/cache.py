@@ -67,10 +67,14 @@ def _library_stamp(name: str) -> list:
                              if e.is_file())]
 
 
-def digest(structure: dict, constants: dict) -> str:
+def digest(structure: dict, constants: dict) -> str | None:
     """The name of a discretisation's file: a digest of its structure (mesh, mass), the forms'
-    constants, rodfem's code that makes the arrays and the libraries that compile the forms."""
-    sources = [hashlib.sha256((ROOT / name).read_bytes()).hexdigest() for name in SOURCES]
+    constants, rodfem's code that makes the arrays and the libraries that compile the forms
+    (None if that code cannot be read: then nothing is cached)."""
+    try:
+        sources = [hashlib.sha256((ROOT / name).read_bytes()).hexdigest() for name in SOURCES]
+    except OSError:
+        return None
     text = json.dumps([FORMAT, rodfem.__version__, structure, constants, sources,
                        [_library_stamp(name) for name in LIBRARIES]], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
@@ -96,9 +100,11 @@ class OperatorCache:
         self.changed = False
 
     @classmethod
-    def open(cls, name: str) -> OperatorCache | None:
+    def open(cls, name: str | None) -> OperatorCache | None:
         """The cache of the discretisation called ``name`` (:func:`digest`), empty if its file
-        is absent or not whole; None without a private directory."""
+        is absent or not whole; None without a name or a private directory."""
+        if name is None:
+            return None
         directory = cache_directory()
         try:
             directory.mkdir(mode=0o700, parents=True, exist_ok=True)
