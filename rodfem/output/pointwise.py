@@ -137,7 +137,7 @@ class Probe:
         self._node_positions = np.concatenate([g[0] for g in gathered])
         self._cell_order = np.argsort(np.concatenate([g[1] for g in gathered]), kind="stable")
 
-    def _evaluate(self, parts: list[np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def evaluate(self, parts: list[np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """θ at the nodes and the cell fields per cell (in order of x) of the state whose parts
         Θ, D, U are the node-ordered arrays ``parts``, by interpolating the forms' expressions
         (collective)."""
@@ -163,7 +163,7 @@ class Probe:
         of a row per cell: the weights of its two nodes in each part (:class:`CellMap`)."""
         n = self.n
         zero = [np.zeros(n) for _ in PARTS]
-        theta0, cell0 = self._evaluate(zero)
+        theta0, cell0 = self.evaluate(zero)
         theta_A = self.disc.const.theta_A
         value = float(theta_A.value)
         theta_A.value = 0.0
@@ -176,7 +176,7 @@ class Probe:
                 for k in range(3):
                     probe = (np.arange(n) % 3 == k).astype(float)
                     parts = [probe if p == part else zero[p] for p in range(len(PARTS))]
-                    θ, cells = self._evaluate(parts)
+                    θ, cells = self.evaluate(parts)
                     unit += θ
                     for name, values in cells.items():
                         left[name][probe[:-1] == 1.0] = values[probe[:-1] == 1.0]
