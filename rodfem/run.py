@@ -7,10 +7,8 @@ import sys
 import time
 from pathlib import Path
 
-import dolfinx
 import numpy as np
 from mpi4py import MPI
-from petsc4py import PETSc
 
 import rodfem
 from rodfem.discrete.discretisation import Discretisation
@@ -149,163 +147,209 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     Signals (Ctrl-C, SIGTERM, SIGHUP, SIGUSR1) stop the run at the end of a step, with its files
     whole and a checkpoint to resume from (:mod:`rodfem.output.interrupts`)."""
     started = time.perf_counter()
-    free_garbage(comm)  # the PETSc objects of the runs before (a sweep runs thousands)
-    if out is not None and resume is None:
-        write_text(out / "scene.toml", scene.to_toml(), comm)
-    disc = setups.discretisation(scene, comm) if setups else Discretisation(scene, comm)
-    method = make_method(disc)
-    saving = out is not None or keep_fields
-    # the recorded fields as maps of the state, read once: for the fields and the readings
-    pointwise = Pointwise(disc) if saving or readings(for_scene(scene)) else None
-    history = History(disc, pointwise=pointwise)
-    meta = resume[1] if resume else {}
-    files = (RunFiles(out, disc, scene["output.checkpoint"], meta or None, pointwise)
-             if out is not None else None)
-    rows_out = files.history if files is not None else InMemory()
-    kept = FieldFile(None, disc, pointwise=pointwise) if files is None and keep_fields else None
-    energy = EnergyMonitor(**meta.get("energy", {}))
-    iterations = Iterations(**meta.get("iterations", {}))
-    contact = Contact(**meta.get("contact", {}))  # over every step, whatever rows are kept
-    steps, every, dt = scene.steps, save_every(scene), scene["time.dt"]
+    run = Simulation(scene, out, comm, resume, setups, keep_fields)
     on_terminal = sys.stderr.isatty() or force_progress
-    bar = Progress(steps, enabled=progress and comm.rank == 0 and on_terminal)
-    io_error: list[str] = []
+    bar = Progress(scene.steps, enabled=progress and comm.rank == 0 and on_terminal)
+    setup_seconds = time.perf_counter() - started
+    with interrupts.deferred():
+        status, error = run.loop(bar)
+        return run.outcome(status, error, setup_seconds, bar)
 
-    def flush() -> None:
-        rows = history.take()
-        steps_of = np.rint(rows[:, INDEX["t"]] / dt).astype(int)
-        energy.update(steps_of, rows[:, INDEX["energy"]])
-        iterations.update(steps_of, rows[:, INDEX["iterations"]].astype(int))
-        contact.update(steps_of, rows[:, INDEX["u_1"]], rows[:, INDEX["sigma_1"]],
-                       scene["obstacle.gap"])
-        rows_out.append(rows[steps_of % scene["output.history_every"] == 0])
 
-    def state_meta() -> dict:
-        return {"step": method.n, "scene": scene.data(), "source": scene.source,
-                "mpi_ranks": comm.size,
-                "energy": dataclasses.asdict(energy), "iterations": dataclasses.asdict(iterations),
-                "contact": dataclasses.asdict(contact),
-                "loop_seconds": loop_before + time.perf_counter() - loop_started}
+class Simulation:
+    """One simulation's parts: its set-up (the discretisation, the method, the history and the
+    files, a checkpoint's state restored), the time loop with its saves and checkpoints
+    (:meth:`loop`), and the outcome written (:meth:`outcome`)."""
 
-    def checkpoint(state_valid: bool = True) -> None:
+    def __init__(self, scene: Scene, out: Path | None, comm: MPI.Comm,
+                 resume: tuple[dict, dict] | None, setups: SetUps | None, keep_fields: bool):
+        free_garbage(comm)  # the PETSc objects of the runs before (a sweep runs thousands)
+        if out is not None and resume is None:
+            write_text(out / "scene.toml", scene.to_toml(), comm)
+        self.scene, self.out, self.comm, self.resumed = scene, out, comm, bool(resume)
+        # a run of its own keeps its operators for the next (rodfem.discrete.cache)
+        disc = self.disc = (setups.discretisation(scene, comm) if setups
+                            else Discretisation(scene, comm, cache=True))
+        method = self.method = make_method(disc)
+        self.saving = out is not None or keep_fields
+        # the recorded fields as maps of the state, read once: for the fields and the readings
+        pointwise = (Pointwise(disc) if self.saving or readings(for_scene(scene))
+                     else None)
+        self.history = History(disc, pointwise=pointwise)
+        meta = resume[1] if resume else {}
+        self.files = (RunFiles(out, disc, scene["output.checkpoint"], meta or None, pointwise)
+                      if out is not None else None)
+        self.rows_out = self.files.history if self.files is not None else InMemory()
+        self.kept = (FieldFile(None, disc, pointwise=pointwise)
+                     if self.files is None and keep_fields else None)
+        self.energy = EnergyMonitor(**meta.get("energy", {}))
+        self.iterations = Iterations(**meta.get("iterations", {}))
+        self.contact = Contact(**meta.get("contact", {}))  # over every step, whatever rows are kept
+        self.steps, self.every, self.dt = scene.steps, save_every(scene), scene["time.dt"]
+        self.io_error: list[str] = []
+        # the last step whose fields are saved (a resumed run's, from its checkpoint)
+        self.saved = meta["saves"][-1][0] if meta.get("saves") else -1
+        if resume:
+            method.restore(resume[0])
+        self.kernel = compiled_loop(method, self.history)
+        self.library_version = disc.library_version()
+        disc.keep()
+        self.loop_before = meta.get("loop_seconds", 0.0)
+        self.loop_started = time.perf_counter()
+
+    def flush(self) -> None:
+        rows = self.history.take()
+        steps_of = np.rint(rows[:, INDEX["t"]] / self.dt).astype(int)
+        self.energy.update(steps_of, rows[:, INDEX["energy"]])
+        self.iterations.update(steps_of, rows[:, INDEX["iterations"]].astype(int))
+        self.contact.update(steps_of, rows[:, INDEX["u_1"]], rows[:, INDEX["sigma_1"]],
+                            self.scene["obstacle.gap"])
+        self.rows_out.append(rows[steps_of % self.scene["output.history_every"] == 0])
+
+    def state_meta(self) -> dict:
+        return {"step": self.method.n, "scene": self.scene.data(), "source": self.scene.source,
+                "mpi_ranks": self.comm.size, "energy": dataclasses.asdict(self.energy),
+                "iterations": dataclasses.asdict(self.iterations),
+                "contact": dataclasses.asdict(self.contact),
+                "loop_seconds": self.loop_before + time.perf_counter() - self.loop_started}
+
+    def checkpoint(self, state_valid: bool = True) -> None:
         """The rows and fields so far, and the state to resume from (rank 0 writes; a write
         error is kept, and stops the run at the next agreed step)."""
-        if files is None or io_error:
+        if self.files is None or self.io_error:
             return
-        flush()
+        self.flush()
         try:
-            files.checkpoint(method.saved_state() if state_valid else None, state_meta())
+            self.files.checkpoint(self.method.saved_state() if state_valid else None,
+                                  self.state_meta())
         except OSError as err:
-            io_error.append(io_line(err))
+            self.io_error.append(io_line(err))
 
-    # the last step whose fields are saved (a resumed run's, from its checkpoint)
-    saved = [meta["saves"][-1][0] if meta.get("saves") else -1]
+    def write_fields(self) -> None:
+        method = self.method
+        (self.files.fields if self.kept is None else self.kept).write(
+            method.n, method.n * self.dt, method.values)
 
-    def write_fields() -> None:
-        (files.fields if kept is None else kept).write(method.n, method.n * dt, method.values)
+    def save_fields(self) -> None:
+        files, n = self.files, self.method.n
+        if files is not None or self.kept is not None:
+            self.write_fields()
+        if files is not None and self.comm.rank == 0 and n > 0 and files.due():
+            self.checkpoint()
+        self.saved = n
 
-    def save_fields() -> None:
-        if files is not None or kept is not None:
-            write_fields()
-        if files is not None and comm.rank == 0 and method.n > 0 and files.due():
-            checkpoint()
-        saved[0] = method.n
+    def observe(self) -> None:
+        self.history.record(self.method)
+        self.check()
+        if self.history.full:
+            self.flush()
+        n = self.method.n
+        if n % self.every == 0 or n == self.steps:
+            self.save_fields()
 
-    def observe() -> None:
-        history.record(method)
-        check()
-        if history.full:
-            flush()
-        if method.n % every == 0 or method.n == steps:
-            save_fields()
-
-    def check(since: int | None = None) -> None:
+    def check(self, since: int | None = None) -> None:
         """Stop at the first recorded step that is not finite (the rows before it are kept)."""
+        history = self.history
         bad = history.first_non_finite(history.count - 1 if since is None else since)
         if bad is not None:
-            raise NotFinite(method.name, bad[0], bad[0] * dt, bad[1])
+            raise NotFinite(self.method.name, bad[0], bad[0] * self.dt, bad[1])
 
-    if resume:
-        method.restore(resume[0])
-    kernel = compiled_loop(method, history)
-    setup_seconds = time.perf_counter() - started
-    status, error = "complete", None
-    loop_before = meta.get("loop_seconds", 0.0)
-    loop_started = time.perf_counter()
-    with interrupts.deferred():
+    def loop(self, bar: Progress) -> tuple[str, NotConverged | None]:
+        """The steps to the end, or to a failed step, a request to stop or a write error: the
+        status (complete, interrupted or failed) and the failed step's error."""
+        method, steps = self.method, self.steps
         try:
-            if not resume:
-                observe()
+            if not self.resumed:
+                self.observe()
             n = method.n
             while n < steps:
-                if kernel is None or method.first_step_special:
+                if self.kernel is None or method.first_step_special:
                     # the paper's first step (U¹ = U⁰ + Δt P u₁) is the PETSc loop's
                     method.advance()
                     n += 1
-                    observe()
+                    self.observe()
                 else:
-                    # As many steps as fit before the next saved fields (if any are), the end
-                    # of the history's block and the next check the ranks agree on for a request
-                    # to stop (under MPI), in one compiled call.
-                    chunk = min(steps - n, history.free,
-                                every - n % every if saving else steps,
-                                STOP_EVERY - n % STOP_EVERY if comm.size > 1 else steps)
-                    since = history.count
-                    try:
-                        kernel.advance(chunk, history.reserve(chunk))
-                    except NotConverged:
-                        history.commit(getattr(kernel, "done", 0))  # the steps before the failure
-                        check(since)
-                        raise
-                    history.commit(chunk)
-                    check(since)
-                    n += chunk
-                    if history.full:
-                        flush()
-                    if n % every == 0 or n == steps:
-                        save_fields()
+                    n = self.compiled_steps(n)
                 bar.update(n)
-                if interrupts.requested(comm, n, STOP_EVERY, also=bool(io_error)):
-                    status = "interrupted"
-                    break
+                if interrupts.requested(self.comm, n, STOP_EVERY, also=bool(self.io_error)):
+                    return "interrupted", None
         except NotConverged as err:
-            status, error = "failed", err
-        loop_seconds = loop_before + time.perf_counter() - loop_started
+            return "failed", err
+        return "complete", None
+
+    def compiled_steps(self, n: int) -> int:
+        """As many steps as fit before the next saved fields (if any are), the end of the
+        history's block and the next check the ranks agree on for a request to stop (under
+        MPI), in one compiled call; the step reached."""
+        history, every, steps = self.history, self.every, self.steps
+        chunk = min(steps - n, history.free,
+                    every - n % every if self.saving else steps,
+                    STOP_EVERY - n % STOP_EVERY if self.comm.size > 1 else steps)
+        since = history.count
+        try:
+            self.kernel.advance(chunk, history.reserve(chunk))
+        except NotConverged:
+            history.commit(getattr(self.kernel, "done", 0))  # the steps before the failure
+            self.check(since)
+            raise
+        history.commit(chunk)
+        self.check(since)
+        n += chunk
+        if history.full:
+            self.flush()
+        if n % every == 0 or n == steps:
+            self.save_fields()
+        return n
+
+    def outcome(self, status: str, error: NotConverged | None, setup_seconds: float,
+                bar: Progress) -> RunResult:
+        """The run's last files (its last fields, checkpoint, summary and marker) and result."""
+        loop_seconds = self.loop_before + time.perf_counter() - self.loop_started
         bar.close()
+        files, kept, io_error, method = self.files, self.kept, self.io_error, self.method
         valid = not isinstance(error, NotFinite)
         if status == "interrupted" and io_error:
             status = "failed"
-        if saved[0] != method.n and valid and (files is not None or kept is not None):
-            write_fields()  # a failed or interrupted run keeps its last step's fields too
+        if self.saved != method.n and valid and (files is not None or kept is not None):
+            self.write_fields()  # a failed or interrupted run keeps its last step's fields too
         if files is not None:
-            checkpoint(valid)
+            self.checkpoint(valid)
             files.close()
         else:
-            flush()
-        summary = _summary(scene, status, error, iterations, energy, setup_seconds, loop_seconds,
-                           comm, resumed=bool(resume))
-        summary["contact"] = dataclasses.asdict(contact)
+            self.flush()
+        summary = _summary(self.scene, status, error, self.iterations, self.energy,
+                           setup_seconds, loop_seconds, self.comm, resumed=self.resumed,
+                           dolfinx=self.library_version)
+        summary["contact"] = dataclasses.asdict(self.contact)
         if files is not None:
             summary["checkpoint_seconds"] = files.seconds  # rank 0's: it writes them
         if io_error:
             summary["error"] = io_error[0]
-        if out is not None:
-            try:
-                write_json(out / "summary.json", summary, comm)
-                finish(out, "failed" if io_error else status, comm)
-            except OSError as err:
-                io_error.append(io_line(err))
-            io_error[:] = comm.bcast(io_error, root=0)
-            comm.barrier()  # every rank returns once rank 0 has written the run's files
-    return RunResult(status, summary, error, disc.nodes.x.copy(), method.theta.array_r.copy(),
-                     method.u.array_r.copy(),
-                     rows_out.rows_so_far() if files is None else None,
-                     io_error[0] if io_error else None, interrupts.signal_received(),
-                     kept.kept() if kept is not None else None)
+        if self.out is not None:
+            self.write_summary(summary, status)
+        return RunResult(status, summary, error, self.disc.nodes.x.copy(),
+                         method.theta.array_r.copy(), method.u.array_r.copy(),
+                         self.rows_out.rows_so_far() if files is None else None,
+                         io_error[0] if io_error else None, interrupts.signal_received(),
+                         kept.kept() if kept is not None else None)
+
+    def write_summary(self, summary: dict, status: str) -> None:
+        """summary.json and the marker's final status (a write error is kept; every rank
+        returns once rank 0 has written them)."""
+        comm, io_error = self.comm, self.io_error
+        try:
+            write_json(self.out / "summary.json", summary, comm)
+            finish(self.out, "failed" if io_error else status, comm)
+        except OSError as err:
+            io_error.append(io_line(err))
+        io_error[:] = comm.bcast(io_error, root=0)
+        comm.barrier()
 
 
 def _summary(scene, status, error, iterations, energy, setup_seconds, loop_seconds, comm,
-             resumed: bool) -> dict:
+             resumed: bool, dolfinx: str) -> dict:
+    from petsc4py import PETSc
+
     done = iterations.rows - 1
     summary = {
         "status": status,
@@ -329,7 +373,7 @@ def _summary(scene, status, error, iterations, energy, setup_seconds, loop_secon
         "resumed": resumed,
         "versions": {
             "rodfem": rodfem.__version__,
-            "dolfinx": dolfinx.__version__,
+            "dolfinx": dolfinx,
             "petsc": ".".join(map(str, PETSc.Sys.getVersion())),
         },
     }

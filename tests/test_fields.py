@@ -74,7 +74,7 @@ def test_a_save_is_the_forms_expressions():
     σ's terms (ζ/Δt times the strain) and of the flux's (θ_x)."""
     import rodfem.scene
     from rodfem.discrete.discretisation import Discretisation
-    from rodfem.output.pointwise import Pointwise
+    from rodfem.output.pointwise import Pointwise, Probe
 
     scene = rodfem.scene.load("paper2", ["mesh.cells=37", "model.a=0.3", "model.k=3"])
     disc = Discretisation(scene, COMM)
@@ -85,7 +85,7 @@ def test_a_save_is_the_forms_expressions():
     for part in parts:
         part[disc.nodes.x == 0.0] = 0.0
     s = np.concatenate(parts)
-    θ_expected, cells = pointwise._evaluate(parts)
+    θ_expected, cells = Probe(disc).evaluate(parts)
     np.testing.assert_array_equal(pointwise.field("theta", s), θ_expected)
     σ = pointwise.field("sigma", s)
     # σ's largest term: (1 + ζ/Δt) |ΔU|/h, summed over six terms

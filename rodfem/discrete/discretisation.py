@@ -24,20 +24,21 @@ constants: a sweep over parameters assembles and factors once per scene, and com
 from __future__ import annotations
 
 import dataclasses
+import os
 import types
 
 import numpy as np
-import ufl
-from dolfinx import fem, mesh
 from mpi4py import MPI
 from petsc4py import PETSc
 
-import forms.copetti as copetti
-from rodfem.discrete import compat
+from rodfem.discrete.cache import CELLS_MAX, OperatorCache, digest
 from rodfem.discrete.nodes import NodeOrder
 from rodfem.scene import Scene
 
 OBSTACLE = 1  # facet tag of the point x = 1
+PARAMETERS = ("a", "b", "zeta", "k", "theta_A")  # the model's, constants of the forms
+# What dolfinx makes (:meth:`Discretisation._finite_elements`), on first use.
+FINITE_ELEMENTS = ("mesh", "V", "W", "bcs", "ds_1", "dx", "dx_m", "dx_b", "const", "r")
 
 
 @dataclasses.dataclass
@@ -50,12 +51,50 @@ class AffineOperator:
 
 
 class Discretisation:
-    """P1 on a uniform mesh of I = (0, 1), the space S_E and the measures of the scheme."""
+    """P1 on a uniform mesh of I = (0, 1), the space S_E and the measures of the scheme.
 
-    def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD):
+    The mesh, spaces, measures and constants (:data:`FINITE_ELEMENTS`) and the nodes are made
+    on first use. With ``cache`` (a serial run), the operators, the nodes and the other arrays
+    read off the forms (:meth:`arrays`) come from the operator cache where it has them
+    (:mod:`rodfem.discrete.cache`): a run that finds them all never imports dolfinx. Call
+    :meth:`keep` once they are made, to store them for the next run."""
+
+    def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, cache: bool = False):
         self.scene = scene
         self.comm = comm
-        self.mesh = mesh.create_interval(comm, scene["mesh.cells"], [0.0, 1.0])
+        self.redistributed = scene["discretisation.mass"].startswith("redistributed")
+        self._symbols: dict[str, object] = {}
+        self._forms: dict[str, object] = {}  # by the UFL expression's repr
+        self._keyed: dict[tuple, object] = {}  # by a caller's name for it
+        self._cache = None
+        if (cache and comm.size == 1 and scene["mesh.cells"] <= CELLS_MAX
+                and os.environ.get("RODFEM_CACHE", "1") != "0"):
+            self._cache = OperatorCache.open(digest(
+                {name: scene[name] for name in self.STRUCTURE}, self._constants(scene)))
+
+    @staticmethod
+    def _constants(scene: Scene) -> dict[str, float]:
+        return {"dt": scene["time.dt"], **{p: scene[f"model.{p}"] for p in PARAMETERS}}
+
+    def __getattr__(self, name: str):
+        """The finite element side, made on first use (only for the names it makes)."""
+        if name in FINITE_ELEMENTS:
+            self._finite_elements()
+        elif name == "nodes":
+            self.nodes = self._node_order()
+        else:
+            raise AttributeError(f"'Discretisation' object has no attribute {name!r}")
+        return self.__dict__[name]
+
+    def _finite_elements(self) -> None:
+        import ufl
+        from dolfinx import fem, mesh
+
+        import forms.copetti as copetti
+        from rodfem.discrete import compat
+
+        scene = self.scene
+        self.mesh = mesh.create_interval(self.comm, scene["mesh.cells"], [0.0, 1.0])
         self.V = compat.function_space(self.mesh, "Lagrange", 1)
         self.W = compat.function_space(self.mesh, "DG", 0)  # for the stress σ, constant per cell
         tdim = self.mesh.topology.dim
@@ -74,20 +113,56 @@ class Discretisation:
         mass = scene["discretisation.mass"]
         vertices = ufl.dx(domain=self.mesh, scheme="GLL", degree=1)
         self.dx_m = vertices if mass in ("lumped", "redistributed-lumped") else self.dx
-        self.redistributed = mass.startswith("redistributed")
         self.dx_b = self._redistributed(vertices) if self.redistributed else None
         # The parameters are constants of the forms, not literals in them: one compiled form
         # serves every value, and no value of a scene is ever written into C code.
-        values = {"dt": scene["time.dt"], **{p: scene[f"model.{p}"] for p in
-                                             ("a", "b", "zeta", "k", "theta_A")}}
         self.const = types.SimpleNamespace(**{
-            name: fem.Constant(self.mesh, PETSc.ScalarType(value)) for name, value in values.items()
+            name: fem.Constant(self.mesh, PETSc.ScalarType(value))
+            for name, value in self._constants(scene).items()
         })
         self.r = copetti.robin_shift(ufl.SpatialCoordinate(self.mesh), self.const.k)
-        self.nodes = NodeOrder(self.V)
-        self._symbols: dict[str, fem.Function] = {}
-        self._forms: dict[str, fem.Form] = {}  # by the UFL expression's repr
-        self._keyed: dict[tuple, fem.Form] = {}  # by a caller's name for it
+
+    def _node_order(self) -> NodeOrder:
+        """The nodes, from the cache where it has them."""
+        found = self._cache.get("nodes") if self._cache is not None else None
+        if found is not None:
+            return NodeOrder(self.comm, found["x"], found["position"], found["owned"])
+        nodes = NodeOrder.of_space(self.V)
+        if self._cache is not None:
+            self._cache.put("nodes", {"x": nodes.x, "position": nodes.position,
+                                      "owned": nodes.owned})
+        return nodes
+
+    def arrays(self, name: str, make) -> dict[str, np.ndarray]:
+        """The arrays ``make()`` returns (a dict of NumPy arrays read off the forms, the same
+        for every scene of this discretisation's structure and constants), from the cache where
+        it has them under ``name``."""
+        found = self._cache.get(name) if self._cache is not None else None
+        if found is None:
+            found = make()
+            if self._cache is not None:
+                self._cache.put(name, found)
+        return found
+
+    def keep(self) -> None:
+        """Store what was made for the next run (where there is a cache; a failure to write
+        costs only that run's start)."""
+        if self._cache is not None:
+            self._cache.save()
+
+    def library_version(self) -> str:
+        """dolfinx's version: the one that made the cached arrays if dolfinx is not loaded."""
+        import sys
+
+        if "dolfinx" not in sys.modules:
+            found = self._cache.get("dolfinx") if self._cache is not None else None
+            if found is not None:
+                return str(found["version"])
+        import dolfinx
+
+        if self._cache is not None and self._cache.get("dolfinx") is None:
+            self._cache.put("dolfinx", {"version": np.array(dolfinx.__version__)})
+        return dolfinx.__version__
 
     def _redistributed(self, vertices) -> tuple:
         """The inertia with the contact node's mass moved to its neighbour (Khenous, Laborde
@@ -95,6 +170,9 @@ class Discretisation:
         weights are h at x = 1 − h and 0 at x = 1, so that the node x = 1 has no mass and the
         total mass is kept; elsewhere the base mass, lumped or consistent. (density, measure)
         pairs for ``forms.copetti.inertia``; χ marks the last cell."""
+        import ufl
+        from dolfinx import fem
+
         h = 1.0 / self.scene["mesh.cells"]
         W = self.W
         χ = fem.Function(W)
@@ -113,32 +191,39 @@ class Discretisation:
         return tuple(scene[name] for name in cls.STRUCTURE)
 
     def load(self, scene: Scene) -> None:
-        """Take another scene of the same :meth:`key`: its values go into the constants."""
+        """Take another scene of the same :meth:`key`: its values go into the constants (and
+        the cache, which holds one scene's constants, is no longer used)."""
         if self.key(scene) != self.key(self.scene):
             raise ValueError(f"{self.STRUCTURE} differ: {self.key(scene)} != "
                              f"{self.key(self.scene)}")
+        self._cache = None
         self.scene = scene
         self.const.dt.value = scene["time.dt"]
-        for p in ("a", "b", "zeta", "k", "theta_A"):
+        for p in PARAMETERS:
             getattr(self.const, p).value = scene[f"model.{p}"]
 
-    def function(self, name: str) -> fem.Function:
+    def function(self, name: str):
         """A new function of V (for values: a field to save, say)."""
+        from dolfinx import fem
+
         f = fem.Function(self.V)
         f.name = name
         return f
 
-    def symbol(self, name: str) -> fem.Function:
+    def symbol(self, name: str):
         """The function of V called ``name`` in forms whose operators are read off by linearity
         (:meth:`affine_operator`): always zero, the same object for every call."""
         if name not in self._symbols:
             self._symbols[name] = self.function(name)
         return self._symbols[name]
 
-    def form(self, a, key: tuple | None = None) -> fem.Form:
+    def form(self, a, key: tuple | None = None):
         """``a`` compiled: once per expression (its ``repr``), for every scene :meth:`load`
         takes. ``a`` may be a function that makes the UFL form, and ``key`` a name for it (the
         same key must mean the same form): then it is made only the first time."""
+        import ufl
+        from dolfinx import fem
+
         if key is not None and key in self._keyed:
             return self._keyed[key]
         a = a if isinstance(a, ufl.Form) else a()  # (a Form is callable too)
@@ -149,28 +234,34 @@ class Discretisation:
             self._keyed[key] = self._forms[text]
         return self._forms[text]
 
-    def affine_operator(self, F, x: fem.Function, y: dict[str, fem.Function],
-                        loads: tuple[str, ...] = (), key: tuple | None = None):
-        """Read A, N_k and b off the residual F(x; y), which must be affine in x and each y_k.
+    def affine_operator(self, F, x: str, y: dict[str, str], loads: tuple[str, ...] = (),
+                        key: tuple | None = None):
+        """Read A, N_k and b off the residual F(x; y), which must be affine in x and each y_k,
+        all of them symbols (:meth:`symbol`) given by name.
 
         Every function in F must be zero when this is called, so that F itself is F(0; 0) (the
-        symbols of :meth:`symbol` are). The y_k named in ``loads`` are data on all of I, not
-        functions of S_E (a source f, whose value at x = 0 counts): their N_k keep the column of
-        x = 0. ``F`` may be a function that makes the residual, and ``key`` its name, as for
-        :meth:`form`: a scene that :meth:`load` took then only assembles.
+        symbols are). The y_k named in ``loads`` are data on all of I, not functions of S_E (a
+        source f, whose value at x = 0 counts): their N_k keep the column of x = 0. ``F`` may be
+        a function that makes the residual, and ``key`` its name, as for :meth:`form`: a scene
+        that :meth:`load` took then only assembles (and one whose operators are cached, nothing).
         """
-        du = ufl.TrialFunction(self.V)
         made = []
 
-        def residual():
+        def derivative(name: str):
+            import ufl
+
             if not made:
                 made.append(F if isinstance(F, ufl.Form) else F())
+            return ufl.derivative(made[0], self.symbol(name), ufl.TrialFunction(self.V))
+
+        def residual():
+            derivative(x)  # makes it
             return made[0]
 
         part = (lambda name: None) if key is None else (lambda name: (*key, name))
-        A = self.matrix(lambda: ufl.derivative(residual(), x, du), diagonal=1.0, key=part("A"))
-        N = {name: self.matrix(lambda yk=yk: -ufl.derivative(residual(), yk, du),
-                               rows_only=name in loads, key=part(name))
+        A = self.matrix(lambda: derivative(x), diagonal=1.0, key=part("A"))
+        N = {name: self.matrix(lambda yk=yk: -derivative(yk), rows_only=name in loads,
+                               key=part(name))
              for name, yk in y.items()}
         return AffineOperator(A, N, self.vector(lambda: -residual(), key=part("b")))
 
@@ -178,7 +269,28 @@ class Discretisation:
                key: tuple | None = None) -> PETSc.Mat:
         """The matrix of a bilinear form on S_E (``diagonal`` in the row of x = 0), node order.
         With ``rows_only`` the column of x = 0 is kept and only its row is zero. ``a`` and
-        ``key`` as for :meth:`form`."""
+        ``key`` as for :meth:`form`; a keyed matrix is cached (:meth:`arrays`)."""
+        if key is None:
+            return self._assembled_matrix(a, diagonal, rows_only, key)
+
+        def csr() -> dict[str, np.ndarray]:
+            B = self._assembled_matrix(a, diagonal, rows_only, key)
+            indptr, indices, values = B.getValuesCSR()
+            B.destroy()
+            return {"indptr": indptr, "indices": indices, "values": values}
+
+        found = self.arrays(repr(("matrix", key, diagonal, rows_only)), csr)
+        size = found["indptr"].size - 1
+        B = PETSc.Mat().createAIJ(size=(size, size), comm=PETSc.COMM_SELF, csr=(
+            found["indptr"].astype(PETSc.IntType), found["indices"].astype(PETSc.IntType),
+            found["values"]))
+        B.assemble()
+        return B
+
+    def _assembled_matrix(self, a, diagonal: float, rows_only: bool,
+                          key: tuple | None) -> PETSc.Mat:
+        from rodfem.discrete import compat
+
         form = self.form(a, key)
         # The distributed matrix is destroyed once copied: dolfinx 0.5's keeps a reference of
         # its own, which petsc4py never lets go (0.12 MB a 2,000-cell matrix, per scene).
@@ -192,9 +304,18 @@ class Discretisation:
 
     def vector(self, L, key: tuple | None = None) -> PETSc.Vec:
         """The vector of a linear form on S_E (0 in the row of x = 0), node order. ``L`` and
-        ``key`` as for :meth:`form`."""
-        b = compat.assemble_vector(self.form(L, key))
-        compat.set_bc(b, self.bcs)
-        ordered = self.nodes.vector(b)
-        b.destroy()
-        return ordered
+        ``key`` as for :meth:`form`; a keyed vector is cached (:meth:`arrays`)."""
+        def assembled() -> dict[str, np.ndarray]:
+            from rodfem.discrete import compat
+
+            b = compat.assemble_vector(self.form(L, key))
+            compat.set_bc(b, self.bcs)
+            ordered = self.nodes.vector(b)
+            b.destroy()
+            return {"values": ordered.array_r.copy()}
+
+        if key is None:
+            values = assembled()["values"]
+        else:
+            values = self.arrays(repr(("vector", key)), assembled)["values"]
+        return PETSc.Vec().createWithArray(np.array(values), comm=PETSc.COMM_SELF)

@@ -22,22 +22,31 @@ from petsc4py import PETSc
 class NodeOrder:
     """Maps between the distributed PETSc numbering of a P1 space and node order x_0 < … < x_s."""
 
-    def __init__(self, V):
-        self.comm: MPI.Comm = V.mesh.comm
+    def __init__(self, comm: MPI.Comm, x: np.ndarray, position: np.ndarray,
+                 owned: np.ndarray):
+        self.comm = comm
+        #: the nodes' coordinates, in order
+        self.x = x
+        #: position[g] = the node-order position of the dof with PETSc global index g
+        self.position = position
+        #: node-order positions of this rank's owned dofs, in its local order
+        self.owned = owned
+
+    @classmethod
+    def of_space(cls, V) -> NodeOrder:
+        """The node order of the P1 space V (collective)."""
+        comm: MPI.Comm = V.mesh.comm
         index_map = V.dofmap.index_map
         owned = index_map.size_local
         start = index_map.local_range[0]
         x_owned = V.tabulate_dof_coordinates()[:owned, 0]
-        gathered = self.comm.allgather((np.arange(start, start + owned), x_owned))
+        gathered = comm.allgather((np.arange(start, start + owned), x_owned))
         global_index = np.concatenate([g for g, _ in gathered])
         x = np.concatenate([c for _, c in gathered])
         order = np.argsort(x, kind="stable")
-        self.x = x[order]
-        #: position[g] = the node-order position of the dof with PETSc global index g
-        self.position = np.empty(global_index.size, dtype=np.int64)
-        self.position[global_index[order]] = np.arange(order.size)
-        #: node-order positions of this rank's owned dofs, in its local order
-        self.owned = self.position[np.arange(start, start + owned)]
+        position = np.empty(global_index.size, dtype=np.int64)
+        position[global_index[order]] = np.arange(order.size)
+        return cls(comm, x[order], position, position[np.arange(start, start + owned)])
 
     @property
     def size(self) -> int:

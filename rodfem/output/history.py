@@ -9,10 +9,8 @@ values are read off its array.
 from __future__ import annotations
 
 import numpy as np
-import ufl
 from petsc4py import PETSc
 
-import forms.copetti as copetti
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.discrete.nodes import block_diagonal
 from rodfem.model import contact
@@ -29,14 +27,24 @@ class Energy:
 
     def __init__(self, disc: Discretisation):
         scene = disc.scene
-        u, v = ufl.TrialFunction(disc.V), ufl.TestFunction(disc.V)
-        M = disc.matrix(lambda: copetti.mass(u, v, disc.dx_m), key=("mass",))
-        K = disc.matrix(lambda: copetti.stiffness(u, v, disc.dx), key=("stiffness",))
-        kinetic = M.copy() if disc.dx_b is None else disc.matrix(
-            lambda: copetti.inertia(u, v, disc.dx_b), key=("inertia",))
+        def form(make):
+            """``make(copetti, u, v)`` for P1's trial and test functions u, v, made when called:
+            only where the operator is not cached (Discretisation.arrays)."""
+            def made():
+                import ufl
+
+                import forms.copetti as copetti
+
+                return make(copetti, ufl.TrialFunction(disc.V), ufl.TestFunction(disc.V))
+            return made
+
+        M = disc.matrix(form(lambda c, u, v: c.mass(u, v, disc.dx_m)), key=("mass",))
+        K = disc.matrix(form(lambda c, u, v: c.stiffness(u, v, disc.dx)), key=("stiffness",))
+        kinetic = M.copy() if not disc.redistributed else disc.matrix(
+            form(lambda c, u, v: c.inertia(u, v, disc.dx_b)), key=("inertia",))
         kinetic.scale(scene["model.b"] / scene["time.dt"] ** 2)
         self.E = block_diagonal([M, kinetic, K])
-        self.z = disc.vector(lambda: copetti.thermal_load(disc.r, v, disc.dx),
+        self.z = disc.vector(form(lambda c, u, v: c.thermal_load(disc.r, v, disc.dx)),
                              key=("thermal load",))
         self.a_theta_A = scene["model.a"] * scene["model.theta_A"]
         n = disc.nodes.size

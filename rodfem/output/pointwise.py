@@ -14,16 +14,16 @@ operations on s:
 
 :meth:`Pointwise.reading` gives the value of a field at a point x as an affine functional of s,
 which the time loops evaluate at every step (:class:`rodfem.output.history.History`).
+
+The coefficients are the same for every scene of a discretisation's structure and constants: a
+serial run finds them in the operator cache (:meth:`Discretisation.arrays`) and reads nothing off
+the expressions (:class:`Probe`, the only part that needs dolfinx).
 """
 
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse
-from dolfinx import fem
 
-import forms.copetti as copetti
-from rodfem.discrete import compat
 from rodfem.discrete.discretisation import Discretisation
 
 NODE_FIELDS = ("theta", "u", "velocity")
@@ -40,86 +40,11 @@ class Pointwise:
         n = self.n = disc.nodes.size
         self.x = disc.nodes.x.copy()
         self.dt = disc.scene["time.dt"]
-        self.functions = [disc.function(name) for name in PARTS]
-        Θ, D, U = self.functions
-        c = disc.const
-        θ = copetti.temperature(Θ, c.theta_A, disc.r)
-        cell = {"sigma": copetti.stress(U, U - D, θ, c.dt, c.zeta, c.a),
-                "heat_flux": copetti.heat_flux(θ)}
-        self.theta = disc.function("theta")
-        self.theta_expr = fem.Expression(θ, compat.interpolation_points(disc.V))
-        self.cell_functions = {name: fem.Function(disc.W) for name in cell}
-        self.cell_exprs = {name: fem.Expression(e, compat.interpolation_points(disc.W))
-                           for name, e in cell.items()}
-        self._owned_nodes = disc.V.dofmap.index_map.size_local
-        self._owned_cells = disc.W.dofmap.index_map.size_local
-        midpoints = disc.W.tabulate_dof_coordinates()[: self._owned_cells, 0]
-        gathered = self.comm.allgather((self.nodes.owned, midpoints))
-        self._node_positions = np.concatenate([g[0] for g in gathered])
-        self._cell_order = np.argsort(np.concatenate([g[1] for g in gathered]), kind="stable")
-        self._read_maps(disc)
-
-    def _evaluate(self, parts: list[np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        """θ at the nodes and the cell fields per cell (in order of x) of the state whose parts
-        Θ, D, U are the node-ordered arrays ``parts``, by interpolating the forms' expressions
-        (collective)."""
-        for f, values in zip(self.functions, parts, strict=True):
-            compat.petsc_vector(f).array[:] = values[self.nodes.owned]
-            f.x.scatter_forward()
-        self.theta.interpolate(self.theta_expr)
-        θ = np.empty(self.n)
-        θ[self._node_positions] = np.concatenate(
-            self.comm.allgather(self.theta.x.array[: self._owned_nodes].copy()))
-        cells = {}
-        for name, f in self.cell_functions.items():
-            f.interpolate(self.cell_exprs[name])
-            owned = np.concatenate(self.comm.allgather(f.x.array[: self._owned_cells].copy()))
-            cells[name] = owned[self._cell_order]
-        return θ, cells
-
-    def _read_maps(self, disc: Discretisation) -> None:
-        """The coefficients of θ and the cell fields, read off their expressions: with θ_A = 0
-        they are linear in (Θ, D, U), so setting one part to 1 on every third node (no cell sees
-        two of them) gives, cell by cell, the coefficient of its left or right node; θ₀, σ₀ and
-        q₀ are the fields of s = 0 with the scene's θ_A."""
-        n = self.n
-        zero = [np.zeros(n) for _ in PARTS]
-        self.theta0, self.cell0 = self._evaluate(zero)
-        theta_A = disc.const.theta_A
-        value = float(theta_A.value)
-        theta_A.value = 0.0
-        coefficients = {name: [] for name in CELL_FIELDS}  # per part: (left, right)
-        try:
-            for part in range(len(PARTS)):
-                left = {name: np.zeros(n - 1) for name in CELL_FIELDS}
-                right = {name: np.zeros(n - 1) for name in CELL_FIELDS}
-                unit = np.zeros(n)
-                for k in range(3):
-                    probe = (np.arange(n) % 3 == k).astype(float)
-                    parts = [probe if p == part else zero[p] for p in range(len(PARTS))]
-                    θ, cells = self._evaluate(parts)
-                    unit += θ
-                    for name, values in cells.items():
-                        left[name][probe[:-1] == 1.0] = values[probe[:-1] == 1.0]
-                        right[name][probe[1:] == 1.0] = values[probe[1:] == 1.0]
-                for name in CELL_FIELDS:
-                    coefficients[name].append((left[name], right[name]))
-                expected = np.ones(n) if PARTS[part] == "Θ" else np.zeros(n)
-                if not np.array_equal(unit, expected):
-                    raise RuntimeError("θ is not Θ plus a function of x: the maps do not apply")
-        finally:
-            theta_A.value = value
-        cells = np.arange(n - 1)
-        self.cell_maps = {}
-        for name in CELL_FIELDS:
-            rows, columns, values = [], [], []
-            for part, (left, right) in enumerate(coefficients[name]):
-                rows += [cells, cells]
-                columns += [part * n + cells, part * n + cells + 1]
-                values += [left, right]
-            self.cell_maps[name] = scipy.sparse.csr_matrix(
-                (np.concatenate(values), (np.concatenate(rows), np.concatenate(columns))),
-                shape=(n - 1, 3 * n))
+        maps = disc.arrays("pointwise", lambda: Probe(disc).maps())
+        self.theta0 = maps["theta0"]
+        self.cell0 = {name: maps[f"{name}0"] for name in CELL_FIELDS}
+        self.cell_maps = {name: CellMap(maps[f"{name}_values"], maps[f"{name}_columns"])
+                          for name in CELL_FIELDS}
 
     def field(self, name: str, s: np.ndarray) -> np.ndarray:
         """The field ``name`` (of :data:`NODE_FIELDS` or :data:`CELL_FIELDS`) of the state s."""
@@ -130,7 +55,7 @@ class Pointwise:
             return s[2 * n:].copy()
         if name == "velocity":
             return s[n:2 * n] / self.dt
-        values = self.cell_maps[name] @ s
+        values = self.cell_maps[name].apply(s)
         values += self.cell0[name]
         return values
 
@@ -159,8 +84,117 @@ class Pointwise:
         A = self.cell_maps[name]
         for cell in cells:
             w = 1.0 / len(cells)
-            for i, a in zip(A.indices[A.indptr[cell]:A.indptr[cell + 1]],
-                            A.data[A.indptr[cell]:A.indptr[cell + 1]]):
+            for i, a in zip(A.columns[cell], A.values[cell]):
                 terms[int(i)] = terms.get(int(i), 0.0) + w * float(a)
             constant += w * float(self.cell0[name][cell])
         return {i: w for i, w in terms.items() if w != 0.0}, constant
+
+
+class CellMap:
+    """A cell field's linear part: per cell, the weights of the six entries of the state it reads
+    (its two nodes in each part Θ, D, U, in that order), an (n − 1) × 6 table with their
+    positions in the state."""
+
+    def __init__(self, values: np.ndarray, columns: np.ndarray):
+        self.values, self.columns = values, columns
+
+    def apply(self, s: np.ndarray) -> np.ndarray:
+        """The field's linear part at the state s: the products summed from 0 in the table's
+        order, as a sparse CSR product does."""
+        total = np.zeros(self.values.shape[0])
+        for k in range(self.values.shape[1]):
+            total += self.values[:, k] * s[self.columns[:, k]]
+        return total
+
+
+class Probe:
+    """The forms' expressions of θ and of the cell fields, interpolated at probing states: the
+    coefficients of :class:`Pointwise` (dolfinx; collective)."""
+
+    def __init__(self, disc: Discretisation):
+        from dolfinx import fem
+
+        import forms.copetti as copetti
+        from rodfem.discrete import compat
+
+        self.disc, self.comm, self.nodes, self.n = disc, disc.comm, disc.nodes, disc.nodes.size
+        self._petsc_vector = compat.petsc_vector
+        self.functions = [disc.function(name) for name in PARTS]
+        Θ, D, U = self.functions
+        c = disc.const
+        θ = copetti.temperature(Θ, c.theta_A, disc.r)
+        cell = {"sigma": copetti.stress(U, U - D, θ, c.dt, c.zeta, c.a),
+                "heat_flux": copetti.heat_flux(θ)}
+        self.theta = disc.function("theta")
+        self.theta_expr = fem.Expression(θ, compat.interpolation_points(disc.V))
+        self.cell_functions = {name: fem.Function(disc.W) for name in cell}
+        self.cell_exprs = {name: fem.Expression(e, compat.interpolation_points(disc.W))
+                           for name, e in cell.items()}
+        self._owned_nodes = disc.V.dofmap.index_map.size_local
+        self._owned_cells = disc.W.dofmap.index_map.size_local
+        midpoints = disc.W.tabulate_dof_coordinates()[: self._owned_cells, 0]
+        gathered = self.comm.allgather((self.nodes.owned, midpoints))
+        self._node_positions = np.concatenate([g[0] for g in gathered])
+        self._cell_order = np.argsort(np.concatenate([g[1] for g in gathered]), kind="stable")
+
+    def evaluate(self, parts: list[np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """θ at the nodes and the cell fields per cell (in order of x) of the state whose parts
+        Θ, D, U are the node-ordered arrays ``parts``, by interpolating the forms' expressions
+        (collective)."""
+        for f, values in zip(self.functions, parts, strict=True):
+            self._petsc_vector(f).array[:] = values[self.nodes.owned]
+            f.x.scatter_forward()
+        self.theta.interpolate(self.theta_expr)
+        θ = np.empty(self.n)
+        θ[self._node_positions] = np.concatenate(
+            self.comm.allgather(self.theta.x.array[: self._owned_nodes].copy()))
+        cells = {}
+        for name, f in self.cell_functions.items():
+            f.interpolate(self.cell_exprs[name])
+            owned = np.concatenate(self.comm.allgather(f.x.array[: self._owned_cells].copy()))
+            cells[name] = owned[self._cell_order]
+        return θ, cells
+
+    def maps(self) -> dict[str, np.ndarray]:
+        """The coefficients of θ and the cell fields, read off their expressions: with θ_A = 0
+        they are linear in (Θ, D, U), so setting one part to 1 on every third node (no cell sees
+        two of them) gives, cell by cell, the coefficient of its left or right node; θ₀, σ₀ and
+        q₀ are the fields of s = 0 with the scene's θ_A. Each cell field's linear part is a table
+        of a row per cell: the weights of its two nodes in each part (:class:`CellMap`)."""
+        n = self.n
+        zero = [np.zeros(n) for _ in PARTS]
+        theta0, cell0 = self.evaluate(zero)
+        theta_A = self.disc.const.theta_A
+        value = float(theta_A.value)
+        theta_A.value = 0.0
+        coefficients = {name: [] for name in CELL_FIELDS}  # per part: (left, right)
+        try:
+            for part in range(len(PARTS)):
+                left = {name: np.zeros(n - 1) for name in CELL_FIELDS}
+                right = {name: np.zeros(n - 1) for name in CELL_FIELDS}
+                unit = np.zeros(n)
+                for k in range(3):
+                    probe = (np.arange(n) % 3 == k).astype(float)
+                    parts = [probe if p == part else zero[p] for p in range(len(PARTS))]
+                    θ, cells = self.evaluate(parts)
+                    unit += θ
+                    for name, values in cells.items():
+                        left[name][probe[:-1] == 1.0] = values[probe[:-1] == 1.0]
+                        right[name][probe[1:] == 1.0] = values[probe[1:] == 1.0]
+                for name in CELL_FIELDS:
+                    coefficients[name].append((left[name], right[name]))
+                expected = np.ones(n) if PARTS[part] == "Θ" else np.zeros(n)
+                if not np.array_equal(unit, expected):
+                    raise RuntimeError("θ is not Θ plus a function of x: the maps do not apply")
+        finally:
+            theta_A.value = value
+        cells = np.arange(n - 1)
+        maps = {"theta0": theta0}
+        for name in CELL_FIELDS:
+            maps[f"{name}0"] = cell0[name]
+            maps[f"{name}_values"] = np.stack(
+                [side for left, right in coefficients[name] for side in (left, right)], axis=1)
+            maps[f"{name}_columns"] = np.stack(
+                [part * n + cells + side for part in range(len(PARTS)) for side in (0, 1)],
+                axis=1)
+        return maps

@@ -24,19 +24,9 @@ import sys
 import tempfile
 from pathlib import Path
 
+from rodfem.discrete.cache import cache_directory, private
+
 COMPILE_ARGS = ["-O2", "-std=c99"]
-
-
-def cache_directory() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "rodfem"
-
-
-def _private(directory: Path) -> bool:
-    """Whether ``directory`` is ours alone: owned by this user, writable by nobody else (a shared
-    /tmp fallback could otherwise hold a module planted by another user)."""
-    status = directory.stat()
-    return status.st_uid == os.getuid() and not status.st_mode & 0o022
 
 
 def declarations(source: str) -> str:
@@ -79,7 +69,7 @@ class CompiledSource:
                 directory.mkdir(mode=0o700, parents=True, exist_ok=True)
             except OSError:
                 continue
-            if not _private(directory):
+            if not private(directory):
                 continue
             if not target.exists():
                 try:

@@ -23,10 +23,8 @@ condition Uⁿ(1) ≤ g for the rigid obstacle. σ(1) = −p. Vectors are sequen
 from __future__ import annotations
 
 import numpy as np
-import ufl
 from petsc4py import PETSc
 
-import forms.copetti as copetti
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.discrete.nodes import block_diagonal, block_matrix
 from rodfem.model import contact
@@ -35,6 +33,56 @@ from rodfem.solver.errors import SourceNotFinite
 from rodfem.solver.linalg import lu_factor, stacked
 from rodfem.solver.methods import massless
 from rodfem.solver.time_schemes import TIME_SCHEMES
+
+
+class Residuals:
+    """(3.1) and (3.2) for the increments, and the contact term, as UFL forms made when called:
+    a run whose operators are cached makes none (nor imports UFL)."""
+
+    def __init__(self, disc: Discretisation, weight: float, heat_y: dict[str, str],
+                 momentum_y: dict[str, str]):
+        self.disc, self.weight, self.heat_y, self.momentum_y = disc, weight, heat_y, momentum_y
+
+    def heat(self):
+        """(3.1) for ΔΘⁿ, given the displacement increment (ΔU_other: ΔUⁿ, or in Picard's (3.3)
+        the previous iterate's)."""
+        import ufl
+
+        import forms.copetti as copetti
+
+        disc, f, c = self.disc, self.disc.symbol, self.disc.const
+        w = ufl.TestFunction(disc.V)
+        F = copetti.heat_increment(f("ΔΘ"), f("Θ_prev"), f("ΔU_other"), w, c.dt, c.a, c.k,
+                                   disc.dx_m, disc.dx, disc.ds_1, self.weight)
+        if "source" in self.heat_y:
+            F += copetti.source(f(self.heat_y["source"]), w, disc.dx)
+        return F
+
+    def momentum(self):
+        """(3.2) for ΔUⁿ, given the temperature increment ΔΘⁿ, less its contact term (a load,
+        :meth:`contact`). Dⁿ⁻¹ is the velocity's displacement over a step: ΔUⁿ⁻¹ in the paper's
+        scheme (δⁿ⁻¹ = ΔUⁿ⁻¹/Δt), Δt Vⁿ⁻¹ in Crank–Nicolson's."""
+        import ufl
+
+        import forms.copetti as copetti
+
+        disc, f, c = self.disc, self.disc.symbol, self.disc.const
+        w = ufl.TestFunction(disc.V)
+        F = copetti.momentum_increment(f("ΔU"), f("D_prev"), f("U_prev"),
+                                       f("Θ_prev") + self.weight * f("ΔΘ_other"), w, c.dt, c.b,
+                                       c.zeta, c.a, c.theta_A, disc.r, disc.dx_m, disc.dx,
+                                       self.weight, disc.dx_b)
+        if "source" in self.momentum_y:
+            F += copetti.source(f(self.momentum_y["source"]), w, disc.dx)
+        return F
+
+    def contact(self):
+        """The contact term p v(1) for p = 1."""
+        import ufl
+
+        import forms.copetti as copetti
+
+        return copetti.contact(1.0, ufl.TestFunction(self.disc.V), self.disc.ds_1)
 
 
 class Method:
@@ -58,54 +106,32 @@ class Method:
         self.coupled = scene["model.a"] != 0.0  # a = 0: heat does not see motion, nor motion heat
         self.inertia = scene["model.b"] != 0.0
         self.tol, self.max_iterations = scene["solver.tol"], scene["solver.max_iterations"]
-        c = disc.const
-        dt, a, b, zeta, k, theta_A = c.dt, c.a, c.b, c.zeta, c.k, c.theta_A
-        f = disc.symbol
-        ΔΘ, Θ_prev, ΔΘ_other = f("ΔΘ"), f("Θ_prev"), f("ΔΘ_other")
-        ΔU, D_prev, U_prev, ΔU_other = f("ΔU"), f("D_prev"), f("U_prev"), f("ΔU_other")
-        w = ufl.TestFunction(disc.V)
-        dx_m, dx, ds_1 = disc.dx_m, disc.dx, disc.ds_1
-
         weight = self.time_scheme.weight
         # Sources only where the scene has them (a manufactured solution): their loads are
         # N_f f with f interpolated at the nodes at the scheme's time of the step.
         self.sources = {name: scene.source_term(name) for name in ("heat", "momentum")}
-        heat_y = {"theta_prev": Θ_prev, "du": ΔU_other}
-        momentum_y = {"du_prev": D_prev, "u_prev": U_prev, "theta_prev": Θ_prev,
-                      "dtheta": ΔΘ_other}
+        # The functions of the residuals beyond the unknown, by the names of their symbols
+        # (Discretisation.symbol).
+        heat_y = {"theta_prev": "Θ_prev", "du": "ΔU_other"}
+        momentum_y = {"du_prev": "D_prev", "u_prev": "U_prev", "theta_prev": "Θ_prev",
+                      "dtheta": "ΔΘ_other"}
         for name, F_y in (("heat", heat_y), ("momentum", momentum_y)):
             if self.sources[name] is not None:
-                F_y["source"] = f(f"f_{name}")
-
-        def heat():
-            """(3.1) for ΔΘⁿ, given the displacement increment (ΔU_other: ΔUⁿ, or in Picard's
-            (3.3) the previous iterate's)."""
-            F = copetti.heat_increment(ΔΘ, Θ_prev, ΔU_other, w, dt, a, k, dx_m, dx, ds_1, weight)
-            if "source" in heat_y:
-                F += copetti.source(heat_y["source"], w, dx)
-            return F
-
-        def momentum():
-            """(3.2) for ΔUⁿ, given the temperature increment ΔΘⁿ, less its contact term (a
-            load, below). Dⁿ⁻¹ is the velocity's displacement over a step: ΔUⁿ⁻¹ in the paper's
-            scheme (δⁿ⁻¹ = ΔUⁿ⁻¹/Δt), Δt Vⁿ⁻¹ in Crank–Nicolson's."""
-            F = copetti.momentum_increment(ΔU, D_prev, U_prev, Θ_prev + weight * ΔΘ_other, w, dt,
-                                           b, zeta, a, theta_A, disc.r, dx_m, dx, weight,
-                                           disc.dx_b)
-            if "source" in momentum_y:
-                F += copetti.source(momentum_y["source"], w, dx)
-            return F
+                F_y["source"] = f"f_{name}"
+        residuals = Residuals(disc, weight, heat_y, momentum_y)
 
         # The residuals are named by all they depend on beyond the discretisation's own symbols
         # and constants: a scene of the same discretisation, time scheme and sources reuses
-        # their compiled forms (Discretisation.load).
+        # their compiled forms (Discretisation.load), and a run of the same constants their
+        # operators (the cache of Discretisation.arrays), without making the forms.
         sourced = tuple(self.sources[name] is not None for name in ("heat", "momentum"))
-        self.heat = disc.affine_operator(heat, ΔΘ, heat_y, loads=("source",),
+        self.heat = disc.affine_operator(residuals.heat, "ΔΘ", heat_y, loads=("source",),
                                          key=("heat", weight, sourced))
-        self.momentum = disc.affine_operator(momentum, ΔU, momentum_y, loads=("source",),
+        self.momentum = disc.affine_operator(residuals.momentum, "ΔU", momentum_y,
+                                             loads=("source",),
                                              key=("momentum", weight, sourced))
         # The contact term p v(1) for p = 1: the load e of a unit force at x = 1.
-        self.contact_load = disc.vector(lambda: copetti.contact(1.0, w, ds_1), key=("contact",))
+        self.contact_load = disc.vector(residuals.contact, key=("contact",))
         self._coupled = None  # coupled_operator(), once made
         self.last = disc.nodes.size - 1  # the node x = 1
         self._index = disc.nodes.size + self.last  # of ΔU(1) in the unknowns [ΔΘ; ΔU]

@@ -25,7 +25,6 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from rodfem.discrete import compat
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.solver.errors import NotConverged, NotFinite
 from rodfem.solver.linalg import LU_OPTIONS, lu_factor, set_default_options, stacked
@@ -186,10 +185,12 @@ class NewtonMethod(Method):
         self.snes.solve(None, self.x)
         reason = self.snes.getConvergedReason()
         iterations = self.snes.getIterationNumber()
-        if reason == compat.SNES_DIVERGED_NAN:
-            raise NotFinite("newton", self.n + 1, (self.n + 1) * self.dt,
-                            "the residual of (3.1)-(3.2)")
         if reason <= 0:
+            from rodfem.discrete import compat  # (imports dolfinx: only for a failed step)
+
+            if reason == compat.SNES_DIVERGED_NAN:
+                raise NotFinite("newton", self.n + 1, (self.n + 1) * self.dt,
+                                "the residual of (3.1)-(3.2)")
             raise NotConverged("newton", self.n + 1, (self.n + 1) * self.dt,
                                f"{REASONS.get(reason, reason)} after {iterations} iterations",
                                iterations)

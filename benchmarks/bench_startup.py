@@ -1,0 +1,178 @@
+"""Benchmark: how long a small run takes as a whole process (start-up included), for this version
+and an earlier one, and against GetFEM's start, on this machine.
+
+* ``rodfem run`` of tiny scenes (paper1 to t = 0.01, 10 steps; impact to t = 0.01, 10 steps of
+  1,000 cells) as a user runs it, a whole process into a fresh directory: the median of
+  ``--repeats`` runs, this version and the earlier one taken alternately so that both see the
+  same load (these shared 2-core machines drift by tens of percent: compare only numbers taken
+  together). The earlier version is the git revision ``--rev``, checked out by ``git worktree
+  add`` into a temporary directory and put first on PYTHONPATH. Both use the per-user cache as a
+  user's second run finds it (compiled loops and, for this version, operators: one run of each
+  first, not timed); ``RODFEM_CACHE=0`` shows this version without its operator cache.
+* where the time goes: ``python -X importtime`` of one such run of each version, the cumulative
+  import time of the main packages, and the rest of the process.
+* GetFEM (``python3-getfem``, if installed; Debian's package ships no demos, so its
+  ``demo_dynamic_contact_1D.py`` is not at hand): a stand-in process that imports getfem, makes
+  the 1D mesh of 1,000 cells, the P1 space and its integration method, and assembles the mass and
+  stiffness matrices, which is how the demo starts.
+
+    .venv/bin/python benchmarks/bench_startup.py [--repeats 9] [--rev c2d9fed] [--json FILE]
+
+The machine is printed first; ``--json`` also writes the numbers and the machine to FILE.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = {"paper1": ["--set", "time.end=0.01"], "impact": ["--set", "time.end=0.01"]}
+PACKAGES = ("mpi4py.MPI", "petsc4py.PETSc", "dolfinx", "ufl", "h5py", "scipy", "numpy",
+            "rodfem.cli", "rodfem.run")
+GETFEM_STAND_IN = """
+import numpy as np
+import getfem as gf
+mesh = gf.Mesh("cartesian", np.linspace(0.0, 1.0, 1001))
+mf = gf.MeshFem(mesh, 1)
+mf.set_fem(gf.Fem("FEM_PK(1,1)"))
+mim = gf.MeshIm(mesh, gf.Integ("IM_GAUSS1D(4)"))
+M = gf.asm_mass_matrix(mim, mf)
+K = gf.asm_laplacian(mim, mf, mf, np.ones(mf.nbdof()))
+"""
+
+
+def machine() -> dict:
+    cpu = "unknown"
+    for line in Path("/proc/cpuinfo").read_text().splitlines():
+        if line.startswith("model name"):
+            cpu = line.split(":", 1)[1].strip()
+            break
+    return {"cpu": cpu, "cores": os.cpu_count(), "platform": platform.platform(),
+            "python": platform.python_version(), "load": os.getloadavg()[0],
+            "date": time.strftime("%Y-%m-%d %H:%M:%S %Z")}
+
+
+def environment(source: Path, **extra: str) -> dict:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        filter(None, [str(source), os.environ.get("PYTHONPATH")])), **extra)
+    return env
+
+
+def run_command(scene: str, out: Path) -> list[str]:
+    return ["-m", "rodfem", "run", scene, *SCENES[scene], "--out", str(out), "--force",
+            "--quiet"]
+
+
+def seconds(arguments: list[str], env: dict, cwd: Path) -> float:
+    """Wall time of ``python arguments`` as a new process."""
+    started = time.perf_counter()
+    # run from a directory without rodfem/: "python -m" puts the working directory first on
+    # sys.path, and a checkout's rodfem/ there would shadow PYTHONPATH
+    subprocess.run([sys.executable, *arguments], check=True, env=env, cwd=cwd,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - started
+
+
+def import_breakdown(arguments: list[str], env: dict, cwd: Path) -> dict:
+    """Cumulative import seconds of :data:`PACKAGES` (where first imported) and the total."""
+    done = subprocess.run([sys.executable, "-X", "importtime", *arguments], env=env, cwd=cwd,
+                          capture_output=True, text=True, check=True)
+    found, total = {}, 0.0
+    for line in done.stderr.splitlines():
+        match = re.match(r"import time:\s+(\d+) \|\s+(\d+) \|( *)(\S+)", line)
+        if not match:
+            continue
+        cumulative, depth, name = int(match[2]) * 1e-6, len(match[3]), match[4]
+        if depth == 1:
+            total += cumulative
+        if name in PACKAGES and name not in found:
+            found[name] = cumulative
+    return {"packages": found, "imports": total}
+
+
+def checkout(rev: str, directory: Path) -> Path:
+    subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(directory), rev],
+                   check=True, capture_output=True)
+    return directory
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeats", type=int, default=9)
+    parser.add_argument("--rev", default="c2d9fed",
+                        help="the earlier version (a git revision; default: the one before the "
+                             "faster start)")
+    parser.add_argument("--json", type=Path, help="write the numbers and the machine here")
+    args = parser.parse_args()
+    info = machine()
+    print("machine:", ", ".join(f"{k} {v}" for k, v in info.items()))
+    work = Path(tempfile.mkdtemp(prefix="rodfem-bench-startup-"))
+    old = checkout(args.rev, work / "old")
+    revision = subprocess.run(["git", "-C", str(old), "rev-parse", "--short", "HEAD"],
+                              capture_output=True, text=True, check=True).stdout.strip()
+    versions = {f"earlier ({revision})": environment(old), "this version": environment(ROOT),
+                "this version, RODFEM_CACHE=0": environment(ROOT, RODFEM_CACHE="0")}
+    results: dict = {"machine": info, "rev": revision, "repeats": args.repeats, "runs": {}}
+    try:
+        for scene in SCENES:
+            out = work / "out"
+            for env in versions.values():  # the caches as a second run finds them
+                seconds(run_command(scene, out), env, work)
+            times = {name: [] for name in versions}
+            for _ in range(args.repeats):
+                for name, env in versions.items():
+                    times[name].append(seconds(run_command(scene, out), env, work))
+            results["runs"][scene] = {name: {"median": statistics.median(t), "all": t}
+                                      for name, t in times.items()}
+            results["runs"][scene]["imports"] = {
+                name: import_breakdown(run_command(scene, out), versions[name], work)
+                for name in list(versions)[:2]}
+        if _has_getfem():
+            stand_in = work / "getfem_stand_in.py"
+            stand_in.write_text(GETFEM_STAND_IN)
+            t = [seconds([str(stand_in)], dict(os.environ), work) for _ in range(args.repeats)]
+            results["getfem"] = {"median": statistics.median(t), "all": t}
+    finally:
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(old)],
+                       capture_output=True)
+        shutil.rmtree(work, ignore_errors=True)
+    report(results)
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=1) + "\n")
+    return 0
+
+
+def _has_getfem() -> bool:
+    return subprocess.run([sys.executable, "-c", "import getfem"],
+                          capture_output=True).returncode == 0
+
+
+def report(results: dict) -> None:
+    print(f"whole process, median of {results['repeats']} (s):")
+    for scene, runs in results["runs"].items():
+        line = ", ".join(f"{name} {r['median']:.3f}" for name, r in runs.items()
+                         if name != "imports")
+        print(f"  rodfem run {scene} {' '.join(SCENES[scene])}: {line}")
+        for name, breakdown in runs["imports"].items():
+            parts = ", ".join(f"{p} {s:.3f}" for p, s in breakdown["packages"].items())
+            print(f"    imports of {name}: {breakdown['imports']:.3f} ({parts})")
+    if "getfem" in results:
+        print(f"  GetFEM stand-in (import getfem, 1D mesh, P1, mass and stiffness): "
+              f"{results['getfem']['median']:.3f}")
+    else:
+        print("  GetFEM: not installed (python3-getfem)")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

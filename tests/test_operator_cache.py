@@ -1,0 +1,175 @@
+"""The operator cache (rodfem/discrete/cache.py) never changes a result: a run with an empty cache,
+with a warm one, with a broken one and without any gives the same history and fields bit for bit;
+a warm serial run does not import dolfinx; runs on two ranks leave it alone."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.sparse
+from mpi4py import MPI
+
+import rodfem.scene
+from rodfem.discrete.cache import cache_directory
+from rodfem.output.pointwise import CellMap
+from rodfem.run import simulate
+
+COMM = MPI.COMM_WORLD
+SCENES = {  # the compiled Picard loop, the compiled direct loop (Crank–Nicolson), the PETSc loop
+    "paper1": ("paper1", ["time.end=0.02", "output.every=5", "mesh.cells=40"]),
+    "impact": ("impact", ["time.end=0.02", "output.every=5", "mesh.cells=40"]),
+    "newton": ("paper1", ["time.end=0.01", "solver.method=newton", "mesh.cells=40",
+                          "discretisation.mass=redistributed-lumped"]),
+}
+
+
+@pytest.fixture
+def cache(monkeypatch):
+    """An empty cache directory, the same on every rank."""
+    import shutil
+    import tempfile
+
+    path = Path(tempfile.mkdtemp(prefix="rodfem-cache-")) if COMM.rank == 0 else None
+    path = COMM.bcast(path, root=0)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(path))
+    yield path / "rodfem"
+    COMM.barrier()
+    if COMM.rank == 0:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+def run(name: str) -> tuple[np.ndarray, dict]:
+    scene, overrides = SCENES[name]
+    result = simulate(rodfem.scene.load(scene, overrides), None, COMM, progress=False,
+                      keep_fields=True)
+    assert result.status == "complete"
+    fields = result.fields[2] if result.fields is not None else {}
+    return result.history, fields
+
+
+def assert_same_bits(a: tuple[np.ndarray, dict], b: tuple[np.ndarray, dict]) -> None:
+    assert a[0].tobytes() == b[0].tobytes()
+    assert a[1].keys() == b[1].keys()
+    for name in a[1]:
+        assert np.asarray(a[1][name]).tobytes() == np.asarray(b[1][name]).tobytes(), name
+
+
+def operator_files(directory: Path) -> list[Path]:
+    return sorted(directory.glob("operators-*.npz")) if directory.exists() else []
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_results_are_the_same_bits_with_and_without_the_cache(name, cache, monkeypatch):
+    cold = run(name)  # an empty cache: assembled, then stored (serially)
+    assert len(operator_files(cache)) == (1 if COMM.size == 1 else 0)
+    warm = run(name)  # read back
+    monkeypatch.setenv("RODFEM_CACHE", "0")
+    without = run(name)
+    assert_same_bits(cold, warm)
+    assert_same_bits(cold, without)
+
+
+@pytest.mark.skipif(COMM.size > 1, reason="the cache is serial")
+def test_a_broken_file_is_assembled_again_and_replaced(cache):
+    expected = run("paper1")
+    (path,) = operator_files(cache)
+    whole = path.read_bytes()
+    middle = len(whole) // 2
+    for broken in (b"junk", whole[:middle],
+                   whole[:middle] + bytes([whole[middle] ^ 1]) + whole[middle + 1:]):
+        path.write_bytes(broken)
+        assert_same_bits(run("paper1"), expected)
+        assert path.read_bytes() != broken  # replaced by a whole file
+    assert_same_bits(run("paper1"), expected)
+
+
+@pytest.mark.skipif(COMM.size > 1, reason="the cache is serial")
+def test_an_edited_array_fails_the_checksum(cache):
+    """A whole file whose arrays were changed (the zip itself consistent) is not used."""
+    expected = run("paper1")
+    (path,) = operator_files(cache)
+    with np.load(path) as data:
+        arrays = dict(data)
+    blob = arrays["blob"].copy()
+    blob[len(blob) // 2] ^= 1  # a bit of some array's value
+    np.savez(path, **{**arrays, "blob": blob})
+    assert_same_bits(run("paper1"), expected)
+    with np.load(path) as data:
+        assert data["blob"].tobytes() == arrays["blob"].tobytes()  # replaced by the right one
+
+
+@pytest.mark.skipif(COMM.size > 1, reason="the cache is serial")
+def test_another_constant_is_another_file(cache, monkeypatch):
+    """The digest names the forms' constants: a scene with another k does not read the first
+    one's operators (its results are those of a run without the cache)."""
+    run("paper1")
+    scene, overrides = SCENES["paper1"]
+    SCENES["other"] = (scene, [*overrides, "model.k=2.5"])
+    try:
+        warm = run("other")
+        assert len(operator_files(cache)) == 2
+        monkeypatch.setenv("RODFEM_CACHE", "0")
+        assert_same_bits(warm, run("other"))
+    finally:
+        del SCENES["other"]
+
+
+@pytest.mark.skipif(COMM.size > 1, reason="the cache is serial")
+def test_a_directory_others_can_write_is_not_used(cache):
+    cache.mkdir(parents=True)
+    cache.chmod(0o777)
+    expected = run("paper1")
+    assert operator_files(cache) == []
+    cache.chmod(0o700)
+    assert_same_bits(run("paper1"), expected)
+    assert len(operator_files(cache)) == 1
+
+
+def test_the_cache_directory_follows_xdg(monkeypatch, tmp_path):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert cache_directory() == tmp_path / "rodfem"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    assert cache_directory() == Path.home() / ".cache" / "rodfem"
+
+
+@pytest.mark.skipif(COMM.size > 1, reason="starts its own processes; run serially")
+def test_a_warm_run_does_not_import_dolfinx(cache, tmp_path):
+    """The second run of a scene as a command: no dolfinx, UFL or FFCx in the process, and the
+    same history file as the first's."""
+    code = ("import sys; from rodfem.__main__ import main; code = main(); "
+            "print(sorted(m for m in ('dolfinx', 'ufl', 'ffcx') if m in sys.modules)); "
+            "sys.exit(code)")
+    env = dict(os.environ, XDG_CACHE_HOME=str(cache.parent))
+    loaded, histories = [], []
+    for i in range(2):
+        out = tmp_path / f"run{i}"
+        done = subprocess.run([sys.executable, "-c", code, "run", "paper1",
+                               "--set", "time.end=0.01", "--out", str(out), "--quiet"],
+                              env=env, capture_output=True, text=True, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        loaded.append(done.stdout.strip().splitlines()[-1])
+        histories.append(rodfem.load(out).history)
+    assert loaded == ["['dolfinx', 'ffcx', 'ufl']", "[]"]
+    assert histories[0].dtype == histories[1].dtype
+    assert histories[0].tobytes() == histories[1].tobytes()
+
+
+def test_a_cell_map_sums_as_a_sparse_product():
+    """CellMap.apply adds the products from 0 in the table's order, as SciPy's CSR product does:
+    the same bits, signed zeros included."""
+    rng = np.random.default_rng(3)
+    n = 50
+    values = rng.standard_normal((n - 1, 6)) * 10.0 ** rng.integers(-8, 8, (n - 1, 6))
+    values[::7, 2] = 0.0
+    values[::5, 3] = -0.0
+    cells = np.arange(n - 1)
+    columns = np.stack([part * n + cells + side for part in range(3) for side in (0, 1)],
+                       axis=1)
+    s = rng.standard_normal(3 * n)
+    s[::4] = -0.0
+    sparse = scipy.sparse.csr_matrix(
+        (values.ravel(), columns.ravel(), np.arange(0, 6 * n - 5, 6)), shape=(n - 1, 3 * n))
+    assert (sparse @ s).tobytes() == CellMap(values, columns).apply(s).tobytes()
