@@ -414,6 +414,29 @@ def test_a_marker_of_a_dead_process_whose_number_was_reused_is_not_live(tmp_path
 
 
 @serial_only
+def test_a_marker_of_a_killed_process_not_yet_reaped_is_not_live():
+    """A run killed under mpirun whose launcher died too is left a zombie where no init reaps
+    it: it writes nothing any more, so its directory is free."""
+    from rodfem.output.writers import live_writer
+
+    child = subprocess.Popen(["sleep", "30"])
+    try:
+        marker = {"status": "running", "command": "run", "pid": child.pid,
+                  "host": __import__("socket").gethostname(),
+                  "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+        assert live_writer(marker) is not None
+        child.kill()
+        deadline = time.monotonic() + 10
+        while Path(f"/proc/{child.pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z":
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        assert live_writer(marker) is None  # not reaped yet: os.kill(pid, 0) still succeeds
+    finally:
+        child.kill()
+        child.wait()
+
+
+@serial_only
 def test_resume_applies_the_size_check_of_run(small_disk):
     out = small_disk / "run"
     scene = ["paper1", "--set", "mesh.cells=20", "--set", "time.end=0.1"]

@@ -16,16 +16,20 @@ import socket
 from pathlib import Path
 
 
-def _started_at(pid: int) -> float | None:
-    """When process ``pid`` of this host started (seconds since the epoch), or None if unknown."""
+def _process(pid: int) -> tuple[str | None, float | None]:
+    """The state of process ``pid`` of this host (``R``, ``S``, ``Z`` a zombie, …) and when it
+    started (seconds since the epoch); None for what cannot be read."""
     try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None, None
+    try:
         boot = next(int(line.split()[1]) for line in Path("/proc/stat").read_text().splitlines()
                     if line.startswith("btime "))
-        ticks = int(stat.rsplit(")", 1)[1].split()[19])  # field 22, starttime
-        return boot + ticks / os.sysconf("SC_CLK_TCK")
+        ticks = int(fields[19])  # field 22, starttime
+        return fields[0], boot + ticks / os.sysconf("SC_CLK_TCK")
     except (OSError, ValueError, IndexError, StopIteration):
-        return None
+        return fields[0] if fields else None, None
 
 
 def _marked_at(marker: dict) -> float | None:
@@ -54,7 +58,9 @@ def live_writer(marker: dict) -> str | None:
         return None
     except PermissionError:
         pass  # alive, another user's
-    started, marked = _started_at(pid), _marked_at(marker)
+    (status, started), marked = _process(pid), _marked_at(marker)
+    if status in ("Z", "X"):  # killed, not yet reaped (its parent gone, under an init that
+        return None           # reaps no one): it writes nothing any more
     if started is not None and marked is not None and started > marked + 2:  # whole seconds
         return None
     return (f"rodfem {marker.get('command')} (pid {pid} on {host}, since "
