@@ -24,7 +24,7 @@ def sweep(args: argparse.Namespace) -> int:
     try:
         result = run_sweep(spec, out, MPI.COMM_WORLD, histories=args.histories, force=args.force,
                            progress=args.progress or sys.stderr.isatty(),
-                           text=Path(args.file).read_text(encoding="utf-8"))
+                           text=Path(args.file).read_text(encoding="utf-8"), keep=args.file)
     except OutputError as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
@@ -79,6 +79,7 @@ def resume_sweep(args: argparse.Namespace, out: Path, marker: dict) -> int:
     from mpi4py import MPI
 
     from rodfem.output.directories import release
+    from rodfem.studies.sweep import check_complete
     from rodfem.studies.sweep import resume as continue_sweep
 
     comm = MPI.COMM_WORLD
@@ -87,11 +88,12 @@ def resume_sweep(args: argparse.Namespace, out: Path, marker: dict) -> int:
         say(f"rodfem: error: --set: a sweep resumes as it was written; {out} is a sweep "
             "(change its sweep file and run it again instead)")
         return EXIT_INPUT
-    if marker.get("status") == "complete":
-        release(out, comm)
-        say(f"rodfem: {out} is a complete sweep; nothing to resume", sys.stdout)
-        return 0
     try:
+        if marker.get("status") == "complete":  # nothing to do: a job script's resume is fine
+            check_complete(out)
+            release(out, comm)
+            say(f"rodfem: {out} is a complete sweep; nothing was changed", sys.stdout)
+            return 0
         result = continue_sweep(out, comm, progress=args.progress or sys.stderr.isatty())
     except SceneError as err:
         release(out, comm)

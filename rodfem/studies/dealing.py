@@ -81,12 +81,14 @@ def run_scene(sweep: Sweep, index: int, setups, keep_history: bool) -> Outcome:
 
 
 class Progress:
-    """A line every few seconds on rank 0 (on a terminal, or always with ``force``)."""
+    """A line every few seconds on rank 0 (on a terminal, or always with ``force``): of the
+    scenes run, or with ``doing="checked"`` of the scenes validated before any runs."""
 
-    def __init__(self, total: int, done: int, enabled: bool, every: float = 2.0):
+    def __init__(self, total: int, done: int, enabled: bool, every: float = 2.0,
+                 doing: str = ""):
         self.total, self.done_before, self.enabled = total, done, enabled
         self.started = self.last = time.perf_counter()
-        self.every = every
+        self.every, self.doing = every, doing
 
     def update(self, done: int) -> None:
         now = time.perf_counter()
@@ -95,8 +97,9 @@ class Progress:
         self.last = now
         rate = (done - self.done_before) / max(now - self.started, 1e-9)
         left = (self.total - done) / rate if rate > 0 else float("inf")
-        print(f"sweep: {done}/{self.total} scenes, {rate:.1f} scenes/s, about {left:.0f} s "
-              "left", file=sys.stderr, flush=True)
+        doing = f"{self.doing} " if self.doing else ""
+        print(f"sweep: {doing}{done}/{self.total} scenes, {rate:.1f} scenes/s, about "
+              f"{left:.0f} s left", file=sys.stderr, flush=True)
 
 
 def deal(sweep: Sweep, todo: list[int], comm: MPI.Comm, record, keep_history: bool,

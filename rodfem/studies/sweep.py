@@ -25,7 +25,6 @@ complete.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import time
 from pathlib import Path
@@ -40,10 +39,11 @@ from rodfem.scene import SceneError
 from rodfem.studies import design
 from rodfem.studies.dealing import Outcome, Progress, deal
 from rodfem.studies.design import Sweep
-from rodfem.studies.sweepfiles import (FILES, SweepResult, load_sweep, meta, parsed, read_meta,
-                                       result_from, write_table)
+from rodfem.studies.sweepfiles import (HISTORIES, SweepResult, check_complete, load_sweep, meta,
+                                       parsed, read_meta, reserve_marker, result_from, tag,
+                                       write_table)
 
-__all__ = ["SweepResult", "load_sweep", "resume", "run_sweep"]
+__all__ = ["SweepResult", "check_complete", "load_sweep", "resume", "run_sweep"]
 
 
 def _as_sweep(spec) -> Sweep:
@@ -57,16 +57,17 @@ def _as_sweep(spec) -> Sweep:
     return design.load(spec)
 
 
-def _validate_all(sweep: Sweep, comm: MPI.Comm) -> None:
-    """Every scene validated (shared among the ranks) before any runs; SceneError on every rank
-    for the first refused."""
-    error = None
+def _validate_all(sweep: Sweep, comm: MPI.Comm, progress: bool = False) -> None:
+    """Every scene validated (shared among the ranks) before any runs, with a progress line on
+    rank 0 for a long sweep; SceneError on every rank for the first refused."""
+    error, line = None, Progress(len(sweep), 0, progress and comm.rank == 0, doing="checked")
     for i in range(comm.rank, len(sweep), comm.size):
         try:
             sweep.scene(i)
         except SceneError as err:
             error = (i, str(err))
             break
+        line.update(min(i + comm.size, len(sweep)))  # about where the other ranks are too
     errors = [e for e in comm.allgather(error) if e is not None]
     if errors:
         raise SceneError(min(errors)[1])
@@ -74,19 +75,20 @@ def _validate_all(sweep: Sweep, comm: MPI.Comm) -> None:
 
 def run_sweep(spec, out: str | Path | None = None, comm: MPI.Comm | None = None, *,
               histories: bool = False, force: bool = False, progress: bool = False,
-              text: str | None = None) -> SweepResult:
+              text: str | None = None, keep: str | Path | None = None) -> SweepResult:
     """Run a sweep: ``spec`` a sweep file's path, its TOML data as a dict, or a parsed
     :class:`~rodfem.studies.design.Sweep`. Into the directory ``out`` (as ``rodfem sweep
     --out``), or in memory with ``out=None`` (then ``histories`` keeps every history in the
-    result). Under mpirun every rank calls it; every rank gets the table.
+    result). Under mpirun every rank calls it; every rank gets the table. ``force`` replaces a
+    sweep directory, never one that holds the sweep file (``spec``'s path, or ``keep``).
 
     Raises:
-        SceneError: a mistake in the sweep or a scene (nothing has run).
+        SceneError: a mistake in the sweep or a scene (nothing has run, nothing is written).
         rodfem.OutputError: ``out`` cannot be used.
     """
     comm = comm or MPI.COMM_WORLD
     sweep = _as_sweep(spec)
-    _validate_all(sweep, comm)
+    _validate_all(sweep, comm, progress)
     progress_line = Progress(len(sweep), 0, progress and comm.rank == 0)
     if out is None:
         return _in_memory(sweep, comm, histories, progress_line)
@@ -94,18 +96,24 @@ def run_sweep(spec, out: str | Path | None = None, comm: MPI.Comm | None = None,
     from rodfem.output.directories import prepare_directory
     from rodfem.output.files import write_json, write_text
 
-    if text is None and isinstance(spec, (str, Path)):
-        text = Path(spec).read_text(encoding="utf-8")
+    if isinstance(spec, (str, Path)):
+        keep = keep if keep is not None else spec
+        text = text if text is not None else Path(spec).read_text(encoding="utf-8")
+    written = meta(sweep, histories)  # SceneError before anything is written
+    files = (*(["sweep.toml"] if text is not None else []), "sweep.json", table.NAME,
+             "summary.json", *([HISTORIES] if histories else []), journal.DIRECTORY)
     # A directory marked is one with its sweep.json, which resume reads: a signal between the
     # two is taken after both.
     with interrupts.deferred():
-        prepare_directory(out, force, comm, command="sweep", files=FILES)
+        prepare_directory(out, force, comm, keep=Path(keep) if keep is not None else None,
+                          command="sweep", files=files)
+        reserve_marker(out, comm)
         if text is not None:
             write_text(out / "sweep.toml", text, comm)
-        write_json(out / "sweep.json", meta(sweep, histories), comm)
+        write_json(out / "sweep.json", written, comm)
     if interrupts.signal_received() is not None:
         raise interrupts.Interrupted(interrupts.signal_received())
-    return _run_into(out, sweep, comm, histories, 0, {}, progress_line)
+    return _run_into(out, sweep, comm, histories, tag(written), 0, {}, progress_line)
 
 
 def _in_memory(sweep: Sweep, comm: MPI.Comm, histories: bool, progress) -> SweepResult:
@@ -120,13 +128,12 @@ def _in_memory(sweep: Sweep, comm: MPI.Comm, histories: bool, progress) -> Sweep
                        if histories else None)
 
 
-def _run_into(out: Path, sweep: Sweep, comm: MPI.Comm, histories: bool, session: int,
-              done: dict, progress) -> SweepResult:
-    """Run the scenes not ``done`` into ``out`` (held by this command), then write its table."""
-    from rodfem.output.directories import finish
-
+def _run_into(out: Path, sweep: Sweep, comm: MPI.Comm, histories: bool, journal_tag: bytes,
+              session: int, done: dict, progress) -> SweepResult:
+    """Run the scenes not ``done`` into ``out`` (held by this command), then write its table
+    and its marker's status. The first file that could not be written is the one named."""
     todo = [i for i in range(len(sweep)) if i not in done]
-    log = journal.Journal(out, session, comm.rank)
+    log = journal.Journal(out, session, comm.rank, journal_tag)
     progress.done_before = len(done)
 
     def record(outcome: Outcome) -> None:
@@ -143,18 +150,8 @@ def _run_into(out: Path, sweep: Sweep, comm: MPI.Comm, histories: bool, session:
     seconds = time.perf_counter() - started
     errors = [e for e in comm.allgather(error) if e]
     ran = comm.allreduce(ran)  # every journal is closed
-    status, message = "interrupted", None
-    if comm.rank == 0:
-        try:
-            status = write_table(out, sweep, histories, ran, seconds, comm.size,
-                                 failed_write=bool(errors))
-        except OSError as err:
-            errors.append(io_line(err))
-    status, errors = comm.bcast((status, errors), root=0)
-    if errors:
-        message = errors[0]
-        status = "failed"
-    finish(out, status, comm)
+    status = _finish(out, sweep, comm, histories, errors, ran, seconds, journal_tag)
+    message = errors[0] if errors else None
     result = None
     if comm.rank == 0:
         try:
@@ -164,25 +161,69 @@ def _run_into(out: Path, sweep: Sweep, comm: MPI.Comm, histories: bool, session:
     return comm.bcast(result, root=0)
 
 
+def _finish(out: Path, sweep: Sweep, comm: MPI.Comm, histories: bool, errors: list[str],
+            ran: int, seconds: float, journal_tag: bytes) -> str:
+    """Write the table from the journals and the marker's status (rank 0); ``errors`` gets
+    what could not be written, after what stopped the sweep. Returns the status."""
+    from rodfem.output.directories import finish
+
+    status = "interrupted"
+    if comm.rank == 0:
+        try:
+            status = write_table(out, sweep, histories, ran, seconds, comm.size,
+                                 failed_write=bool(errors), tag=journal_tag)
+        except OSError as err:
+            errors.append(io_line(err))
+        if errors:
+            status = "failed"
+        try:
+            finish(out, status, comm)
+        except OSError as err:  # the marker says running, and is read as killed
+            errors.append(io_line(err))
+    status, errors[:] = comm.bcast((status, errors), root=0)
+    return status
+
+
 def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SweepResult:
     """Continue the sweep in ``out`` (held by this command with ``reopen``): the scenes the
-    journals do not hold as complete or failed."""
+    journals do not hold as complete or failed.
+
+    Raises:
+        SceneError: its sweep.json or journal is not this sweep's (edited, or of another
+            sweep): one line, nothing changed.
+    """
     from rodfem.output.directories import mark_running
 
     written = read_meta(out)
     sweep = parsed(out, written)
-    _validate_all(sweep, comm)
-    records = journal.read(out) if comm.rank == 0 else None
-    records = comm.bcast(records, root=0)
-    for i, record in records.items():  # each what sweep.json says it is
-        expected = table.line(i, sweep.points[i], sweep.axes, "", {}) if i < len(sweep) else ""
-        cells = len(sweep.axes) + 1
-        if next(csv.reader([record.line]))[:cells] != next(csv.reader([expected]))[:cells]:
-            raise SceneError(f"{out}: its journal holds a scene {i} that is not sweep.json's "
-                             "(was it edited?); run the sweep again with --force")
+    _validate_all(sweep, comm, progress)
+    records = _journal(out, sweep, tag(written), comm)
     done = {i: r for i, r in records.items()
             if table.status(r.line, sweep.axes) in ("complete", "failed")}
     session = comm.bcast(journal.sessions(out) if comm.rank == 0 else None, root=0)
     mark_running(out, comm)
-    return _run_into(out, sweep, comm, bool(written.get("histories")), session, done,
-                     Progress(len(sweep), len(done), progress and comm.rank == 0))
+    reserve_marker(out, comm)
+    return _run_into(out, sweep, comm, bool(written.get("histories")), tag(written), session,
+                     done, Progress(len(sweep), len(done), progress and comm.rank == 0))
+
+
+def _journal(out: Path, sweep: Sweep, journal_tag: bytes, comm: MPI.Comm) -> dict:
+    """The whole records of ``out``'s journal, each checked to be a scene of ``sweep`` (on
+    every rank); SceneError, one line, for a journal of another sweep."""
+    error, records = None, None
+    if comm.rank == 0:
+        try:
+            records = journal.read(out, journal_tag)
+            cells = len(sweep.axes) + 1
+            for i, record in records.items():  # each what sweep.json says it is
+                if not 0 <= i < len(sweep) or table.cells(record.line)[:cells] != table.cells(
+                        table.line(i, sweep.points[i], sweep.axes, "", {}))[:cells]:
+                    raise journal.JournalError(f"its journal holds a scene {i} that is not "
+                                               "sweep.json's (was it edited?)")
+                table.status(record.line, sweep.axes)  # ResultsError if it has none
+        except (journal.JournalError, table.ResultsError) as err:
+            error = f"{out}: {err}; run the sweep again with --force"
+    error, records = comm.bcast((error, records), root=0)
+    if error is not None:
+        raise SceneError(error)
+    return records

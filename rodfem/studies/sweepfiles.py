@@ -6,6 +6,7 @@ and the table of a directory read back as a :class:`SweepResult`.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import os
 import shutil
@@ -23,10 +24,8 @@ from rodfem.scene import SceneError
 from rodfem.studies import design
 from rodfem.studies.design import Sweep
 
-FILES = ("sweep.toml", "sweep.json", table.NAME, "summary.json", "histories.h5",
-         journal.DIRECTORY)
 HISTORIES = "histories.h5"
-FORMAT = 1
+FORMAT = 2  # 2: with the digest of the sweep, which tags its journal's records
 
 
 @dataclasses.dataclass(frozen=True)
@@ -86,17 +85,18 @@ def result_from(lines: dict[int, str], axes, status, path=None, histories=None) 
 
 
 def write_table(out: Path, sweep: Sweep, histories: bool, ran: int, seconds: float,
-                ranks: int, failed_write: bool) -> str:
-    """results.csv (and histories.h5, summary.json) from the journals (rank 0). Returns the
-    sweep's status."""
-    records = journal.read(out)
+                ranks: int, failed_write: bool, tag: bytes) -> str:
+    """results.csv (and histories.h5, summary.json) from the journals of the sweep ``tag``
+    (rank 0). Returns the sweep's status."""
+    records = journal.read(out, tag)
     lines = [records[i].line for i in sorted(records)]
     counts = {s: 0 for s in table.STATUSES}
     for record in records.values():
         counts[table.status(record.line, sweep.axes)] += 1
     complete = (len(records) == len(sweep) and counts["interrupted"] == 0 and not failed_write)
-    with replacing(out / table.NAME) as file:
-        file.write(table.text(sweep.axes, lines))
+    text = table.text(sweep.axes, lines).encode("utf-8")
+    with replacing(out / table.NAME, "wb") as file:
+        file.write(text)
     if complete and histories:
         write_histories(out / HISTORIES, records, sweep)
     status = "complete" if complete else "interrupted"
@@ -104,13 +104,29 @@ def write_table(out: Path, sweep: Sweep, histories: bool, ran: int, seconds: flo
                **{f"scenes_{s}": n for s, n in counts.items()},
                "ran_this_time": ran, "seconds": seconds,
                "scenes_per_second": ran / seconds if seconds > 0 else None,
-               "mpi_ranks": ranks}
+               "mpi_ranks": ranks, "results_sha256": hashlib.sha256(text).hexdigest()}
     with replacing(out / "summary.json") as file:
         json.dump(summary, file, indent=2)
         file.write("\n")
     if complete:
         journal.remove(out)  # all of it is in the table
     return status
+
+
+def check_complete(out: Path) -> None:
+    """That a complete sweep's files are as it wrote them: its sweep.json (by its digest) and
+    results.csv (by the digest summary.json keeps). SceneError, one line, if not."""
+    read_meta(out)
+    try:
+        summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+        written = (out / table.NAME).read_bytes()
+    except (OSError, ValueError) as err:
+        raise SceneError(f"{out} is a complete sweep without a readable summary.json and "
+                         f"{table.NAME} ({getattr(err, 'strerror', None) or err})") from None
+    if not isinstance(summary, dict) \
+            or summary.get("results_sha256") != hashlib.sha256(written).hexdigest():
+        raise SceneError(f"{out / table.NAME} is not the table the sweep wrote (was it edited, "
+                         "or its summary.json?); run the sweep again with --force")
 
 
 def write_histories(path: Path, records: dict[int, journal.Record], sweep) -> None:
@@ -149,8 +165,9 @@ def load_sweep(path: str | Path) -> SweepResult:
 
     path = Path(path)
     if journal.exists(path):  # stopped: its rows are in the journal
-        axes = parsed(path, read_meta(path)).axes
-        records = journal.read(path)
+        written = read_meta(path)
+        axes = parsed(path, written).axes
+        records = journal.read(path, tag(written))
         return result_from({i: r.line for i, r in records.items()}, axes,
                            state(path) or "interrupted", path)
     axes, columns = table.read(path / table.NAME)
@@ -158,13 +175,57 @@ def load_sweep(path: str | Path) -> SweepResult:
 
 
 def meta(sweep: Sweep, histories: bool) -> dict[str, Any]:
-    """What sweep.json holds: the sweep and its base scene, resolved (what resume reads)."""
-    return {"format": FORMAT, "name": sweep.name, "sweep": sweep.data, "base": sweep.base,
+    """What sweep.json holds: the sweep and its base scene, resolved (what resume reads), and
+    their digest. SceneError (nothing written) if a value is not one JSON keeps as it is."""
+    data = {"format": FORMAT, "name": sweep.name, "sweep": sweep.data, "base": sweep.base,
             "source": sweep.source, "axes": list(sweep.axes), "design": sweep.design,
             "grid": sweep.grid, "histories": histories, "scenes": len(sweep)}
+    try:
+        json.dumps(data)
+    except (TypeError, ValueError) as err:
+        raise SceneError(f"{sweep.name}: the sweep cannot be written to sweep.json "
+                         f"({' '.join(str(err).split())})") from None
+    return {**data, "digest": digest(data)}
 
 
-KEYS = {"name": str, "sweep": dict, "base": dict, "source": str, "histories": bool}
+def digest(data: dict[str, Any]) -> str:
+    """The SHA-256 of sweep.json's values but the digest, in their order (the order of the
+    axes is the order of the scenes)."""
+    content = {k: v for k, v in data.items() if k != "digest"}
+    return hashlib.sha256(json.dumps(content, allow_nan=True).encode()).hexdigest()
+
+
+def tag(data: dict[str, Any]) -> bytes:
+    """The tag of this sweep's journal records: the start of its digest."""
+    return bytes.fromhex(data["digest"][:16])
+
+
+KEYS = {"name": str, "sweep": dict, "base": dict, "source": str, "histories": bool,
+        "scenes": int, "digest": str}
+
+
+def reserve_marker(out: Path, comm) -> None:
+    """Keep room for the marker's last word on a disk the sweep may fill: its temporary file
+    (``.rodfem.json.<pid>``), of a block, which :func:`rodfem.output.directories.finish`
+    truncates and replaces (rank 0). Those of killed processes go; without room, none."""
+    from rodfem.output.atomic import TEMPORARY, temporary
+    from rodfem.output.directories import MARKER
+
+    if comm.rank != 0:
+        return
+    mine = temporary(out / MARKER)
+    for path in out.iterdir():
+        match = TEMPORARY.match(path.name)
+        if match and match["name"] == MARKER and path != mine and path.is_file() \
+                and not path.is_symlink():
+            path.unlink()  # a killed process's: this one holds the directory now
+    try:
+        with open(mine, "wb") as file:
+            file.write(bytes(4096))
+            file.flush()
+            os.fsync(file.fileno())
+    except OSError:
+        mine.unlink(missing_ok=True)
 
 
 def read_meta(out: Path) -> dict[str, Any]:
@@ -179,6 +240,10 @@ def read_meta(out: Path) -> dict[str, Any]:
         if not isinstance(meta.get(key), kind):
             raise SceneError(f"{out}/sweep.json: '{key}' is missing or not a {kind.__name__} "
                              "(was it edited?)")
+    if meta["digest"] != digest(meta):
+        raise SceneError(f"{out}/sweep.json is not the sweep this directory was run with (it "
+                         "was edited); a sweep resumes as it was written: run the edited sweep "
+                         "into another directory")
     return meta
 
 
