@@ -48,8 +48,9 @@ def line(index: int, point: dict[str, Any], axes: tuple[str, ...], status: str,
     cells = [index, *(point[a] for a in axes), status,
              *(measures.get(name, math.nan) for name in MEASURE_NAMES), error]
     buffer = io.StringIO()
-    csv.writer(buffer, lineterminator="").writerow([_text(c) for c in cells])
-    return buffer.getvalue()
+    # the terminator is the writer's, dropped after: a cell with a newline is quoted for it
+    csv.writer(buffer, lineterminator="\r\n").writerow([_text(c) for c in cells])
+    return buffer.getvalue().removesuffix("\r\n")
 
 
 def text(axes: tuple[str, ...], lines: list[str]) -> str:
