@@ -157,7 +157,10 @@ def killed(out: Path, keep: int) -> int:
         for name in (table.NAME, "summary.json"):
             (out / name).unlink()
         marker = json.loads((out / "rodfem.json").read_text())
-        (out / "rodfem.json").write_text(json.dumps({**marker, "status": "running"}))
+        gone = subprocess.Popen(["true"])  # the pid of a process that has ended
+        gone.wait()
+        (out / "rodfem.json").write_text(json.dumps({**marker, "status": "running",
+                                                     "pid": gone.pid}))
     return COMM.bcast(left, root=0)
 
 

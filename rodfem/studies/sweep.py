@@ -213,6 +213,10 @@ def _journal(out: Path, sweep: Sweep, journal_tag: bytes, comm: MPI.Comm) -> dic
     error, records = None, None
     if comm.rank == 0:
         try:
+            where = out / journal.DIRECTORY
+            if where.is_symlink() or (where.exists() and not where.is_dir()):
+                raise journal.JournalError(f"{journal.DIRECTORY} is not the directory of its "
+                                           "journal")
             records = journal.read(out, journal_tag)
             cells = len(sweep.axes) + 1
             for i, record in records.items():  # each what sweep.json says it is
