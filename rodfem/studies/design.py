@@ -41,7 +41,6 @@ from typing import Any
 import numpy as np
 
 from rodfem.scene import SCHEMA, Scene, SceneError, read, split_key, validate, with_values
-from rodfem.scene.expressions import shorten
 from rodfem.scene.loading import _parse_toml, _suggest, _toml_value
 
 SECTIONS = ("scene", "description", "set", "grid", "zip", "sample")
@@ -170,8 +169,9 @@ def _plain(value, what: str):
         return [_plain(v, what) for v in value]
     if isinstance(value, (bool, int, float, str)):
         return value
-    raise SceneError(f"{what.rstrip(':')}: {type(value).__name__} {shorten(repr(value), 40)} is "
-                     "not a value of a sweep (numbers, strings, booleans, lists of them)")
+    shown = repr(value) if len(repr(value)) <= 40 else repr(value)[:39] + "…"
+    raise SceneError(f"{what.rstrip(':')}: {type(value).__name__} {shown} is not a value of a "
+                     "sweep (numbers, strings, booleans, lists of them)")
 
 
 def _samples(table, name: str) -> tuple[list[str], list[list]]:
