@@ -6,8 +6,8 @@ mass share its discretisation and compiled forms (:class:`rodfem.run.SetUps`), s
 one assembly, one factorisation and its time loop: no process start, no compilation.
 
 **Ranks.** Under ``mpirun -n N`` the ranks take scenes one at a time from a shared counter (an
-MPI one-sided fetch-and-add on rank 0): whichever rank is free takes the next, so long and short
-scenes balance. Each rank writes its own journal (:mod:`rodfem.output.journal`); rank 0 writes
+MPI one-sided fetch-and-add on rank 0, :mod:`rodfem.studies.dealing`): whichever rank is free
+takes the next, so long and short scenes balance. Each rank writes its own journal (:mod:`rodfem.output.journal`); rank 0 writes
 ``results.csv`` from the journals, in the sweep's order. A scene's row depends only on its scene,
 so the table is the same for any N (but for the timing ``loop_seconds``).
 
@@ -17,10 +17,12 @@ scene's row says ``interrupted``); ``rodfem resume DIR`` runs the scenes the jou
 as complete or failed, whatever stopped the sweep (a signal, SIGKILL, a full disk), and writes the
 table an uninterrupted sweep would have.
 
-The directory: ``sweep.toml`` (the file as given), ``sweep.json`` (the sweep and its base scene,
-resolved: what resume reads), ``results.csv``, ``summary.json``, with ``--histories``
-``histories.h5`` (every scene's history, ``/scenes/<index>``), and ``journal/`` until the sweep is
-complete.
+The directory (:mod:`rodfem.studies.sweepfiles`): ``sweep.toml`` (the file as given),
+``sweep.json`` (the sweep and its base scene, resolved: what resume reads, with their digest),
+``results.csv``, ``summary.json``, with ``--histories`` ``histories.h5`` (every scene's history,
+``/scenes/<index>``), and ``journal/`` until the sweep is complete. Resume refuses a sweep.json
+edited since (its digest), or a journal of another sweep (each record carries the digest's start):
+a sweep's rows are never mixed with another's.
 """
 
 from __future__ import annotations
