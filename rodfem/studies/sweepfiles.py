@@ -181,7 +181,7 @@ def meta(sweep: Sweep, histories: bool) -> dict[str, Any]:
             "source": sweep.source, "axes": list(sweep.axes), "design": sweep.design,
             "grid": sweep.grid, "histories": histories, "scenes": len(sweep)}
     try:
-        json.dumps(data)
+        json.dumps(data, allow_nan=False)  # as write_json writes it, or not at all
     except (TypeError, ValueError) as err:
         raise SceneError(f"{sweep.name}: the sweep cannot be written to sweep.json "
                          f"({' '.join(str(err).split())})") from None
