@@ -13,7 +13,7 @@ __version__ = "0.1.0"
 
 _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "SceneError": "rodfem.scene", "OutputError": "rodfem.output.directories",
-        "sweep": "rodfem.studies.sweep", "load_sweep": "rodfem.studies.sweep",
+        "sweep": "rodfem.api", "load_sweep": "rodfem.studies.sweep",
         "read_fields": "rodfem.output.readers", "Fields": "rodfem.output.readers"}
 __all__ = [*_API, "__version__"]
 
@@ -23,5 +23,5 @@ def __getattr__(name: str):
         import importlib
 
         module = importlib.import_module(_API[name])
-        return getattr(module, "run_sweep" if name == "sweep" else name)
+        return getattr(module, name)
     raise AttributeError(f"module 'rodfem' has no attribute {name!r}")

@@ -58,6 +58,13 @@ def parser() -> argparse.ArgumentParser:
         description="Dynamic contact of a thermoviscoelastic rod with an obstacle (Copetti).",
     )
     sub = parser.add_subparsers(dest="command", required=True)
+    for add in (_run, _sweep, _resume, _plot, _paper, _stability, _verify):
+        add(sub)
+    return parser
+
+
+def _run(sub) -> None:
+    """``rodfem run``: a scene into its directory."""
     run = sub.add_parser(
         "run",
         help="simulate a scene",
@@ -74,6 +81,10 @@ def parser() -> argparse.ArgumentParser:
     _progress(run, "draw the progress bar even when output is not a terminal (mpirun)")
     run.add_argument("--no-size-check", dest="large", action="store_true",
                      help="run even if the estimated output or memory exceeds what is free")
+
+
+def _sweep(sub) -> None:
+    """``rodfem sweep``: the scenes of a sweep file into one table."""
     sweep = sub.add_parser(
         "sweep",
         help="run many scenes of a sweep file, their measures in one table",
@@ -90,6 +101,10 @@ def parser() -> argparse.ArgumentParser:
                        help="also keep every scene's history, in histories.h5")
     sweep.add_argument("--quiet", action="store_true", help="no progress and no final line")
     _progress(sweep, "a progress line every few seconds even when output is not a terminal")
+
+
+def _resume(sub) -> None:
+    """``rodfem resume``: a stopped run or sweep continued."""
     resume = sub.add_parser(
         "resume",
         help="continue a stopped run or sweep, or extend a finished run",
@@ -106,6 +121,10 @@ def parser() -> argparse.ArgumentParser:
     _progress(resume, "draw the progress bar even when output is not a terminal (mpirun)")
     resume.add_argument("--no-size-check", dest="large", action="store_true",
                         help="go on even if the estimated output or memory exceeds what is free")
+
+
+def _plot(sub) -> None:
+    """``rodfem plot``: the figures of runs or of one sweep."""
     plot = sub.add_parser(
         "plot",
         help="draw the figures of runs",
@@ -142,6 +161,10 @@ def parser() -> argparse.ArgumentParser:
     plot.add_argument("--colour-by", metavar="KEY",
                       help="colour overlaid runs by this scene value (e.g. model.zeta) on a "
                       "sequential colour map, with a colour bar instead of a legend")
+
+
+def _paper(sub) -> None:
+    """``rodfem paper``: the paper's Section 6 reproduced."""
     paper = sub.add_parser(
         "paper",
         help="reproduce the paper's Section 6",
@@ -152,6 +175,10 @@ def parser() -> argparse.ArgumentParser:
     )
     _output(paper, "results/paper", "output directory", "replace an earlier reproduction")
     _overrides(paper, "override a value in every experiment, e.g. --set time.end=2")
+
+
+def _stability(sub) -> None:
+    """``rodfem stability``: where each method converges."""
     stability = sub.add_parser(
         "stability",
         help="map where each method converges over (Δt, ε, ζ, a)",
@@ -179,6 +206,10 @@ def parser() -> argparse.ArgumentParser:
     stability.add_argument("--a", default=listed(DEFAULT_A), help="thermal couplings a")
     stability.add_argument("--end", default="1", help="end time of every run")
     _progress(stability, "a line per point even when output is not a terminal (mpirun)")
+
+
+def _verify(sub) -> None:
+    """``verify`` and ``work-precision``: ladders of refinements, with the same options."""
     verify = sub.add_parser(
         "verify",
         help="observed orders of convergence in h and Δt",
@@ -211,7 +242,6 @@ def parser() -> argparse.ArgumentParser:
         _progress(command, "a line per ladder even when output is not a terminal")
     verify.add_argument("--scenes", help="scenes to verify (default: paper1, paper5, no-contact, "
                         "manufactured where rodfem.model.manufactured exists, and impact)")
-    return parser
 
 
 COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.resume,

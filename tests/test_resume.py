@@ -496,3 +496,25 @@ def test_a_signal_stops_one_simulate_call_and_not_the_next(monkeypatch):
     assert signal.getsignal(signal.SIGINT) is handler
     again = rodfem.simulate("paper1", scene)
     assert again.status == "complete" and len(again.history) == 201
+
+
+@serial_only
+def test_a_signal_stops_one_sweep_call_and_not_the_next(monkeypatch):
+    """Ctrl-C during rodfem.sweep stops that sweep (interrupted); the next call runs whole."""
+    import rodfem
+    from rodfem.studies import dealing
+
+    run_scene = dealing.run_scene
+
+    def interrupting(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)  # in the sweep's loop: noted, not raised
+        return run_scene(*args, **kwargs)
+
+    spec = {"scene": "paper1", "set": {"mesh.cells": 20, "time.end": 0.05},
+            "grid": {"model.k": [1, 2, 3]}}
+    with monkeypatch.context() as patch:
+        patch.setattr(dealing, "run_scene", interrupting)
+        stopped = rodfem.sweep(spec)
+    assert stopped.status == "interrupted" and len(stopped) < 3
+    again = rodfem.sweep(spec)
+    assert again.status == "complete" and len(again) == 3

@@ -310,7 +310,7 @@ def test_resume_of_a_sweep_refuses_set(uninterrupted, tmp_path, capsys):
 def test_cut_journal_record_is_run_again(shared_dir):
     """A record cut short (a power cut) ends its file for the reader: that scene runs again."""
     out = shared_dir / "cut"
-    log = journal.Journal(out, 0, COMM.rank) if COMM.rank == 0 else None
+    log = journal.Journal(out, 0, COMM.rank, b"sweep-01") if COMM.rank == 0 else None
     if COMM.rank == 0:
         out.mkdir()
         log.append(3, "3,x", np.ones((2, 7)))
@@ -371,7 +371,7 @@ def test_resume_refuses_an_edited_sweep_json_with_one_line(uninterrupted, tmp_pa
     (out / "sweep.json").write_text(json.dumps(shorter))
     assert main(["resume", str(out)]) == 2
     err = capsys.readouterr().err
-    assert "not sweep.json's" in err and err.count("\n") == 1, err
+    assert "is not the sweep this directory was run with" in err and err.count("\n") == 1, err
     (out / "sweep.json").write_text(json.dumps({k: v for k, v in meta.items() if k != "base"}))
     assert main(["resume", str(out)]) == 2
     err = capsys.readouterr().err

@@ -234,7 +234,7 @@ def _claim(path: Path, force: bool, keep: Path | None, command: str) -> int:
             else:
                 entry.unlink()
     except BaseException:
-        os.close(fd)
+        _unlock(fd)  # refused: the lock file as it was, no holder named in it
         raise
     return fd
 

@@ -48,8 +48,9 @@ def line(index: int, point: dict[str, Any], axes: tuple[str, ...], status: str,
     cells = [index, *(point[a] for a in axes), status,
              *(measures.get(name, math.nan) for name in MEASURE_NAMES), error]
     buffer = io.StringIO()
-    csv.writer(buffer, lineterminator="").writerow([_text(c) for c in cells])
-    return buffer.getvalue()
+    # the terminator is the writer's, dropped after: a cell with a newline is quoted for it
+    csv.writer(buffer, lineterminator="\r\n").writerow([_text(c) for c in cells])
+    return buffer.getvalue().removesuffix("\r\n")
 
 
 def text(axes: tuple[str, ...], lines: list[str]) -> str:
@@ -84,9 +85,25 @@ def read(path: Path) -> tuple[tuple[str, ...], dict[str, np.ndarray]]:
             from None
 
 
+def cells(line: str) -> list[str]:
+    """The cells of one row (as :func:`line` made it): read as a file's text, so that a cell
+    holding a newline (a string value with one) is read whole. ResultsError for a row that is
+    not one."""
+    try:
+        rows = list(csv.reader(io.StringIO(line, newline="")))
+    except csv.Error as err:
+        raise ResultsError(f"a row of results is not one ({err})") from None
+    if len(rows) != 1:
+        raise ResultsError(f"a row of results is {len(rows)} rows")
+    return rows[0]
+
+
 def status(line: str, axes: tuple[str, ...]) -> str:
     """The status of one row (as :func:`line` made it)."""
-    return next(csv.reader([line]))[1 + len(axes)]
+    row = cells(line)
+    if len(row) <= 1 + len(axes) or row[1 + len(axes)] not in STATUSES:
+        raise ResultsError(f"a row of results has no status after its {len(axes)} swept values")
+    return row[1 + len(axes)]
 
 
 def parse(content: str, path: str = NAME) -> tuple[tuple[str, ...], dict[str, np.ndarray]]:

@@ -120,8 +120,6 @@ def _as_kind(key: str, values, what: str) -> list:
 
 def _axis(key: str, spec, what: str) -> list:
     """The values of one grid or zip axis: a list, or {linspace|logspace = [start, stop, n]}."""
-    if isinstance(spec, (tuple, np.ndarray)):  # from Python, not TOML
-        spec = [v.item() if isinstance(v, np.generic) else v for v in spec]
     if isinstance(spec, list):
         if not spec:
             raise SceneError(f"{what}: empty; list at least one value")
@@ -153,6 +151,28 @@ def _axis(key: str, spec, what: str) -> list:
                      if not isinstance(spec, dict) else
                      f"{what}: must be a list of values or {{linspace = [start, stop, count]}} "
                      f"or {{logspace = [start, stop, count]}}")
+
+
+def _plain(value, what: str):
+    """``value`` as TOML gives it: NumPy arrays and tuples as lists, NumPy scalars as Python's
+    (a sweep from Python); SceneError for anything else a sweep cannot hold (a date, an
+    object), before anything is written."""
+    if isinstance(value, np.ndarray) and value.ndim > 0:
+        value = list(value)
+    if isinstance(value, (np.generic, np.ndarray)):
+        value = value.item()
+    if isinstance(value, dict):
+        for key in value:
+            if not isinstance(key, str):
+                raise SceneError(f"{what.rstrip(':')}: {key!r} is not a name (a string)")
+        return {key: _plain(v, f"{what} {key}") for key, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v, what) for v in value]
+    if isinstance(value, (bool, int, float, str)):
+        return value
+    shown = repr(value) if len(repr(value)) <= 40 else repr(value)[:39] + "…"
+    raise SceneError(f"{what.rstrip(':')}: {type(value).__name__} {shown} is not a value of a "
+                     "sweep (numbers, strings, booleans, lists of them)")
 
 
 def _samples(table, name: str) -> tuple[list[str], list[list]]:
@@ -226,6 +246,7 @@ def parse(data: dict, name: str, directory: Path | None = None,
     """
     if not isinstance(data, dict):
         raise SceneError(f"{name}: a sweep must be a TOML table")
+    data = _plain(data, f"{name}:")
     for key in data:
         if key not in SECTIONS:
             raise SceneError(f"{name}: unknown entry '{key}': {_suggest(key, SECTIONS)}")

@@ -1,0 +1,99 @@
+"""``rodfem plot``: the figures of runs or of one sweep, drawn on rank 0, with a note for each
+directory that is not complete."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from rodfem.commands.common import EXIT_INPUT, EXIT_IO, say
+
+
+# What ``rodfem plot`` says of a run directory that is not complete: the figures show what is
+# there, up to the run's last checkpoint.
+INCOMPLETE = {
+    "gone": "is incomplete: the process is gone (killed before it finished); the figures show its "
+            "steps up to the last checkpoint, and 'rodfem resume {path}' continues it",
+    "running": "is still being written by a run; the figures show its last checkpoint",
+    "interrupted": "holds an interrupted run ('rodfem resume {path}' continues it)",
+    "failed": "holds a run that failed; the figures show the steps before the failure",
+}
+
+
+SWEEP_INCOMPLETE = {
+    "gone": "is an incomplete sweep: the process is gone (killed before it finished); the "
+            "figures show the scenes it finished, and 'rodfem resume {path}' runs the rest",
+    "running": "is a sweep still running; the figures show the scenes finished so far",
+    "interrupted": "is an interrupted sweep ('rodfem resume {path}' runs the rest)",
+    "failed": "is a sweep stopped by a failed write ('rodfem resume {path}' runs the rest)",
+}
+
+
+def _plot_options(args: argparse.Namespace):
+    """The options of ``rodfem plot`` read (their fit with the runs is checked as they load)."""
+    from rodfem.post.options import KINDS, Options, parse_labels, parse_only, parse_window
+
+    return Options(only=parse_only(args.only) if args.only is not None else frozenset(KINDS),
+                   animation=args.animation,
+                   window=parse_window(args.window) if args.window is not None else None,
+                   labels=parse_labels(args.labels) if args.labels is not None else None,
+                   colour_by=args.colour_by)
+
+
+def _drawing(args: argparse.Namespace):
+    """Check the options against what the directories are (runs, or one sweep) and return what
+    draws the figures: the options' mistakes are found before any note or figure."""
+    from rodfem.output.directories import read_marker
+    from rodfem.post import PlotError
+    from rodfem.post import plot as draw
+
+    sweeps = [d for d in args.dirs if (read_marker(d) or {}).get("command") == "sweep"]
+    if sweeps and len(args.dirs) > 1:
+        raise PlotError(f"{sweeps[0]} is a sweep: plot it alone (its figures draw every "
+                        "scene's measures)")
+    if not sweeps:
+        options = _plot_options(args)
+        return lambda: draw(args.dirs, args.out, options, force=args.force)
+    from rodfem.post.sweep import plot_sweep
+
+    for option, value in (("--window", args.window), ("--labels", args.labels),
+                          ("--colour-by", args.colour_by)):
+        if value is not None:
+            raise PlotError(f"{option} applies to runs; {sweeps[0]} is a sweep")
+    only = None if args.only is None else [m.strip() for m in args.only.split(",")]
+    return lambda: plot_sweep(sweeps[0], args.out, force=args.force, only=only)
+
+
+def plot(args: argparse.Namespace) -> int:
+    """Draw the figures on rank 0 (the others wait), then list the files written."""
+    from mpi4py import MPI
+
+    from rodfem.output.directories import read_marker, state
+
+    comm = MPI.COMM_WORLD
+    written, error, code = [], None, 0
+    if comm.rank == 0:
+        from rodfem.post import PlotError
+
+        try:
+            drawing = _drawing(args)
+            for path in args.dirs:
+                sweep = path.is_dir() and (read_marker(path) or {}).get("command") == "sweep"
+                notes = SWEEP_INCOMPLETE if sweep else INCOMPLETE
+                note = notes.get(state(path) if path.is_dir() else None)
+                if note:
+                    say(f"rodfem: note: {path} {note.format(path=path)}")
+            written = drawing()
+        except PlotError as err:
+            error, code = " ".join(str(err).split()), EXIT_INPUT  # one line
+        except OSError as err:
+            from rodfem.output.atomic import io_line
+
+            error, code = io_line(err), EXIT_IO
+    written, error, code = comm.bcast((written, error, code), root=0)
+    if error is not None:
+        say(f"rodfem: error: {error}")
+        return code
+    for path in written:
+        say(str(path), sys.stdout)
+    return 0

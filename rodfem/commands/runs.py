@@ -1,0 +1,137 @@
+"""``rodfem run`` and ``rodfem resume``: a scene run into its directory, a stopped run
+continued, and the one line that says how it ended (a sweep's resume is
+:mod:`rodfem.commands.sweeps`)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, say
+from rodfem.scene import BUILTIN, load
+
+
+def _advice(scene, error) -> str:
+    """The error, and for Picard's iteration not converging the paper's condition and the
+    methods that need none (an overflow is not the iteration's doing)."""
+    from rodfem.solver.errors import PicardNotConverged
+
+    if not isinstance(error, PicardNotConverged):
+        return f"{error}."
+    from mpi4py import MPI
+
+    from rodfem.solver.methods.direct import compliance
+
+    dt, eps, zeta, a = (scene[k] for k in ("time.dt", "obstacle.epsilon", "model.zeta", "model.a"))
+    ratio = f"{dt / (eps * zeta):.3g}" if eps * zeta > 0 else "inf (ζ = 0)"
+    w, law = compliance(scene, MPI.COMM_WORLD, with_law=True)
+    rate = law.contraction(w, error.u_1)
+    return (
+        f"{error} (tol {scene['solver.tol']:g}). In contact the iteration contracts by about "
+        f"{law.contraction_formula} = {rate:.3g} (needs < 1; w = {w:.3g}, the rod's compliance "
+        f"at x = 1 over a step); the paper's sufficient condition is Δt < εζ and a < 1, here "
+        f'Δt/(εζ) = {ratio} and a = {a:g}. solver.method = "direct" solves every step exactly.'
+    )
+
+
+PER_STEP = {"picard": "Picard iterations/step", "newton": "Newton iterations/step",
+            "direct": "solves/step"}
+
+
+def run(args: argparse.Namespace) -> int:
+    scene = load(args.scene, args.overrides)  # validates everything before anything is written
+    out = args.out if args.out is not None else Path("results") / Path(args.scene).stem
+
+    from mpi4py import MPI
+
+    from rodfem.output import interrupts
+    from rodfem.output.directories import OutputError, prepare_directory
+    from rodfem.output.files import write_text
+    from rodfem.output.sizes import SizeError, check_room
+
+    try:
+        check_room(scene, out, MPI.COMM_WORLD, allow=args.large)
+        scene_file = Path(args.scene) if args.scene not in BUILTIN else None
+        # A directory marked is one with its scene.toml, which resume reads: a signal between
+        # the two is taken after both.
+        with interrupts.deferred():
+            prepare_directory(out, args.force, MPI.COMM_WORLD, keep=scene_file)
+            write_text(out / "scene.toml", scene.to_toml(), MPI.COMM_WORLD)
+    except (OutputError, SizeError) as err:
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    if interrupts.signal_received() is not None:
+        raise interrupts.Interrupted(interrupts.signal_received())
+    from rodfem.run import simulate
+
+    result = simulate(scene, out, MPI.COMM_WORLD, progress=not args.quiet,
+                      force_progress=args.progress)
+    return report_run(scene, result, out, args.quiet)
+
+
+def report_run(scene, result, out: Path, quiet: bool) -> int:
+    """The one line that says how a run ended, and its exit code."""
+    s = result.summary
+    again = f"'rodfem resume {out}' continues it"
+    if result.io_error is not None:
+        say(f"rodfem: error: {result.io_error}. The run's files are whole up to its last "
+            f"checkpoint in {out}; once they can be written again, {again}.")
+        return EXIT_IO
+    if result.status == "failed":
+        say(f"rodfem: {_advice(scene, result.error)} "
+            f"Steps 0..{s['steps']} are in {out} (status: failed).")
+        return EXIT_DIVERGED
+    if result.status == "interrupted":
+        import signal
+
+        name = signal.Signals(result.signal).name if result.signal else "a signal"
+        say(f"rodfem: interrupted by {name}; steps 0..{s['steps']} are in {out}, and {again}.")
+        return 128 + (result.signal or signal.SIGINT)
+    if not quiet:
+        say(
+            f"{scene.source}: {s['steps']} steps in {s['loop_seconds']:.2f} s "
+            f"({s['us_per_step']:.1f} µs/step, {s['method']}: {s['iterations_mean']:.2f} "
+            f"{PER_STEP[s['method']]})"
+            f" -> {out}",
+            sys.stdout,
+        )
+    return 0
+
+
+def resume(args: argparse.Namespace) -> int:
+    """Continue the run in args.dir from its checkpoint (or extend a finished one), or the
+    sweep in args.dir."""
+    from mpi4py import MPI
+
+    from rodfem.output.directories import OutputError, mark_running, release, reopen
+    from rodfem.output.resume import ResumeError, plan
+
+    comm, out = MPI.COMM_WORLD, args.dir
+    try:
+        marker = reopen(out, comm)
+    except OutputError as err:
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    if marker.get("command") == "sweep":
+        from rodfem.commands.sweeps import resume_sweep
+
+        return resume_sweep(args, out, marker)
+    try:
+        scene, checkpoint = plan(out, args.overrides, marker, comm, large=args.large)
+        mark_running(out, comm)
+    except ResumeError as err:  # a complete run (exit 0), bad input (2), a full disk (4)
+        release(out, comm)  # untouched
+        say(err.line(), sys.stdout if err.code == 0 else None)
+        return err.code
+    except OutputError as err:
+        release(out, comm)  # untouched
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    from rodfem.run import simulate
+
+    if checkpoint is None and not args.quiet:
+        say(f"rodfem: {out} has no checkpoint yet; running it again from step 0")
+    result = simulate(scene, out, comm, progress=not args.quiet, force_progress=args.progress,
+                      resume=checkpoint)
+    return report_run(scene, result, out, args.quiet)

@@ -1,0 +1,135 @@
+"""The studies over many runs: ``rodfem paper``, ``rodfem stability``, ``rodfem verify`` and
+``rodfem work-precision``, each into its directory, then its figures and summary lines."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, say
+from rodfem.commands.runs import report_run
+from rodfem.scene import BUILTIN, load
+
+
+def paper(args: argparse.Namespace) -> int:
+    """Reproduce Section 6 into args.out; print where its index is."""
+    from mpi4py import MPI
+
+    from rodfem.output.directories import OutputError
+    from rodfem.studies.paper import reproduce
+
+    for name in BUILTIN:  # every override is checked before anything runs
+        load(name, args.overrides)
+    try:
+        index, failed, stopped = reproduce(args.out, args.force, MPI.COMM_WORLD,
+                                           overrides=args.overrides, report=say)
+    except OutputError as err:
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    if stopped is not None:
+        out = args.out / stopped.summary["scene"]
+        code = report_run(None, stopped, out, quiet=True)  # interrupted, or a write failed
+        say("rodfem: the reproduction stopped there, before index.md; 'rodfem paper --force' "
+            "makes it again.")
+        return code
+    if failed:
+        say(f"rodfem: the run of {', '.join(failed)} failed (see {index}); the other "
+            "experiments are reproduced.")
+        say(str(index), sys.stdout)
+        return EXIT_DIVERGED
+    say(str(index), sys.stdout)
+    return 0
+
+
+def stability(args: argparse.Namespace) -> int:
+    """The stability map into args.out, then its figures (rank 0)."""
+    from mpi4py import MPI
+
+    from rodfem.output.directories import OutputError, finish
+    from rodfem.studies import stability as st
+
+    comm = MPI.COMM_WORLD
+    try:
+        grid = st.Grid(dt=st.parse_list(args.dt, "--dt", st.DEFAULT_DT),
+                       epsilon=st.parse_list(args.epsilon, "--epsilon", st.DEFAULT_EPSILON),
+                       zeta=st.parse_list(args.zeta, "--zeta", st.DEFAULT_ZETA),
+                       a=st.parse_list(args.a, "--a", st.DEFAULT_A),
+                       methods=st.parse_methods(args.methods),
+                       end=st.parse_number(args.end, "--end", st.DEFAULT_END))
+        progress = args.progress or sys.stderr.isatty()
+        records, seconds = st.run_map(args.out, args.scene, args.overrides, grid, args.force,
+                                   progress, comm)
+    except (st.GridError, OutputError) as err:
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    if records is None:
+        finish(args.out, "interrupted", comm)
+        return _stopped(args.out)
+    written = []
+    if comm.rank == 0:
+        from rodfem.post.stability import plot_stability
+
+        written = plot_stability(args.out)
+    finish(args.out, "complete", comm)
+    for line in st.report_lines(records, grid, seconds, args.out, comm.size):
+        say(line, sys.stdout)
+    for path in written:
+        say(str(path), sys.stdout)
+    comm.barrier()
+    return 0
+
+
+def _stopped(out: Path) -> int:
+    """A study stopped by a signal: one line, and 128 + the signal."""
+    import signal
+
+    from rodfem.output import interrupts
+
+    code = interrupts.exit_code()
+    say(f"rodfem: interrupted by {signal.Signals(code - 128).name}; no results written to {out}.")
+    return code
+
+
+def verify(args: argparse.Namespace) -> int:
+    """``rodfem verify`` or ``rodfem work-precision`` into args.out, then the figures (rank 0)."""
+    from mpi4py import MPI
+
+    from rodfem.output.directories import OutputError, finish
+
+    comm = MPI.COMM_WORLD
+    if args.command == "verify":
+        from rodfem.post.verify import plot_orders as draw
+        from rodfem.studies import verify as task
+
+        plan = task.QUICK if args.quick else task.DEFAULT
+        try:
+            scenes = task.parse_scenes(args.scenes)
+        except task.VerifyError as err:
+            say(f"rodfem: error: {err}")
+            return EXIT_INPUT
+
+        def start(out, plan, force, progress, comm):
+            return task.run_verify(out, plan, scenes, force, progress, comm)
+    else:
+        from rodfem.post.verify import plot_work_precision as draw
+        from rodfem.studies import workprecision as task
+
+        plan = task.default_plan(args.quick)
+        start = task.run_work_precision
+    try:
+        data = start(args.out, plan, args.force, args.progress or sys.stderr.isatty(), comm)
+    except OutputError as err:
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    if data is None:
+        finish(args.out, "interrupted", comm)
+        return _stopped(args.out)
+    written = draw(args.out) if comm.rank == 0 else []
+    finish(args.out, "complete", comm)
+    for line in task.summary_lines(data, args.out):
+        say(line, sys.stdout)
+    for path in written:
+        say(str(path), sys.stdout)
+    comm.barrier()
+    return 0
