@@ -53,8 +53,8 @@ def parts(root: Path) -> dict:
     import rodfem.scene
     from rodfem.output.directories import prepare_directory
     from rodfem.post.plot import prepare
-    from rodfem.post.tasks import draw
     from rodfem.post.pool import Drawer, cpus
+    from rodfem.post.tasks import draw
     from rodfem.run import simulate
     from rodfem.studies.paper import EXPERIMENTS, FIGURE5_DIR, _figures
 

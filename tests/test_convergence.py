@@ -4,7 +4,6 @@ the ``rodfem verify`` and ``rodfem work-precision`` commands at their quick size
 import csv
 import json
 import math
-
 from types import SimpleNamespace
 
 import numpy as np

@@ -15,10 +15,10 @@ the final fields, max over the nodes against max |reference field|.
 
 import numpy as np
 import pytest
-from conftest import history_rows
 from reference import simulate as reference
 
 import rodfem.scene
+from conftest import history_rows
 
 TOL = 1e-10
 from rodfem.output.columns import NAMES as COLUMNS  # noqa: E402

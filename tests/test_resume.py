@@ -16,9 +16,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from test_edits import snapshot
 
 from conftest import serial_only
-from test_edits import snapshot
 from rodfem.output.directories import state
 from rodfem.output.readers import read_fields, read_history
 

@@ -12,12 +12,12 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_sweep_safety import GRID, killed, same_rows, snapshot, write
 
 from conftest import COMM
 from rodfem.cli import main
 from rodfem.output import journal
 from rodfem.output import results as table
-from test_sweep_safety import GRID, killed, same_rows, snapshot, write
 
 TARGETS = [("stopped", "sweep.json"), ("stopped", "rodfem.json"),
            ("stopped", "journal/part-0000-00000.bin"), ("stopped", "journal"),

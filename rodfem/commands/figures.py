@@ -8,7 +8,6 @@ import sys
 
 from rodfem.commands.common import EXIT_INPUT, EXIT_IO, say
 
-
 # What ``rodfem plot`` says of a run directory that is not complete: the figures show what is
 # there, up to the run's last checkpoint.
 INCOMPLETE = {

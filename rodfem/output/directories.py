@@ -24,7 +24,6 @@ from __future__ import annotations
 import contextlib
 import errno
 import fcntl
-import json
 import os
 import re
 import shutil
@@ -34,13 +33,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import rodfem
-from rodfem.output.atomic import TEMPORARY, replacing
-from rodfem.output.writers import in_use, marker_error
+from rodfem.output.atomic import TEMPORARY
+from rodfem.output.writers import LOCK, MARKER, in_use, marker_error, read_marker, write_marker
 
 if TYPE_CHECKING:
     from mpi4py import MPI
 
-MARKER, LOCK = "rodfem.json", "rodfem.lock"
 RUN_FILES = ("history.h5", "fields.xdmf", "fields", "scene.toml", "summary.json",
              "checkpoint.npz")
 FIGURE_DIRS = ("figures", "figure5")
@@ -58,24 +56,6 @@ _held: dict[Path, tuple[int, dict]] = {}  # the directories this process holds: 
 
 class OutputError(ValueError):
     """The output directory cannot be used (exit code 2)."""
-
-
-def _write_marker(path: Path, marker: dict) -> None:
-    """rodfem.json by write-then-rename: whole or absent, never half-written."""
-    with replacing(path / MARKER) as file:
-        json.dump(marker, file, indent=2)
-        file.write("\n")
-
-
-def read_marker(path: Path) -> dict | None:
-    """The marker of ``path``, or None if it has none that rodfem wrote."""
-    try:
-        marker = json.loads((path / MARKER).read_text(encoding="utf-8"))
-    except (OSError, ValueError, UnicodeDecodeError):
-        return None
-    if not isinstance(marker, dict) or not isinstance(marker.get("files"), list):
-        return None
-    return marker
 
 
 def _only_named(path: Path, names: re.Pattern) -> bool:
@@ -242,7 +222,7 @@ def _claim(path: Path, force: bool, keep: Path | None, command: str) -> int:
 def _hold(path: Path, fd: int, marker: dict) -> None:
     """Mark ``path`` with ``marker`` while holding its lock ``fd``, until :func:`finish`."""
     try:
-        _write_marker(path, marker)
+        write_marker(path, marker)
     except BaseException:
         os.close(fd)
         raise
@@ -307,7 +287,7 @@ def finish(path: Path, status: str, comm: MPI.Comm) -> None:
         return
     fd, marker = held
     try:
-        _write_marker(path, {**marker, "status": status,
+        write_marker(path, {**marker, "status": status,
                              "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
     finally:
         _unlock(fd)

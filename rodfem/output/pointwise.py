@@ -37,7 +37,7 @@ class Pointwise:
 
     def __init__(self, disc: Discretisation):
         self.comm, self.nodes = disc.comm, disc.nodes
-        n = self.n = disc.nodes.size
+        self.n = disc.nodes.size
         self.x = disc.nodes.x.copy()
         self.dt = disc.scene["time.dt"]
         maps = disc.arrays("pointwise", lambda: Probe(disc).maps())

@@ -1,6 +1,6 @@
-"""Who writes a run directory: the process its marker (``rodfem.json``) names, and whether that
-process is still alive on this host; and the marker's fields, checked before a command trusts
-them.
+"""Who writes a run directory: its marker (``rodfem.json``), written whole or not at all and read
+back; the process it names, and whether that process is still alive on this host; and the
+marker's fields, checked before a command trusts them.
 
 The lock (``rodfem.lock``) says who holds a directory while its file exists; a user may remove it
 while the run goes on. The marker says it too: a ``running`` marker whose process is alive, and
@@ -14,6 +14,28 @@ import json
 import os
 import socket
 from pathlib import Path
+
+from rodfem.output.atomic import replacing
+
+MARKER, LOCK = "rodfem.json", "rodfem.lock"
+
+
+def write_marker(path: Path, marker: dict) -> None:
+    """rodfem.json by write-then-rename: whole or absent, never half-written."""
+    with replacing(path / MARKER) as file:
+        json.dump(marker, file, indent=2)
+        file.write("\n")
+
+
+def read_marker(path: Path) -> dict | None:
+    """The marker of ``path``, or None if it has none that rodfem wrote."""
+    try:
+        marker = json.loads((path / MARKER).read_text(encoding="utf-8"))
+    except (OSError, ValueError, UnicodeDecodeError):
+        return None
+    if not isinstance(marker, dict) or not isinstance(marker.get("files"), list):
+        return None
+    return marker
 
 
 def _process(pid: int) -> tuple[str | None, float | None]:

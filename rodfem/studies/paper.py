@@ -18,9 +18,9 @@ from mpi4py import MPI
 import rodfem
 import rodfem.scene
 from rodfem.model.stationary import stationary
-from rodfem.output.readers import history_path, read_history
 from rodfem.output.directories import finish, prepare_directory
 from rodfem.output.files import write_text
+from rodfem.output.readers import history_path, read_history
 from rodfem.run import simulate
 
 

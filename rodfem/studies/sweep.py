@@ -7,9 +7,10 @@ one assembly, one factorisation and its time loop: no process start, no compilat
 
 **Ranks.** Under ``mpirun -n N`` the ranks take scenes one at a time from a shared counter (an
 MPI one-sided fetch-and-add on rank 0, :mod:`rodfem.studies.dealing`): whichever rank is free
-takes the next, so long and short scenes balance. Each rank writes its own journal (:mod:`rodfem.output.journal`); rank 0 writes
-``results.csv`` from the journals, in the sweep's order. A scene's row depends only on its scene,
-so the table is the same for any N (but for the timing ``loop_seconds``).
+takes the next, so long and short scenes balance. Each rank writes its own journal
+(:mod:`rodfem.output.journal`); rank 0 writes ``results.csv`` from the journals, in the sweep's
+order. A scene's row depends only on its scene, so the table is the same for any N (but for the
+timing ``loop_seconds``).
 
 **Stopping.** A scene that fails (a method that does not converge, values that overflow) is a row
 with status ``failed`` and its message. A signal stops every rank after its current scene (that
@@ -41,9 +42,19 @@ from rodfem.scene import SceneError
 from rodfem.studies import design
 from rodfem.studies.dealing import Outcome, Progress, deal
 from rodfem.studies.design import Sweep
-from rodfem.studies.sweepfiles import (HISTORIES, SweepResult, check_complete, load_sweep, meta,
-                                       parsed, read_meta, reserve_marker, result_from, tag,
-                                       write_table)
+from rodfem.studies.sweepfiles import (
+    HISTORIES,
+    SweepResult,
+    check_complete,
+    load_sweep,
+    meta,
+    parsed,
+    read_meta,
+    reserve_marker,
+    result_from,
+    tag,
+    write_table,
+)
 
 __all__ = ["SweepResult", "check_complete", "load_sweep", "resume", "run_sweep"]
 
@@ -152,7 +163,7 @@ def _run_into(out: Path, sweep: Sweep, comm: MPI.Comm, histories: bool, journal_
     seconds = time.perf_counter() - started
     errors = [e for e in comm.allgather(error) if e]
     ran = comm.allreduce(ran)  # every journal is closed
-    status = _finish(out, sweep, comm, histories, errors, ran, seconds, journal_tag)
+    _finish(out, sweep, comm, histories, errors, ran, seconds, journal_tag)
     message = errors[0] if errors else None
     result = None
     if comm.rank == 0:
