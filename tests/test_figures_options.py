@@ -213,6 +213,23 @@ def test_out_refuses_to_replace_without_force(runs, out, capsys):
                                                          "notes.txt"]
 
 
+@pytest.mark.parametrize("inside", [False, True], ids=["the file", "inside the file"])
+def test_out_at_a_file_is_a_mistake(runs, out, inside, capsys):
+    """--out naming a file (or a path through one) is bad input, exit 2, the file untouched."""
+    if COMM.rank == 0:
+        out.mkdir()
+        (out / "notes.txt").write_text("mine")
+    COMM.barrier()
+    target = out / "notes.txt" / "figs" if inside else out / "notes.txt"
+    code, written, err = plot(runs[:1], target, "--only", "energy", capsys=capsys)
+    assert code == 2
+    if COMM.rank == 0:
+        assert written == [] and err.startswith("rodfem: error: ") and err.count("\n") == 1
+        assert f"{out / 'notes.txt'} is a file, not a directory" in err, err
+        assert (out / "notes.txt").read_text() == "mine"
+        assert sorted(p.name for p in out.iterdir()) == ["notes.txt"]
+
+
 def test_default_directory_is_drawn_again(runs, capsys):
     """A run's own figures/ is redrawn from its files without --force."""
     for _ in range(2):

@@ -46,6 +46,12 @@ def _drawing(args: argparse.Namespace):
     from rodfem.post import PlotError
     from rodfem.post import plot as draw
 
+    if args.out is not None:  # a user's mistake, not a failed write: found before any figure
+        blocking = next((p for p in (args.out, *args.out.parents) if p.exists()
+                         and not p.is_dir()), None)
+        if blocking is not None:
+            raise PlotError(f"--out {args.out}: {blocking} is a file, not a directory; give a "
+                            "directory for the figures")
     sweeps = [d for d in args.dirs if (read_marker(d) or {}).get("command") == "sweep"]
     if sweeps and len(args.dirs) > 1:
         raise PlotError(f"{sweeps[0]} is a sweep: plot it alone (its figures draw every "
