@@ -42,10 +42,6 @@ class Result:
             n-th with ``output.history_every``), as a structured array:
             ``r.history["u_1"]`` (the default columns :data:`rodfem.output.columns.COLUMNS`,
             then those the scene's ``output.history`` and ``output.probes`` add).
-        fields: the saved fields (``output.fields``: θ, the physical temperature, u and σ by
-            default) at every saved step, with ``t``, ``x`` and ``x_cells``
-            (:class:`rodfem.output.readers.Fields`); None where none were saved. A run
-            directory's are read when first asked for.
         saved_fields: the fields, or what reads them (for :attr:`fields`).
         path: the run directory, or None for a run in memory.
     """
@@ -59,7 +55,10 @@ class Result:
 
     @functools.cached_property
     def fields(self) -> Fields | None:
-        """The saved fields (read from the run directory on first use)."""
+        """The saved fields (``output.fields``: θ, the physical temperature, u and σ by
+        default) at every saved step, with ``t``, ``x`` and ``x_cells``
+        (:class:`rodfem.output.readers.Fields`); None where none were saved. A run directory's
+        are read when first asked for."""
         return self.saved_fields() if callable(self.saved_fields) else self.saved_fields
 
     @property
