@@ -173,3 +173,80 @@ def test_a_cell_map_sums_as_a_sparse_product():
     sparse = scipy.sparse.csr_matrix(
         (values.ravel(), columns.ravel(), np.arange(0, 6 * n - 5, 6)), shape=(n - 1, 3 * n))
     assert (sparse @ s).tobytes() == CellMap(values, columns).apply(s).tobytes()
+
+
+def _edited(name: str, arrays: dict[str, np.ndarray]) -> None:
+    """One array of a cached discretisation changed in kind or shape (as a run of it never
+    makes them)."""
+    def first(start: str, end: str = "") -> str:
+        return next(k for k in arrays if k.startswith(start) and k.endswith(end))
+
+    if name == "fewer nodes":
+        arrays["nodes|x"] = arrays["nodes|x"][:-1]
+    elif name == "a vector in single precision":
+        key = first("('vector', ('thermal load',)")
+        arrays[key] = arrays[key].astype(np.float32)
+    elif name == "a shorter vector":
+        key = first("('vector', ('contact',)")
+        arrays[key] = arrays[key][:-3]
+    elif name == "a column beyond the matrix":
+        key = first("('matrix', ('mass',)", "|indices")
+        arrays[key] = arrays[key] + 1000
+    elif name == "a value fewer in a matrix":
+        key = first("('matrix', ('stiffness',)", "|values")
+        arrays[key] = arrays[key][:-1]
+    elif name == "a cell map of five columns":
+        arrays["pointwise|sigma_values"] = arrays["pointwise|sigma_values"][:, :5].copy()
+    elif name == "a cell map beyond the state":
+        arrays["pointwise|sigma_columns"] = arrays["pointwise|sigma_columns"] + 10**6
+    elif name == "an array more":
+        arrays["pointwise|extra"] = np.zeros(3)
+
+
+@pytest.mark.skipif(COMM.size > 1, reason="the cache is serial")
+@pytest.mark.parametrize("edit", ["fewer nodes", "a vector in single precision",
+                                  "a shorter vector", "a column beyond the matrix",
+                                  "a value fewer in a matrix", "a cell map of five columns",
+                                  "a cell map beyond the state", "an array more"])
+def test_a_file_of_other_kinds_or_shapes_is_not_used(edit, cache, monkeypatch):
+    """A file whose checksum holds but whose arrays are not those this discretisation makes
+    (edited, the checksum recomputed) is assembled again and replaced: the run neither fails
+    nor gives another result (a single-precision vector, a cell map short of a column did)."""
+    from rodfem.discrete import cache as operator_cache
+
+    expected = run("paper1")
+    (path,) = operator_files(cache)
+    arrays = operator_cache._read(path)
+    _edited(edit, arrays)
+    with open(path, "wb") as file:
+        np.savez(file, **operator_cache._packed(arrays))
+    assert operator_cache._read(path) is not None  # the checksum holds
+    assert_same_bits(run("paper1"), expected)
+    assert_same_bits(run("paper1"), expected)  # from the file written in its place
+    replaced = operator_cache._read(path)
+    assert "pointwise|extra" not in replaced
+    monkeypatch.setenv("RODFEM_CACHE", "0")
+    assert_same_bits(run("paper1"), expected)
+
+
+@pytest.mark.skipif(COMM.size > 1, reason="the cache is serial")
+def test_a_fifo_in_place_of_the_file_does_not_block_the_run(cache):
+    """Reading the cache never waits: a named pipe where the file should be is not read (and a
+    run replaces it with the file)."""
+    import threading
+
+    from rodfem.discrete import cache as operator_cache
+
+    expected = run("paper1")
+    (path,) = operator_files(cache)
+    path.unlink()
+    os.mkfifo(path)
+    read = []
+    reader = threading.Thread(target=lambda: read.append(operator_cache._read(path)),
+                              daemon=True)
+    reader.start()
+    reader.join(timeout=30)
+    assert read == [None]  # not left waiting for a writer
+    assert_same_bits(run("paper1"), expected)
+    assert path.is_file()
+    assert_same_bits(run("paper1"), expected)

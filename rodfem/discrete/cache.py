@@ -11,11 +11,12 @@ compiled loops (:mod:`rodfem.solver.compiled.build`).
 
 **It never changes a result.** The arrays are the assembled ones, bit for bit, and the PETSc
 objects are made from them as they are after assembly (the same CSR rows, the same vectors). A
-file that cannot be read, whose checksum or shapes are wrong, is ignored: the operators are
-assembled again and the file replaced. Files are written whole to a temporary name and renamed;
-only a private directory (this user's, writable by nobody else) is used, as for the compiled
-loops. Runs on more than one rank, discretisations of more than :data:`CELLS_MAX` cells and
-``RODFEM_CACHE=0`` in the environment do without it.
+file that cannot be read (or is not a regular file), whose checksum is wrong, or whose arrays are
+not of the kinds and shapes this discretisation's are (:func:`conforms`, checked where they are
+used), is ignored: the operators are assembled again and the file replaced. Files are written
+whole to a temporary name and renamed; only a private directory (this user's, writable by
+nobody else) is used, as for the compiled loops. Runs on more than one rank, discretisations of
+more than :data:`CELLS_MAX` cells and ``RODFEM_CACHE=0`` in the environment do without it.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import hashlib
 import importlib.util
 import json
 import os
+import stat
 import tempfile
 from pathlib import Path
 
@@ -41,6 +43,7 @@ SOURCES = ("forms/copetti.py", "rodfem/discrete/discretisation.py", "rodfem/disc
            "rodfem/solver/methods/base.py", "rodfem/output/history.py",
            "rodfem/output/pointwise.py")
 LIBRARIES = ("dolfinx", "ufl", "ffcx", "basix", "petsc4py")
+KINDS = {"int": "i", "str": "U"}  # the kinds of dtype conforms() takes for any of their sizes
 
 
 def cache_directory() -> Path:
@@ -78,6 +81,24 @@ def digest(structure: dict, constants: dict) -> str | None:
     text = json.dumps([FORMAT, rodfem.__version__, structure, constants, sources,
                        [_library_stamp(name) for name in LIBRARIES]], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def conforms(arrays: dict[str, np.ndarray], layout: dict[str, tuple[str, tuple]]) -> bool:
+    """Whether ``arrays`` are exactly the fields of ``layout``, each of its kind (a NumPy dtype
+    string, or "int" for any integer, "str" for any string) and shape (None where any length
+    goes): a file may hold what a run of this discretisation would never make (edited with its
+    checksum recomputed), which would fail the run or, worse, change its result."""
+    if arrays.keys() != layout.keys():
+        return False
+    for name, (kind, shape) in layout.items():
+        array = arrays[name]
+        if (array.dtype.kind != KINDS[kind] if kind in KINDS else array.dtype != np.dtype(kind)):
+            return False
+        if array.ndim != len(shape) or any(
+                length is not None and length != actual
+                for length, actual in zip(shape, array.shape)):
+            return False
+    return True
 
 
 def _checksum(entries: dict[str, np.ndarray]) -> str:
@@ -122,6 +143,10 @@ class OperatorCache:
         return found or None
 
     def put(self, name: str, arrays: dict[str, np.ndarray]) -> None:
+        """Store ``arrays`` under ``name``, in place of any it had (which the caller refused)."""
+        prefix = name + "|"
+        for key in [key for key in self.entries if key.startswith(prefix)]:
+            del self.entries[key]
         for field, array in arrays.items():
             self.entries[f"{name}|{field}"] = np.array(array)
         self.changed = True
@@ -165,9 +190,14 @@ def _packed(entries: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 def _read(path: Path) -> dict[str, np.ndarray] | None:
     """A file's arrays by name, or None if it is absent, unreadable or fails its checksum."""
     try:
-        with np.load(path, allow_pickle=False) as data:
-            blob, layout = data["blob"], json.loads(str(data["layout"]))
-            checksum = str(data["checksum"])
+        # opened without waiting (a FIFO in its place would block the run) and read only if it
+        # is a regular file
+        with open(os.open(path, os.O_RDONLY | os.O_NONBLOCK), "rb") as file:
+            if not stat.S_ISREG(os.fstat(file.fileno()).st_mode):
+                return None
+            with np.load(file, allow_pickle=False) as data:
+                blob, layout = data["blob"], json.loads(str(data["layout"]))
+                checksum = str(data["checksum"])
         entries = {}
         for name, dtype, shape, offset in layout:
             count = int(np.prod(shape, dtype=np.int64))
