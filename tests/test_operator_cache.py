@@ -250,3 +250,49 @@ def test_a_fifo_in_place_of_the_file_does_not_block_the_run(cache):
     assert_same_bits(run("paper1"), expected)
     assert path.is_file()
     assert_same_bits(run("paper1"), expected)
+
+
+@pytest.mark.parametrize("setting", ["working directory", "configuration", "environment"])
+def test_the_compilation_settings_name_the_file(setting, monkeypatch, tmp_path):
+    """dolfinx's and FFCx's parameter files (in the working directory and $XDG_CONFIG_HOME)
+    and the compiler's variables change the compiled forms, so the assembled values: they are
+    part of the digest."""
+    from rodfem.discrete.cache import digest
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+    monkeypatch.delenv("CFLAGS", raising=False)
+    before = digest({"mesh.cells": 10}, {"dt": 0.1})
+    assert before == digest({"mesh.cells": 10}, {"dt": 0.1})
+    if setting == "working directory":
+        (tmp_path / "ffcx_parameters.json").write_text('{"table_rtol": 1e-3}')
+    elif setting == "configuration":
+        (tmp_path / "config" / "dolfinx").mkdir(parents=True)
+        (tmp_path / "config" / "dolfinx" / "dolfinx_jit_parameters.json").write_text(
+            '{"cffi_extra_compile_args": ["-O0"]}')
+    else:
+        monkeypatch.setenv("CFLAGS", "-ffast-math")
+    assert digest({"mesh.cells": 10}, {"dt": 0.1}) != before
+
+
+@pytest.mark.skipif(COMM.size > 1, reason="starts its own processes; run serially")
+def test_a_run_with_other_compilation_settings_does_not_read_the_operators(cache, tmp_path):
+    """Operators assembled from forms compiled with -ffast-math are other bits: a run in a
+    directory holding such a dolfinx_jit_parameters.json gives, with the cache another run
+    warmed without it, what it gives without the cache."""
+    env = dict(os.environ, XDG_CACHE_HOME=str(cache.parent))
+    fast = tmp_path / "fast"
+    fast.mkdir()
+    (fast / "dolfinx_jit_parameters.json").write_text(
+        '{"cffi_extra_compile_args": ["-O3", "-ffast-math", "-march=native"]}')
+    histories = {}
+    for name, where, cached in (("plain", tmp_path, "1"), ("warm", fast, "1"),
+                                ("without", fast, "0")):
+        done = subprocess.run(
+            [sys.executable, "-m", "rodfem", "run", "paper1", "--set", "time.end=0.02",
+             "--set", "mesh.cells=30", "--set", "discretisation.mass=consistent",
+             "--out", str(tmp_path / name), "--quiet"],
+            env={**env, "RODFEM_CACHE": cached}, capture_output=True, text=True, cwd=where)
+        assert done.returncode == 0, done.stderr
+        histories[name] = (tmp_path / name / "history.csv").read_bytes()
+    assert histories["warm"] == histories["without"]

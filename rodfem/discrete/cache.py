@@ -4,10 +4,11 @@ without dolfinx: no import of it (nor of UFL and FFCx), no form compiled or asse
 What the time loop and the outputs read off the forms (the node-ordered matrices and vectors of
 :class:`~rodfem.discrete.discretisation.Discretisation`, the nodes, the maps of
 :mod:`rodfem.output.pointwise`) depends only on the mesh, the mass, the forms' constants (Δt and
-the model's parameters), the code that writes and assembles the forms and the libraries that
-compile them. One file holds a discretisation's arrays, named by a digest of all of these, in the
-per-user cache directory (``$XDG_CACHE_HOME/rodfem``, else ``~/.cache/rodfem``), beside the
-compiled loops (:mod:`rodfem.solver.compiled.build`).
+the model's parameters), the code that writes and assembles the forms, the libraries that
+compile them and the user's settings of that compilation. One file holds a discretisation's
+arrays, named by a digest of all of these, in the per-user cache directory
+(``$XDG_CACHE_HOME/rodfem``, else ``~/.cache/rodfem``), beside the compiled loops
+(:mod:`rodfem.solver.compiled.build`).
 
 **It never changes a result.** The arrays are the assembled ones, bit for bit, and the PETSc
 objects are made from them as they are after assembly (the same CSR rows, the same vectors). A
@@ -43,6 +44,11 @@ SOURCES = ("forms/copetti.py", "rodfem/discrete/discretisation.py", "rodfem/disc
            "rodfem/solver/methods/base.py", "rodfem/output/history.py",
            "rodfem/output/pointwise.py")
 LIBRARIES = ("dolfinx", "ufl", "ffcx", "basix", "petsc4py")
+# The user's settings of the compilation of the forms, which change the assembled values (a
+# -ffast-math does): dolfinx's and FFCx's parameter files, read where they read them (the
+# working directory and $XDG_CONFIG_HOME), and the compiler's variables.
+PARAMETER_FILES = ("dolfinx/dolfinx_jit_parameters.json", "ffcx/ffcx_parameters.json")
+COMPILER_VARIABLES = ("CC", "CFLAGS", "CPPFLAGS", "LDSHARED", "LDFLAGS")
 KINDS = {"int": "i", "str": "U"}  # the kinds of dtype conforms() takes for any of their sizes
 
 
@@ -70,16 +76,32 @@ def _library_stamp(name: str) -> list:
                              if e.is_file())]
 
 
+def _compiler_settings() -> list:
+    """What the user set of the forms' compilation: the parameter files dolfinx and FFCx read
+    (their contents, None where absent) and the compiler's environment variables."""
+    config = Path(os.getenv("XDG_CONFIG_HOME", default=Path.home() / ".config"))
+    files = []
+    for name in PARAMETER_FILES:
+        for path in (config / name, Path.cwd() / Path(name).name):
+            try:
+                files.append([str(path), path.read_text(errors="replace")])
+            except OSError:
+                files.append([str(path), None])
+    return [files, [os.environ.get(name) for name in COMPILER_VARIABLES]]
+
+
 def digest(structure: dict, constants: dict) -> str | None:
     """The name of a discretisation's file: a digest of its structure (mesh, mass), the forms'
-    constants, rodfem's code that makes the arrays and the libraries that compile the forms
-    (None if that code cannot be read: then nothing is cached)."""
+    constants, rodfem's code that makes the arrays, the libraries that compile the forms and the
+    user's settings of that compilation (None if that code cannot be read: then nothing is
+    cached)."""
     try:
         sources = [hashlib.sha256((ROOT / name).read_bytes()).hexdigest() for name in SOURCES]
     except OSError:
         return None
     text = json.dumps([FORMAT, rodfem.__version__, structure, constants, sources,
-                       [_library_stamp(name) for name in LIBRARIES]], sort_keys=True)
+                       [_library_stamp(name) for name in LIBRARIES], _compiler_settings()],
+                      sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
