@@ -296,3 +296,22 @@ def test_a_run_with_other_compilation_settings_does_not_read_the_operators(cache
         assert done.returncode == 0, done.stderr
         histories[name] = (tmp_path / name / "history.csv").read_bytes()
     assert histories["warm"] == histories["without"]
+
+
+def test_a_change_in_a_library_s_subpackage_changes_its_stamp(monkeypatch, tmp_path):
+    """FFCx's code generation lives in subpackages of ffcx, dolfinx's assembly in dolfinx.fem:
+    a library's stamp (part of the digest) sees a change to any of its files, bytecode aside."""
+    from rodfem.discrete.cache import _library_stamp
+
+    package = tmp_path / "rodfem_stamped"
+    (package / "codegeneration" / "__pycache__").mkdir(parents=True)
+    (package / "__init__.py").write_text("")
+    (package / "codegeneration" / "__init__.py").write_text("")
+    generator = package / "codegeneration" / "C.py"
+    generator.write_text("FLAGS = 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    before = _library_stamp("rodfem_stamped")
+    (package / "codegeneration" / "__pycache__" / "C.cpython-311.pyc").write_bytes(b"\0")
+    assert _library_stamp("rodfem_stamped") == before  # Python's bytecode is no change
+    generator.write_text("FLAGS = 22\n")
+    assert _library_stamp("rodfem_stamped") != before

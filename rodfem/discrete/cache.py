@@ -66,14 +66,22 @@ def private(directory: Path) -> bool:
 
 
 def _library_stamp(name: str) -> list:
-    """The installed files of a library's package directory (names, sizes, times): a new
-    version, or a rebuild, changes them."""
+    """The installed files of a library's package, its subpackages' too (names, sizes, times;
+    not the bytecode Python writes): a new version, a rebuild, or a change to any of its parts
+    (FFCx's code generation is in a subpackage, petsc4py's extension module in lib/) changes
+    them."""
     spec = importlib.util.find_spec(name)
     if spec is None or not spec.origin:
         return [name, None]
-    with os.scandir(Path(spec.origin).parent) as entries:
-        return [name, sorted((e.name, e.stat().st_size, e.stat().st_mtime_ns) for e in entries
-                             if e.is_file())]
+    root = Path(spec.origin).parent
+    files = []
+    for directory, subdirectories, names in os.walk(root):
+        subdirectories[:] = [d for d in subdirectories if d != "__pycache__"]
+        for file in names:
+            status = os.stat(os.path.join(directory, file))
+            files.append((os.path.relpath(os.path.join(directory, file), root),
+                          status.st_size, status.st_mtime_ns))
+    return [name, sorted(files)]
 
 
 def _compiler_settings() -> list:
