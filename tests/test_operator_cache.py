@@ -135,6 +135,15 @@ def test_the_cache_directory_follows_xdg(monkeypatch, tmp_path):
     assert cache_directory() == Path.home() / ".cache" / "rodfem"
 
 
+@pytest.mark.parametrize("relative", ["cache", ".", "~/cache"])
+def test_a_relative_xdg_cache_home_is_not_used(relative, monkeypatch, tmp_path):
+    """The XDG specification: a relative $XDG_CACHE_HOME is ignored, not a cache made in the
+    directory a run starts from."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("XDG_CACHE_HOME", relative)
+    assert cache_directory() == Path.home() / ".cache" / "rodfem"
+
+
 @pytest.mark.skipif(COMM.size > 1, reason="starts its own processes; run serially")
 def test_a_warm_run_does_not_import_dolfinx(cache, tmp_path):
     """The second run of a scene as a command: no dolfinx, UFL or FFCx in the process, and the

@@ -53,8 +53,12 @@ KINDS = {"int": "i", "str": "U"}  # the kinds of dtype conforms() takes for any 
 
 
 def cache_directory() -> Path:
-    """rodfem's per-user cache directory (the compiled loops and the operators)."""
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    """rodfem's per-user cache directory (the compiled loops and the operators). A relative
+    $XDG_CACHE_HOME is not used (the XDG base directory specification: it would put the cache in
+    whatever directory a run starts from)."""
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    if not os.path.isabs(base):
+        base = os.path.join(os.path.expanduser("~"), ".cache")
     return Path(base) / "rodfem"
 
 
