@@ -31,7 +31,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from rodfem.discrete.cache import CELLS_MAX, OperatorCache, digest
+from rodfem.discrete.cache import CELLS_MAX, OperatorCache, conforms, digest
 from rodfem.discrete.nodes import NodeOrder
 from rodfem.scene import Scene
 
@@ -124,7 +124,16 @@ class Discretisation:
 
     def _node_order(self) -> NodeOrder:
         """The nodes, from the cache where it has them."""
-        found = self._cache.get("nodes") if self._cache is not None else None
+        n = self.scene["mesh.cells"] + 1
+
+        def valid(found: dict[str, np.ndarray]) -> bool:
+            every = np.arange(n)
+            return (conforms(found, {"x": ("f8", (n,)), "position": ("int", (n,)),
+                                     "owned": ("int", (n,))})
+                    and np.array_equal(np.sort(found["position"]), every)
+                    and np.array_equal(np.sort(found["owned"]), every))
+
+        found = self._cached("nodes", valid)
         if found is not None:
             return NodeOrder(self.comm, found["x"], found["position"], found["owned"])
         nodes = NodeOrder.of_space(self.V)
@@ -133,11 +142,17 @@ class Discretisation:
                                       "owned": nodes.owned})
         return nodes
 
-    def arrays(self, name: str, make) -> dict[str, np.ndarray]:
+    def _cached(self, name: str, valid) -> dict[str, np.ndarray] | None:
+        """The arrays the cache has under ``name`` if ``valid`` takes them, else None."""
+        found = self._cache.get(name) if self._cache is not None else None
+        return found if found is not None and valid(found) else None
+
+    def arrays(self, name: str, make, valid) -> dict[str, np.ndarray]:
         """The arrays ``make()`` returns (a dict of NumPy arrays read off the forms, the same
         for every scene of this discretisation's structure and constants), from the cache where
-        it has them under ``name``."""
-        found = self._cache.get(name) if self._cache is not None else None
+        it has them under ``name`` and ``valid(arrays)`` takes them (their kinds and shapes are
+        those ``make`` gives: :func:`~rodfem.discrete.cache.conforms`); else made and stored."""
+        found = self._cached(name, valid)
         if found is None:
             found = make()
             if self._cache is not None:
@@ -155,7 +170,8 @@ class Discretisation:
         import sys
 
         if "dolfinx" not in sys.modules:
-            found = self._cache.get("dolfinx") if self._cache is not None else None
+            found = self._cached("dolfinx",
+                                 lambda found: conforms(found, {"version": ("str", ())}))
             if found is not None:
                 return str(found["version"])
         import dolfinx
@@ -279,13 +295,25 @@ class Discretisation:
             B.destroy()
             return {"indptr": indptr, "indices": indices, "values": values}
 
-        found = self.arrays(repr(("matrix", key, diagonal, rows_only)), csr)
+        found = self.arrays(repr(("matrix", key, diagonal, rows_only)), csr, self._is_csr)
         size = found["indptr"].size - 1
         B = PETSc.Mat().createAIJ(size=(size, size), comm=PETSc.COMM_SELF, csr=(
             found["indptr"].astype(PETSc.IntType), found["indices"].astype(PETSc.IntType),
             found["values"]))
         B.assemble()
         return B
+
+    def _is_csr(self, found: dict[str, np.ndarray]) -> bool:
+        """Whether ``found`` is the CSR form of a matrix on the nodes (what :meth:`matrix`
+        stores)."""
+        n = self.scene["mesh.cells"] + 1
+        if not conforms(found, {"indptr": ("int", (n + 1,)), "indices": ("int", (None,)),
+                                "values": ("f8", (None,))}):
+            return False
+        indptr, indices = found["indptr"], found["indices"]
+        return bool(indptr[0] == 0 and np.all(np.diff(indptr) >= 0)
+                    and indptr[-1] == indices.size == found["values"].size
+                    and np.all((0 <= indices) & (indices < n)))
 
     def _assembled_matrix(self, a, diagonal: float, rows_only: bool,
                           key: tuple | None) -> PETSc.Mat:
@@ -317,5 +345,7 @@ class Discretisation:
         if key is None:
             values = assembled()["values"]
         else:
-            values = self.arrays(repr(("vector", key)), assembled)["values"]
+            n = self.scene["mesh.cells"] + 1
+            values = self.arrays(repr(("vector", key)), assembled,
+                                 lambda found: conforms(found, {"values": ("f8", (n,))}))["values"]
         return PETSc.Vec().createWithArray(np.array(values), comm=PETSc.COMM_SELF)

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rodfem.discrete.cache import conforms
 from rodfem.discrete.discretisation import Discretisation
 
 NODE_FIELDS = ("theta", "u", "velocity")
@@ -40,11 +41,23 @@ class Pointwise:
         self.n = disc.nodes.size
         self.x = disc.nodes.x.copy()
         self.dt = disc.scene["time.dt"]
-        maps = disc.arrays("pointwise", lambda: Probe(disc).maps())
+        maps = disc.arrays("pointwise", lambda: Probe(disc).maps(), self._valid)
         self.theta0 = maps["theta0"]
         self.cell0 = {name: maps[f"{name}0"] for name in CELL_FIELDS}
         self.cell_maps = {name: CellMap(maps[f"{name}_values"], maps[f"{name}_columns"])
                           for name in CELL_FIELDS}
+
+    def _valid(self, maps: dict[str, np.ndarray]) -> bool:
+        """Whether ``maps`` are of the kinds and shapes :meth:`Probe.maps` makes, every column
+        in the state."""
+        n = self.n
+        layout = {"theta0": ("f8", (n,))}
+        for name in CELL_FIELDS:
+            layout |= {f"{name}0": ("f8", (n - 1,)), f"{name}_values": ("f8", (n - 1, 6)),
+                       f"{name}_columns": ("int", (n - 1, 6))}
+        return conforms(maps, layout) and all(
+            np.all((0 <= maps[f"{name}_columns"]) & (maps[f"{name}_columns"] < 3 * n))
+            for name in CELL_FIELDS)
 
     def field(self, name: str, s: np.ndarray) -> np.ndarray:
         """The field ``name`` (of :data:`NODE_FIELDS` or :data:`CELL_FIELDS`) of the state s."""
