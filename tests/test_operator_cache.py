@@ -13,6 +13,7 @@ import scipy.sparse
 from mpi4py import MPI
 
 import rodfem.scene
+from conftest import history_rows
 from rodfem.discrete.cache import cache_directory
 from rodfem.output.pointwise import CellMap
 from rodfem.run import simulate
@@ -303,7 +304,7 @@ def test_a_run_with_other_compilation_settings_does_not_read_the_operators(cache
              "--out", str(tmp_path / name), "--quiet"],
             env={**env, "RODFEM_CACHE": cached}, capture_output=True, text=True, cwd=where)
         assert done.returncode == 0, done.stderr
-        histories[name] = (tmp_path / name / "history.csv").read_bytes()
+        histories[name] = history_rows(tmp_path / name).tobytes()
     assert histories["warm"] == histories["without"]
 
 
