@@ -147,27 +147,6 @@ def simulate(scene: str | Path | Mapping | Scene, overrides=None, out: str | Pat
         return _simulate(scene, overrides, out, comm, force, progress)
 
 
-def sweep(spec, out: str | Path | None = None, comm=None, *, histories: bool = False,
-          force: bool = False, progress: bool = False):
-    """Run a sweep: ``spec`` a sweep file's path, its TOML data as a dict, or a parsed
-    :class:`~rodfem.studies.design.Sweep`. Into the directory ``out`` (as ``rodfem sweep
-    --out``), or in memory with ``out=None`` (then ``histories`` keeps every history in the
-    result). Under mpirun every rank calls it; every rank gets the table
-    (:class:`~rodfem.studies.sweep.SweepResult`). ``force`` replaces a sweep directory, never one
-    that holds the sweep file. A signal received during the call stops it (its scenes so far
-    kept, ``status`` interrupted), not the next.
-
-    Raises:
-        SceneError: a mistake in the sweep or a scene (nothing has run, nothing is written).
-        rodfem.OutputError: ``out`` cannot be used.
-    """
-    from rodfem.output import interrupts
-    from rodfem.studies.sweep import run_sweep
-
-    with interrupts.call():
-        return run_sweep(spec, out, comm, histories=histories, force=force, progress=progress)
-
-
 def _simulate(scene, overrides, out, comm, force: bool, progress: bool) -> Result:
     from mpi4py import MPI
 

@@ -129,6 +129,24 @@ def run_sweep(spec, out: str | Path | None = None, comm: MPI.Comm | None = None,
     return _run_into(out, sweep, comm, histories, tag(written), 0, {}, progress_line)
 
 
+def sweep(spec, out: str | Path | None = None, comm=None, *, histories: bool = False,
+          force: bool = False, progress: bool = False):
+    """Run a sweep: ``spec`` a sweep file's path, its TOML data as a dict, or a parsed
+    :class:`~rodfem.studies.design.Sweep`. Into the directory ``out`` (as ``rodfem sweep
+    --out``), or in memory with ``out=None`` (then ``histories`` keeps every history in the
+    result). Under mpirun every rank calls it; every rank gets the table
+    (:class:`~rodfem.studies.sweep.SweepResult`). ``force`` replaces a sweep directory, never one
+    that holds the sweep file. A signal received during the call stops it (its scenes so far
+    kept, ``status`` interrupted), not the next.
+
+    Raises:
+        SceneError: a mistake in the sweep or a scene (nothing has run, nothing is written).
+        rodfem.OutputError: ``out`` cannot be used.
+    """
+    with interrupts.call():
+        return run_sweep(spec, out, comm, histories=histories, force=force, progress=progress)
+
+
 def _in_memory(sweep: Sweep, comm: MPI.Comm, histories: bool, progress) -> SweepResult:
     kept: list[Outcome] = []
     deal(sweep, list(range(len(sweep))), comm, kept.append, histories, progress)
