@@ -166,14 +166,21 @@ def test_a_one_step_paper_reproduction_completes(tmp_path):
 
 
 @serial_only
-def test_paper_stops_on_a_signal_like_run(tmp_path):
+@pytest.mark.parametrize("end, sign", [(100, "paper1/rodfem.json"),
+                                       (2, "paper5/summary.json")], ids=["runs", "figures"])
+def test_paper_stops_on_a_signal_like_run(tmp_path, end, sign):
+    """SIGTERM while the experiments run (as soon as the first has begun), or while their
+    figures are drawn (as soon as the last run has ended): exit 143 in one line, no index."""
     import signal
     import time
 
     out = tmp_path / "paper"
-    process = subprocess.Popen([RODFEM, "paper", "--out", str(out), "--set", "time.end=2"],
+    process = subprocess.Popen([RODFEM, "paper", "--out", str(out), "--set", f"time.end={end}"],
                                stderr=subprocess.PIPE, text=True, env=ENV)
-    time.sleep(4.0)
+    deadline = time.monotonic() + 120
+    while not (out / sign).exists():
+        assert time.monotonic() < deadline and process.poll() is None
+        time.sleep(0.01)
     process.send_signal(signal.SIGTERM)
     _, err = process.communicate(timeout=300)
     assert process.returncode == 128 + signal.SIGTERM, err

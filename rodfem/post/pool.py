@@ -98,7 +98,10 @@ class Drawer:
         process.wait()
 
     def work(self) -> None:
-        """Draw queued figures in this process as well, until the queue is empty."""
+        """Draw queued figures in this process as well, until the queue is empty. A stop signal
+        is taken between two figures (raised as :class:`~rodfem.output.interrupts.Interrupted`):
+        raised inside the drawing, it could land in a destructor of VTK's, which ignores it."""
+        from rodfem.output import interrupts
         from rodfem.post.tasks import draw
 
         while True:
@@ -108,10 +111,13 @@ class Drawer:
                 return
             task, future = item
             if future.set_running_or_notify_cancel():
-                try:
-                    future.set_result(draw(task))
-                except Exception as err:  # noqa: BLE001 (raised by future.result())
-                    future.set_exception(err)
+                with interrupts.deferred():
+                    try:
+                        future.set_result(draw(task))
+                    except Exception as err:  # noqa: BLE001 (raised by future.result())
+                        future.set_exception(err)
+            if interrupts.signal_received() is not None:
+                raise interrupts.Interrupted(interrupts.signal_received())
 
     def close(self, cancel: bool = False) -> None:
         """Draw and wait for the figures queued (``cancel``: only wait for those begun), end the
