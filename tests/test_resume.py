@@ -368,7 +368,8 @@ def test_a_live_run_whose_lock_was_removed_is_not_taken(tmp_path, reference, ran
     process = subprocess.Popen(["mpirun", "-n", str(ranks), *command] if ranks > 1 else command,
                                env=ENV)
     deadline = time.monotonic() + 120
-    while not (out / "rodfem.lock").exists() or not (out / "rodfem.lock").stat().st_size:
+    while not (out / "rodfem.lock").exists() or not (out / "rodfem.lock").stat().st_size \
+            or not (out / "rodfem.json").exists():  # held, then marked
         assert time.monotonic() < deadline and process.poll() is None
         time.sleep(0.02)
     (out / "rodfem.lock").unlink()
