@@ -111,19 +111,26 @@ def test_import_rodfem_is_light():
     assert MPI.COMM_WORLD.size >= 1
 
 
-def test_load_reads_a_killed_run_as_gone(shared_dir):
-    """A run killed before its end (its marker says running, no process holds it, no
-    summary.json): load gives what its files hold."""
+def killed(out, overrides, lost=("summary.json",)):
+    """A run of paper1 into ``out`` made to look killed: its marker says running (no process
+    holds it) and the files ``lost`` were never written."""
     import json
 
-    out = shared_dir / "killed"
-    rodfem.simulate("paper1", SHORT, out=out)
+    rodfem.simulate("paper1", overrides, out=out)
     COMM.barrier()
     if COMM.rank == 0:
         marker = json.loads((out / "rodfem.json").read_text())
         (out / "rodfem.json").write_text(json.dumps({**marker, "status": "running"}))
-        (out / "summary.json").unlink()
+        for name in lost:
+            (out / name).unlink()
     COMM.barrier()
+    return out
+
+
+def test_load_reads_a_killed_run_as_gone(shared_dir):
+    """A run killed before its end (its marker says running, no process holds it, no
+    summary.json): load gives what its files hold."""
+    out = killed(shared_dir / "killed", SHORT)
     r = rodfem.load(out)
     assert r.status == "gone" and len(r.history) == 501
     assert r.measures["t_final"] == 0.5
@@ -137,17 +144,7 @@ def test_load_refuses_what_is_not_a_run(tmp_path):
 
 
 def test_load_reads_a_run_killed_before_its_first_checkpoint(shared_dir):
-    out = shared_dir / "early"
-    rodfem.simulate("paper1", SHORT, out=out)
-    COMM.barrier()
-    if COMM.rank == 0:
-        import json
-
-        marker = json.loads((out / "rodfem.json").read_text())
-        (out / "rodfem.json").write_text(json.dumps({**marker, "status": "running"}))
-        for name in ("summary.json", "history.h5", "fields.xdmf"):
-            (out / name).unlink()
-    COMM.barrier()
+    out = killed(shared_dir / "early", SHORT, lost=("summary.json", "history.h5", "fields.xdmf"))
     r = rodfem.load(out)
     assert r.status == "gone" and len(r.history) == 0 and r.fields is None
     assert r.measures == {} and r.scene["mesh.cells"] == 40
@@ -157,17 +154,8 @@ def test_load_reads_columns_by_the_names_its_files_hold(shared_dir):
     """A killed run with probes (no summary.json): iterations_max is the largest of its
     `iterations` column, not of its last column; every column is read by the file's own names;
     a scene.toml edited to disagree with the history is refused in one line."""
-    out = shared_dir / "probed"
-    rodfem.simulate("paper1", {**SHORT, "output.probes": [0.5], "output.history": ["contact"]},
-                    out=out)
-    COMM.barrier()
-    if COMM.rank == 0:
-        import json
-
-        marker = json.loads((out / "rodfem.json").read_text())
-        (out / "rodfem.json").write_text(json.dumps({**marker, "status": "running"}))
-        (out / "summary.json").unlink()
-    COMM.barrier()
+    out = killed(shared_dir / "probed",
+                 {**SHORT, "output.probes": [0.5], "output.history": ["contact"]})
     r = rodfem.load(out)
     assert r.status == "gone" and r.history.dtype.names[-4:] == (
         "contact", "u@0.5", "theta@0.5", "sigma@0.5")
