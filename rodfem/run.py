@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-import rodfem
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output import interrupts
 from rodfem.output.atomic import io_line
@@ -24,61 +23,14 @@ from rodfem.output.measures import Contact
 from rodfem.output.pointwise import Pointwise
 from rodfem.output.progress import Progress
 from rodfem.output.sizes import save_every
+from rodfem.output.summary import EnergyMonitor, Iterations, run_summary
 from rodfem.scene import Scene
 from rodfem.solver.compiled import compiled_loop
 from rodfem.solver.errors import NotConverged, NotFinite
 from rodfem.solver.linalg import free_garbage
 from rodfem.solver.methods import make_method
 
-# Êⁿ is non-increasing in exact arithmetic (Remark 4.4). An increase counts only if it exceeds the
-# round-off of Ê, a sum of a few O(max |Ê|) terms each good to a few ulps.
-ENERGY_ROUNDOFF = 64 * np.finfo(float).eps
-
-
-@dataclasses.dataclass
-class EnergyMonitor:
-    """Tracks max_{n ≥ 2} (Êⁿ − Êⁿ⁻¹) over the rows of a run."""
-
-    last: float = np.nan
-    max_increase: float = -np.inf
-    scale: float = 0.0
-    finite: bool = True
-
-    def update(self, steps: np.ndarray, energy: np.ndarray) -> None:
-        if steps.size == 0:
-            return
-        if not np.isfinite(energy).all():
-            self.finite = False
-            return
-        previous = np.concatenate([[self.last], energy[:-1]])
-        judged = steps >= 2
-        if judged.any():
-            self.max_increase = max(self.max_increase, float(np.max((energy - previous)[judged])))
-        self.scale = max(self.scale, float(np.max(np.abs(energy))))
-        self.last = float(energy[-1])
-
-    def non_increasing(self) -> bool:
-        return self.finite and self.max_increase <= ENERGY_ROUNDOFF * self.scale
-
-
 STOP_EVERY = 256  # steps between two checks, agreed by all ranks, for a request to stop
-
-
-@dataclasses.dataclass
-class Iterations:
-    """The iteration counts of the steps so far (of the history's rows)."""
-
-    total: int = 0
-    max: int = 0
-    after_first: int = 0  # the sum over the steps n >= 2 (step 1 may be the paper's special one)
-    rows: int = 0
-
-    def update(self, steps: np.ndarray, iterations: np.ndarray) -> None:
-        if iterations.size:
-            self.total += int(iterations.sum())
-            self.max = max(self.max, int(iterations.max()))
-            self.after_first += int(iterations[steps >= 2].sum())
-            self.rows += int(iterations.size)
 
 
 @dataclasses.dataclass
@@ -192,14 +144,42 @@ class Simulation:
         if resume:
             method.restore(resume[0])
         self.kernel = compiled_loop(method, self.history)
+        self.stepper = self._stepper(resume) if scene.adaptive else None
         self.library_version = disc.library_version()
         disc.keep()
         self.loop_before = meta.get("loop_seconds", 0.0)
         self.loop_started = time.perf_counter()
 
+    def _stepper(self, resume):
+        """Adaptive steps (:mod:`rodfem.solver.adaptive`): a method (and compiled loop) made
+        for each new step size."""
+        from rodfem.solver.adaptive.stepper import AdaptiveStepper
+
+        disc, history, kernel = self.disc, self.history, self.kernel
+
+        def make(h: float):
+            with disc.at_step(h):
+                method = make_method(disc, h)
+            return method, compiled_loop(method, history) if kernel is not None else None
+
+        stepper = AdaptiveStepper(self.method, self.scene, make, kernel, self.record_step,
+                                  history.width)
+        if resume:
+            stepper.restore(resume[0])
+        return stepper
+
+    def time(self) -> float:
+        """The time of the method's state."""
+        return self.stepper.t if self.stepper is not None else self.method.n * self.dt
+
+    def saved_state(self) -> dict:
+        """The method's state and, with adaptive steps, the controller's."""
+        saved = self.method.saved_state()
+        return saved if self.stepper is None else {**saved, **self.stepper.saved()}
+
     def flush(self) -> None:
         rows = self.history.take()
-        steps_of = np.rint(rows[:, INDEX["t"]] / self.dt).astype(int)
+        steps_of = self.history.steps
         self.energy.update(steps_of, rows[:, INDEX["energy"]])
         self.iterations.update(steps_of, rows[:, INDEX["iterations"]].astype(int))
         self.contact.update(steps_of, rows[:, INDEX["u_1"]], rows[:, INDEX["sigma_1"]],
@@ -220,7 +200,7 @@ class Simulation:
             return
         self.flush()
         try:
-            self.files.checkpoint(self.method.saved_state() if state_valid else None,
+            self.files.checkpoint(self.saved_state() if state_valid else None,
                                   self.state_meta())
         except OSError as err:
             self.io_error.append(io_line(err))
@@ -228,7 +208,7 @@ class Simulation:
     def write_fields(self) -> None:
         method = self.method
         (self.files.fields if self.kept is None else self.kept).write(
-            method.n, method.n * self.dt, method.values)
+            method.n, self.time(), method.values)
 
     def save_fields(self) -> None:
         files, n = self.files, self.method.n
@@ -239,13 +219,35 @@ class Simulation:
         self.saved = n
 
     def observe(self) -> None:
-        self.history.record(self.method)
+        self.history.record(self.method, (0.0, 0.0, 0.0) if self.stepper else None)
         self.check()
         if self.history.full:
             self.flush()
         n = self.method.n
         if n % self.every == 0 or n == self.steps:
             self.save_fields()
+
+    def record_step(self, h: float, event: bool) -> None:
+        """An adaptive step's row, and its fields when due."""
+        self.history.record(self.method, (self.stepper.t, h, float(event)))
+        self.check()
+        if self.history.full:
+            self.flush()
+        if self.method.n % self.every == 0:
+            self.save_fields()
+
+    def adaptive_steps(self, bar: Progress) -> str:
+        """Adaptive steps to the end, or to a request to stop: the status."""
+        stepper, end, calls = self.stepper, self.scene["time.end"], 0
+        while stepper.t < end:
+            stepper.step()
+            calls += 1
+            bar.update(round(self.steps * stepper.t / end))
+            if interrupts.requested(self.comm, calls, STOP_EVERY, also=bool(self.io_error)):
+                return "interrupted"
+        if self.saved != self.method.n:
+            self.save_fields()
+        return "complete"
 
     def check(self, since: int | None = None) -> None:
         """Stop at the first recorded step that is not finite (the rows before it are kept)."""
@@ -261,6 +263,10 @@ class Simulation:
         try:
             if not self.resumed:
                 self.observe()
+                if self.stepper is not None:
+                    self.stepper.start()
+            if self.stepper is not None:
+                return self.adaptive_steps(bar), None
             n = method.n
             while n < steps:
                 if self.kernel is None or method.first_step_special:
@@ -317,10 +323,12 @@ class Simulation:
             files.close()
         else:
             self.flush()
-        summary = _summary(self.scene, status, error, self.iterations, self.energy,
+        summary = run_summary(self.scene, status, error, self.iterations, self.energy,
                            setup_seconds, loop_seconds, self.comm, resumed=self.resumed,
                            dolfinx=self.library_version)
         summary["contact"] = dataclasses.asdict(self.contact)
+        if self.stepper is not None:
+            summary["adaptive"] = self.stepper.counts()
         if files is not None:
             summary["checkpoint_seconds"] = files.seconds  # rank 0's: it writes them
         if io_error:
@@ -344,39 +352,3 @@ class Simulation:
             io_error.append(io_line(err))
         io_error[:] = comm.bcast(io_error, root=0)
         comm.barrier()
-
-
-def _summary(scene, status, error, iterations, energy, setup_seconds, loop_seconds, comm,
-             resumed: bool, dolfinx: str) -> dict:
-    from petsc4py import PETSc
-
-    done = iterations.rows - 1
-    summary = {
-        "status": status,
-        "scene": scene.source,
-        "method": scene["solver.method"],
-        "obstacle": scene["obstacle.kind"],
-        "law": scene["obstacle.law"] if scene["obstacle.kind"] == "elastic" else None,
-        "time_scheme": scene["time.scheme"],
-        "steps": done,
-        "steps_planned": scene.steps,
-        # A failed step's iterations count too (it is not in the history).
-        "iterations_total": iterations.total + (error.iterations if error else 0),
-        "iterations_max": max(iterations.max, error.iterations if error else 0),
-        "iterations_mean": float(iterations.after_first / max(1, done - 1)),
-        "setup_seconds": setup_seconds,
-        "loop_seconds": loop_seconds,
-        "us_per_step": 1e6 * loop_seconds / max(1, done),
-        "energy_non_increasing": bool(energy.non_increasing()),
-        "energy_max_increase": energy.max_increase if done >= 2 else None,
-        "mpi_ranks": comm.size,
-        "resumed": resumed,
-        "versions": {
-            "rodfem": rodfem.__version__,
-            "dolfinx": dolfinx,
-            "petsc": ".".join(map(str, PETSc.Sys.getVersion())),
-        },
-    }
-    if error is not None:
-        summary["error"] = str(error)
-    return summary

@@ -23,6 +23,7 @@ constants: a sweep over parameters assembles and factors once per scene, and com
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import types
@@ -198,6 +199,20 @@ class Discretisation:
         if self.dx_m is vertices:
             return ((1.0 - χ + last, vertices),)
         return ((1.0 - χ, self.dx), (last, vertices))
+
+    @contextlib.contextmanager
+    def at_step(self, dt: float):
+        """Operators made inside are those of a step Δt = ``dt`` (an adaptive run's steps other
+        than its first): the forms' constant Δt set to it, the operator cache (which holds the
+        scene's Δt) set aside, both put back after."""
+        kept = self._cache
+        self._cache = None
+        self.const.dt.value = dt
+        try:
+            yield
+        finally:
+            self.const.dt.value = self.scene["time.dt"]
+            self._cache = kept
 
     STRUCTURE = ("mesh.cells", "discretisation.mass")  # what load() cannot change
 

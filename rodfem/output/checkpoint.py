@@ -99,7 +99,7 @@ def _number(value) -> bool:
 
 
 # The metadata's fields, and what each must be (the energy monitor's and the iteration counts'
-# fields are those of rodfem.run's EnergyMonitor and Iterations).
+# fields are those of rodfem.output.summary's EnergyMonitor and Iterations).
 META = {
     "step": _integer,
     "scene": lambda v: isinstance(v, dict) and all(isinstance(s, dict) or isinstance(s, str)
@@ -141,6 +141,32 @@ def _wrong_meta(meta: dict) -> str | None:
     return None
 
 
+# The adaptive controller's state (rodfem.solver.adaptive.stepper.AdaptiveStepper.saved): t, the
+# next step, the last error, Picard's bound and the fields' sizes; the last states and times.
+ADAPTIVE = {"controller": 8, "past_t": None, "past": None}
+
+
+def _wrong_adaptive(arrays: dict[str, np.ndarray]) -> str | None:
+    """What is wrong with the adaptive controller's arrays (all or none), or None."""
+    present = [name for name in ADAPTIVE if name in arrays]
+    if not present:
+        return None
+    if len(present) != len(ADAPTIVE):
+        missing = next(name for name in ADAPTIVE if name not in arrays)
+        return f"it has no {missing}"
+    controller, times, past = (arrays[name] for name in ADAPTIVE)
+    state = arrays["state"].size + 1
+    if any(a.dtype != np.float64 for a in (controller, times, past)):
+        return "its controller's arrays are not float64"
+    if controller.shape != (8,) or times.ndim != 1 or not 1 <= times.size <= 3:
+        return f"its controller is of shape {controller.shape}, its times {times.shape}"
+    if past.shape != (times.size, state):
+        return f"its past states are of shape {past.shape}"
+    if not (np.isfinite(times).all() and np.isfinite(past).all() and 0.0 <= controller[0]):
+        return "its controller's state is not finite"
+    return None
+
+
 def _wrong_arrays(arrays: dict[str, np.ndarray], meta: dict) -> str | None:
     """What is wrong with a checkpoint's arrays (the method's state: see
     :meth:`rodfem.solver.methods.base.Method.saved_state`), or None."""
@@ -148,9 +174,12 @@ def _wrong_arrays(arrays: dict[str, np.ndarray], meta: dict) -> str | None:
     for name in ("state", "u_prev", "step", "pressure"):
         if name not in arrays:
             return f"it has no {name}"
-    unknown = set(arrays) - {*shapes, "step", "pressure"}
+    unknown = set(arrays) - {*shapes, "step", "pressure", *ADAPTIVE}
     if unknown:
         return f"it holds {sorted(unknown)[0]}, which is not rodfem's"
+    wrong = _wrong_adaptive(arrays)
+    if wrong:
+        return wrong
     nodes = arrays["u_prev"].shape[0] if arrays["u_prev"].ndim == 1 else 0
     for name, per_node in shapes.items():
         a = arrays.get(name)

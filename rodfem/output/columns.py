@@ -68,7 +68,8 @@ def _force(raw, c):
 
 
 COLUMNS = (
-    Column("t", "time tⁿ = nΔt", lambda raw, c: raw["n"] * c.dt),
+    Column("t", "time tⁿ = nΔt (adaptive steps: the sum of the steps so far)",
+           lambda raw, c: raw["t"] if "t" in raw else raw["n"] * c.dt),
     Column("u_1", "displacement u(1, tⁿ) of the end at the obstacle",
            lambda raw, c: raw["u_1"]),
     Column("u_half", "displacement u(0.5, tⁿ) at the middle of the rod",
@@ -95,6 +96,14 @@ QUANTITIES = (
            "(the rigid obstacle: its multiplier)", _force),
     Column("contact", "1 while the obstacle pushes on the rod (p > 0), else 0",
            lambda raw, c: (_force(raw, c) > 0.0).astype(float), integer=True),
+)
+
+
+# The columns of a run with adaptive steps (time.adaptive), after the default ones.
+ADAPTIVE = (
+    Column("dt", "the step Δtⁿ = tⁿ − tⁿ⁻¹ (0 at n = 0)", lambda raw, c: raw["dt"]),
+    Column("event", "1 where the step ends where contact begins or ends, else 0",
+           lambda raw, c: raw["event"], integer=True),
 )
 
 
@@ -125,13 +134,14 @@ def for_scene(scene) -> tuple[Column, ...]:
     """The columns of a scene's history.h5: the default ones, the quantities its
     output.history names, then per probe x the columns of :data:`PROBES`."""
     chosen = {column.name: column for column in QUANTITIES}
-    return (*COLUMNS, *(chosen[name] for name in scene["output.history"]),
+    adaptive = ADAPTIVE if scene["time.adaptive"] else ()
+    return (*COLUMNS, *adaptive, *(chosen[name] for name in scene["output.history"]),
             *(make(x) for x in scene["output.probes"] for _, _, make in PROBES))
 
 
 def named(names) -> tuple[Column, ...]:
     """The columns of a history.h5 header (KeyError for a name rodfem does not write)."""
-    table = {column.name: column for column in (*COLUMNS, *QUANTITIES)}
+    table = {column.name: column for column in (*COLUMNS, *ADAPTIVE, *QUANTITIES)}
     makers = {pattern.split("@")[0]: make for pattern, _, make in PROBES}
 
     def column(name: str) -> Column:
@@ -153,9 +163,11 @@ def readings(columns) -> tuple[tuple[str, float], ...]:
 
 
 def columns_of(raw_rows: np.ndarray, context: Context, columns=COLUMNS,
-               reads: tuple[tuple[str, float], ...] = ()) -> np.ndarray:
+               reads: tuple[tuple[str, float], ...] = (),
+               clock: dict[str, np.ndarray] | None = None) -> np.ndarray:
     """The history.h5 rows of a block of raw rows (the raw slots, then the readings
-    ``reads``)."""
+    ``reads``); ``clock``: the times of adaptive steps, their sizes and events (t, dt, event)."""
     raw = {slot.name: raw_rows[:, i] for i, slot in enumerate(RAW)}
     raw.update({reading_name(*r): raw_rows[:, len(RAW) + i] for i, r in enumerate(reads)})
+    raw.update(clock or {})
     return np.column_stack([column.compute(raw, context) for column in columns])

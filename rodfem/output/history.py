@@ -111,15 +111,21 @@ class History:
         self._slots = tuple(RAW_INDEX[name] for name in ("n", "iterations", "u_1", "d_1",
                                                          "u_half", "bulk_energy", "pressure"))
         self._count = 0
+        # Adaptive steps: per row the time, the step and whether it ended at a contact event.
+        self.adaptive = bool(scene["time.adaptive"])
+        self._clock = np.zeros((block, 3)) if self.adaptive else None
+        self.steps = np.zeros(0, dtype=int)  # the steps n of the rows of the last take()
 
     @property
     def full(self) -> bool:
         return self._count == len(self._rows)
 
-    def record(self, state) -> None:
+    def record(self, state, clock: tuple[float, float, bool] | None = None) -> None:
         """Record the step ``state.n`` of a method (:class:`rodfem.solver.methods.base.Method`):
         its state [Θⁿ; ΔUⁿ; Uⁿ] (``state``, its array ``values``), its count of ``iterations`` and
-        its contact force ``pressure``."""
+        its contact force ``pressure``; with adaptive steps, ``clock`` = (tⁿ, Δtⁿ, event)."""
+        if self._clock is not None:
+            self._clock[self._count] = clock
         bulk = self.energy(state.state)
         s = state.values
         i, w, j, v = self.half
@@ -172,6 +178,11 @@ class History:
     def take(self) -> np.ndarray:
         """The rows recorded since the last call, with the scene's columns (``columns``)."""
         rows = self._rows[: self._count].copy()
+        clock = None
+        if self._clock is not None:
+            t, dt, event = self._clock[: self._count].T.copy()
+            clock = {"t": t, "dt": dt, "event": event}
+        self.steps = rows[:, RAW_INDEX["n"]].astype(int)
         self._count = 0
         return columns_of(rows, self.context, self.columns,
-                          self.readings.reads if self.readings else ())
+                          self.readings.reads if self.readings else (), clock)

@@ -85,10 +85,12 @@ def _plan(out: Path, overrides: list[str], marker: dict, ranks: int, large: bool
         raise ResumeError(str(err)) from None
     _check_same_run(out, scene, base, arrays, meta, ranks)
     step, steps = meta["step"], scene.steps
-    if steps < step:
+    reached = float(arrays["controller"][0]) if "controller" in arrays else step * scene["time.dt"]
+    ended = reached >= scene["time.end"] if "controller" in arrays else steps == step
+    if (steps < step if "controller" not in arrays else reached > scene["time.end"]):
         raise ResumeError(f"time.end = {scene['time.end']:g} is before the checkpoint's "
-                          f"t = {step * scene['time.dt']:g}")
-    if steps == step and marker.get("status") == "complete":
+                          f"t = {reached:g}")
+    if ended and marker.get("status") == "complete":
         raise Complete(f"{out} is a complete run (t = {scene['time.end']:g}); nothing was "
                        f"changed ('rodfem resume {out} --set time.end=T' extends it)")
     _check_files(out, meta)

@@ -50,8 +50,13 @@ class Scene:
 
     @property
     def steps(self) -> int:
-        """N = T/Δt."""
+        """N = T/Δt (with adaptive steps, the steps of the first step's size: an estimate)."""
         return int(round(self["time.end"] / self["time.dt"]))
+
+    @property
+    def adaptive(self) -> bool:
+        """Whether the steps adapt (``time.adaptive``)."""
+        return bool(self["time.adaptive"])
 
     @property
     def parameters(self) -> dict[str, float]:
@@ -130,8 +135,8 @@ def validate(data: dict[str, Any], source: str = "") -> Scene:
         for key, spec in keys.items():
             if key in data.get(section, {}) and not _applies(scene, spec):
                 other, value = spec.only_with
-                raise SceneError(f'{section}.{key}: applies only with {other} = "{value}", '
-                                 f'not "{scene[other]}"')
+                raise SceneError(f"{section}.{key}: applies only with {other} = "
+                                 f"{_toml_value(value)}, not {_toml_value(scene[other])}")
     _check_consistency(scene)
     return scene
 
@@ -208,11 +213,24 @@ def _check_steps(scene: Scene) -> None:
     ratio = end / dt
     if ratio > MAX_STEPS:
         raise SceneError(f"time.dt: at most {MAX_STEPS:g} steps, got {ratio:.3g} (end/dt)")
-    if abs(ratio - round(ratio)) > 1e-9 * ratio:
+    if scene.adaptive:
+        _check_adaptive(scene)
+    elif abs(ratio - round(ratio)) > 1e-9 * ratio:
         raise SceneError(
             f"time.end: must be a whole number of steps of time.dt = {dt!r}, got {end!r} "
             f"({ratio:.6g} steps)"
         )
+
+
+def _check_adaptive(scene: Scene) -> None:
+    """The first step, the smallest and the largest in order."""
+    dt, low, high = scene["time.dt"], scene["time.dt_min"], scene["time.dt_max"]
+    if dt < low:
+        raise SceneError(f"time.dt: the first step must be >= time.dt_min = {low!r}, got {dt!r}")
+    if high and dt > high:
+        raise SceneError(f"time.dt: the first step must be <= time.dt_max = {high!r}, got {dt!r}")
+    if high and high < low:
+        raise SceneError(f"time.dt_max: must be 0 or >= time.dt_min = {low!r}, got {high!r}")
 
 
 def _check_data(scene: Scene) -> None:

@@ -20,8 +20,8 @@ class SceneError(ValueError):
 
 @dataclasses.dataclass(frozen=True)
 class Key:
-    """One scene key: its kind ("real", "integer", "choice", "expression", or a list of distinct
-    values: "reals", "choices"), default and range (of each value, for a list)."""
+    """One scene key: its kind ("real", "integer", "boolean", "choice", "expression", or a list
+    of distinct values: "reals", "choices"), default and range (of each value, for a list)."""
 
     kind: str
     default: Any
@@ -87,6 +87,22 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "scheme": Key("choice", "paper", choices=TIME_SCHEMES,
                       help="paper: the scheme (3.1)-(3.2), first order; crank-nicolson: the "
                       "midpoint rule, second order (docs/time-schemes.md)"),
+        "adaptive": Key("boolean", False,
+                        help="true: the step adapts to keep each step's error estimate within "
+                        "time.tolerance, and a step ends where contact begins or ends; "
+                        "time.dt is then the first step"),
+        "tolerance": Key("real", 1e-3, above=0.0, maximum=0.1,
+                         only_with=("time.adaptive", True),
+                         help="the error allowed per step, relative to the size of each field "
+                         "(temperature, velocity, displacement, contact force) over the run so "
+                         "far (docs/time-schemes.md)"),
+        "dt_min": Key("real", 1e-9, minimum=SMALL, maximum=BIG,
+                      only_with=("time.adaptive", True),
+                      help="the smallest step the error control may take (a step located at a "
+                      "contact event may be shorter); below it the run stops"),
+        "dt_max": Key("real", 0.0, minimum=0.0, maximum=BIG,
+                      only_with=("time.adaptive", True),
+                      help="the largest step; 0: no bound but the end time"),
     },
     "discretisation": {
         "mass": Key("choice", "lumped", choices=MASSES,

@@ -24,6 +24,8 @@ def _toml_value(value: Any) -> str:
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     if isinstance(value, str):
         return json.dumps(value, ensure_ascii=False)  # a TOML basic string, any character
+    if isinstance(value, bool):
+        return "true" if value else "false"
     return repr(value)
 
 
@@ -79,6 +81,10 @@ def _check_value(dotted: str, spec: Key, value: Any) -> Any:
         return _check_list(dotted, spec, value)
     if spec.kind in ("real", "integer"):
         return _check_number(dotted, spec, value)
+    if spec.kind == "boolean":
+        if not isinstance(value, bool):
+            raise SceneError(f"{dotted}: must be true or false, got {_toml_value(value)}")
+        return value
     if spec.kind == "choice":
         if value not in spec.choices:
             choices = " | ".join(f'"{c}"' for c in spec.choices)

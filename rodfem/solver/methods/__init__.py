@@ -22,9 +22,10 @@ REGISTRY: dict[str, type[Method]] = {
 }
 
 
-def make_method(disc) -> Method:
-    """The method of the scene's ``solver.method``, set up on ``disc``."""
-    return REGISTRY[disc.scene["solver.method"]](disc)
+def make_method(disc, dt: float | None = None) -> Method:
+    """The method of the scene's ``solver.method``, set up on ``disc`` for its Δt, or for a step
+    ``dt`` (an adaptive run's other steps: made inside ``disc.at_step(dt)``)."""
+    return REGISTRY[disc.scene["solver.method"]](disc, dt)
 
 
 __all__ = ["REGISTRY", "DirectMethod", "Method", "NewtonMethod", "PicardMethod", "make_method"]

@@ -97,10 +97,12 @@ class Method:
 
     name = ""
 
-    def __init__(self, disc: Discretisation):
+    def __init__(self, disc: Discretisation, dt: float | None = None):
         scene = disc.scene
         self.disc = disc
-        self.dt = scene["time.dt"]
+        # Δt: the scene's, or another step's of an adaptive run (made inside disc.at_step(dt))
+        self.dt = scene["time.dt"] if dt is None else dt
+        self.clock = None  # the state's time where steps differ (adaptive), else n Δt
         self.law = contact.of_scene(scene)  # the obstacle's law, or the rigid obstacle
         self.time_scheme = TIME_SCHEMES[scene["time.scheme"]]
         self.coupled = scene["model.a"] != 0.0  # a = 0: heat does not see motion, nor motion heat
@@ -246,7 +248,7 @@ class Method:
         N["theta_prev"].multAdd(self.theta, self.heat.b, rhs)
         N["du"].multAdd(self.du, rhs, rhs)  # ΔU¹ = Δt P u₁, as at n = 0
         if self.sources["heat"] is not None:
-            self._source_load(rhs, None, self.dt)
+            self._source_load(rhs, None, self.dt if self.clock is None else self.clock + self.dt)
         self.solve_heat(rhs, dtheta)
         self._accept(dtheta, self.du)
         self.iterations = 0
@@ -260,7 +262,9 @@ class Method:
         sources at the time scheme's time of the step."""
         self.R.multAdd(self.state, self.b, rhs)
         if self.sources["heat"] is not None or self.sources["momentum"] is not None:
-            self._source_load(None, rhs, self.time_scheme.source_time(self.n, self.dt))
+            t = (self.time_scheme.source_time(self.n, self.dt) if self.clock is None
+                 else self.clock + self.time_scheme.weight * self.dt)
+            self._source_load(None, rhs, t)
 
     def _source_load(self, heat_rhs: PETSc.Vec | None, rhs: PETSc.Vec | None, t: float) -> None:
         """Add the sources' loads at time t: to the heat right-hand side alone, or to [h; m]."""

@@ -32,8 +32,8 @@ from rodfem.solver.methods.base import Method
 class DirectMethod(Method):
     name = "direct"
 
-    def __init__(self, disc: Discretisation):
-        super().__init__(disc)
+    def __init__(self, disc: Discretisation, dt: float | None = None):
+        super().__init__(disc, dt)
         n = disc.nodes.size
         self.x, (self.x_heat, self.x_momentum) = stacked(2, n)
         self.rhs, (self.rhs_heat, self.rhs_momentum) = stacked(2, n)

@@ -39,8 +39,8 @@ PREFIX = "rodfem_newton_"
 class NewtonMethod(Method):
     name = "newton"
 
-    def __init__(self, disc: Discretisation):
-        super().__init__(disc)
+    def __init__(self, disc: Discretisation, dt: float | None = None):
+        super().__init__(disc, dt)
         n = disc.nodes.size
         self.C = self.coupled_operator()
         self.C_last = self.C.getValue(self._index, self._index)

@@ -34,8 +34,8 @@ class PicardMethod(Method):
 
     name = "picard"
 
-    def __init__(self, disc: Discretisation):
-        super().__init__(disc)
+    def __init__(self, disc: Discretisation, dt: float | None = None):
+        super().__init__(disc, dt)
         self.momentum_ksp, momentum_factor = lu_factor(self.momentum.A, "rodfem_momentum_")
         self.solve_momentum = momentum_factor.solve
         new = self.heat.A.createVecRight

@@ -1,0 +1,137 @@
+"""The error of an adaptive step, and the size of the next: NumPy only.
+
+**The error estimate** compares a step's result y (the state [Θ; D; U] and the contact force p)
+with a prediction from the steps before it, the polynomial through the last q + 1 accepted
+states extrapolated to the new time (q the scheme's order: 1 for the paper's, 2 for
+Crank–Nicolson's). Both differ from the exact y(t + h) by a multiple of the same derivative, so
+their difference gives the step's local error (Milne's device), for any step sizes h, h₁, h₂:
+
+* paper (backward Euler): y − y(t + h) ≈ h²y''/2, the line through two points is off by
+  −h(h + h₁)y''/2, so the local error is h/(2h + h₁) (y − ŷ);
+* Crank–Nicolson: y − y(t + h) ≈ h³y'''/12, the parabola through three points is off by
+  −h(h + h₁)(h + h₁ + h₂)y'''/6, so the local error is (h³/12)/(h³/12 + h(h + h₁)(h + h₁ + h₂)/6)
+  times (y − ŷ).
+
+Where there are not yet q + 1 states since the start or the last contact event (whose impact
+breaks the smoothness the extrapolation needs), the step is taken again as two half steps, and
+the local error of the halves is their difference from the whole step over 2^q − 1 (Richardson);
+the two halves are kept, which gives the next step its three states.
+
+**The norm** is relative, per field: the root mean square over the nodes of the error in Θ, in
+the velocity and in U, each over the largest max-norm that field has had in the run so far, and
+the error in p over the largest contact force or strain (a stress) so far; the step's error is
+the largest of the four over ``time.tolerance``, and a step is accepted where it is at most 1.
+
+**The next step** follows Gustafsson's PI controller (Hairer & Wanner, IV.8; Söderlind):
+h_new = h · 0.9 · err^(−0.7/k) · err_prev^(0.4/k), k = q + 1, within [h/5, 5h]; after a rejected
+step h · 0.9 · err^(−1/k), no larger than h. Step sizes are rounded down to a ladder Δt₀ 2^(j/4)
+(Δt₀ the first step): the steps repeat, and so do their factorisations.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+RUNGS = 4  # ladder rungs per doubling of the step
+SAFETY, GROW, SHRINK = 0.9, 5.0, 0.2
+TINY = 1e-10  # the smallest error the controller divides by
+
+
+def rung(dt0: float, h: float) -> float:
+    """The largest step of the ladder Δt₀ 2^(j/RUNGS) that is at most h."""
+    j = math.floor(RUNGS * math.log2(h / dt0) + 1e-9)
+    step = dt0 * 2.0 ** (j / RUNGS)
+    return step if step <= h else dt0 * 2.0 ** ((j - 1) / RUNGS)
+
+
+def extrapolate(times: np.ndarray, states: np.ndarray, t: float) -> np.ndarray:
+    """The polynomial through (times[i], states[i]) at t (Lagrange's form)."""
+    out = np.zeros(states.shape[1])
+    for i, ti in enumerate(times):
+        weight = 1.0
+        for j, tj in enumerate(times):
+            if j != i:
+                weight *= (t - tj) / (ti - tj)
+        out += weight * states[i]
+    return out
+
+
+def milne(order: int, h: float, gaps: np.ndarray) -> float:
+    """The factor that turns (step − prediction) into the local error, for steps h and the
+    previous ones ``gaps`` = [h₁, h₂] (most recent first)."""
+    if order == 1:
+        return h / (2.0 * h + gaps[0])
+    step = h**3 / 12.0
+    return step / (step + h * (h + gaps[0]) * (h + gaps[0] + gaps[1]) / 6.0)
+
+
+@dataclasses.dataclass
+class ErrorNorm:
+    """The relative norm of an error of y = [Θ; D; U; p] (n nodes, h the cell), against the
+    largest size of each field so far (``maxima``: Θ, D, U, and the stress scale). The velocity's
+    size is at least that of a stress S carried by a wave, S/√b (where the kinetic and the
+    strain energy balance; D = Δt₀ V): a rod released from rest is measured against the speed
+    its strain will give it, not against the vanishing speed of its first steps."""
+
+    nodes: int
+    cell: float
+    b: float = 0.0
+    dt0: float = 1.0
+    maxima: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4))
+
+    def sizes(self, y: np.ndarray) -> np.ndarray:
+        n = self.nodes
+        u = y[2 * n:3 * n]
+        strain = float(np.max(np.abs(np.diff(u)))) / self.cell if n > 1 else 0.0
+        return np.array([np.max(np.abs(y[:n])), np.max(np.abs(y[n:2 * n])),
+                         np.max(np.abs(u)), max(abs(float(y[3 * n])), strain)])
+
+    def grown(self, y: np.ndarray) -> np.ndarray:
+        """The maxima with y counted."""
+        return np.maximum(self.maxima, self.sizes(y))
+
+    def __call__(self, error: np.ndarray, y: np.ndarray, tolerance: float) -> float:
+        n, scale = self.nodes, self.grown(y)
+        if self.b > 0.0:
+            scale[1] = max(scale[1], self.dt0 * scale[3] / np.sqrt(self.b))
+        parts = [np.sqrt(np.mean(error[k * n:(k + 1) * n] ** 2)) for k in range(3)]
+        parts.append(abs(float(error[3 * n])))
+        ratios = [p / (tolerance * s) if s > 0.0 else (0.0 if p == 0.0 else np.inf)
+                  for p, s in zip(parts, scale)]
+        return float(max(ratios))
+
+
+@dataclasses.dataclass
+class Controller:
+    """The PI controller of the module's docstring, with ``dt_min`` and ``dt_max`` (0: none)."""
+
+    dt0: float
+    order: int
+    dt_min: float
+    dt_max: float
+    previous: float = 1.0  # the last accepted step's error
+
+    @property
+    def k(self) -> int:
+        return self.order + 1
+
+    def accepted(self, h: float, error: float) -> float:
+        """The next step after an accepted step h of the given error."""
+        error = max(error, TINY)
+        factor = SAFETY * error ** (-0.7 / self.k) * max(self.previous, TINY) ** (0.4 / self.k)
+        self.previous = error
+        return h * min(GROW, max(SHRINK, factor))
+
+    def rejected(self, h: float, error: float) -> float:
+        """The step to try after a rejected step h of the given error."""
+        factor = SAFETY * max(error, TINY) ** (-1.0 / self.k)
+        return h * min(SAFETY, max(SHRINK, factor))
+
+    def ladder(self, h: float) -> float:
+        """h bounded by dt_max and rounded down to the ladder (not below dt_min)."""
+        if self.dt_max:
+            h = min(h, self.dt_max)
+        return max(rung(self.dt0, h), min(self.dt_min, h))

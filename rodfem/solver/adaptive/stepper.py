@@ -1,0 +1,285 @@
+"""Adaptive steps of any method: each step's error estimated and controlled, rejected steps taken
+again, and a step ending where contact begins or ends.
+
+**Steps of any size.** A method is set up for one Δt (its operators and factorisations); the
+run's method (``home``, of the first step Δt₀) holds the state, and a step of another size h is
+taken by a method made for h (:meth:`rodfem.discrete.discretisation.Discretisation.at_step`),
+kept for the next step of that size (the controller's ladder makes sizes repeat): the state is
+handed to it and back. The state's D is the displacement the velocity makes over a step, Δt V:
+the home method's holds Δt₀ V always (what the history, the energy and the fields read), and a
+step of size h starts from D h/Δt₀ and hands back D Δt₀/h. Both schemes keep their properties
+at any step: each step is the paper's backward-Euler step or Crank–Nicolson's midpoint step of
+its own size from the same velocity, so the paper scheme's energy decays and Crank–Nicolson's
+identity holds exactly, step by step (docs/time-schemes.md).
+
+**Contact events.** Contact is on where the obstacle pushes: u(1) > g for an elastic obstacle,
+u(1) − g + h p > 0 for the rigid one (its multiplier p > 0 holds u(1) at g; h the cell, any
+positive weight would do). Where a step changes that, the step's size is found where it changes,
+by the Illinois method on the step's own results, to a bracket 1e-10 wide in time; the step ends
+at the far end of the bracket, with contact already changed, and its history row is marked. The
+error estimate then starts again from that state (its derivatives jump at an impact).
+
+**Failures.** A step that Picard's iteration or Newton's method does not solve is taken again at
+a quarter of its size; for Picard, whose iteration contracts only for steps short enough while in
+contact (w/ε < 1, ``rodfem stability``), the failed size bounds every later step at half of it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rodfem.solver.adaptive.control import Controller, ErrorNorm, extrapolate, milne
+from rodfem.solver.errors import NotConverged, PicardNotConverged
+
+EVENT_WIDTH = 1e-10  # the located event's bracket in time
+RETRIED = (PicardNotConverged,)
+KEPT = 64  # the step sizes whose methods are kept (the ladder's; a located step's is not)
+
+
+class StepTooSmall(NotConverged):
+    """The error control asks for a step below ``time.dt_min``."""
+
+    def __init__(self, method: str, step: int, time: float, h: float, dt_min: float):
+        super().__init__(method, step, time, f"the error control needs a step of {h:.3g}, "
+                         f"below time.dt_min = {dt_min:g}", 0)
+
+
+class AdaptiveStepper:
+    """Accepted steps of ``home`` (a :class:`~rodfem.solver.methods.base.Method` of the first
+    step Δt₀), one :meth:`step` at a time. ``make(h)`` returns (method for step h, its compiled
+    loop or None); ``loop`` is the home method's compiled loop or None; ``record(dt, event)`` is
+    called with home in each accepted state."""
+
+    def __init__(self, home, scene, make, loop, record, width: int):
+        self.home, self.make, self.loop, self.record = home, make, loop, record
+        self.dt0 = home.dt
+        self.end = scene["time.end"]
+        self.tolerance = scene["time.tolerance"]
+        self.order = 1 if home.time_scheme.weight == 1.0 else 2
+        self.nodes = home.values.size // 3
+        self.controller = Controller(self.dt0, self.order, scene["time.dt_min"],
+                                     scene["time.dt_max"])
+        self.norm = ErrorNorm(self.nodes, 1.0 / scene["mesh.cells"], scene["model.b"],
+                              self.dt0)
+        self.rigid, self.gap = home.law.rigid, home.law.gap
+        self.cell = 1.0 / scene["mesh.cells"]
+        self.t, self.h = 0.0, self.dt0
+        self.cap = np.inf  # Picard: half the smallest step it failed at
+        self.past_t: list[float] = []
+        self.past: list[np.ndarray] = []
+        self._methods: dict[float, tuple] = {}
+        self._rows = np.zeros((1, width))
+        self.steps = self.rejected = self.events = 0
+
+    # -- the state ---------------------------------------------------------------------------
+
+    def y(self) -> np.ndarray:
+        """[Θ; D; U; p] of the home state."""
+        return np.append(self.home.values, self.home.pressure)
+
+    def contact(self) -> float:
+        """> 0 while the obstacle pushes (the module's docstring)."""
+        u_1 = float(self.home.values[-1])
+        if self.rigid:
+            return u_1 - self.gap + self.cell * self.home.pressure
+        return u_1 - self.gap
+
+    def start(self) -> None:
+        """Count the initial state (call once, at n = 0, before the first step)."""
+        self.past_t, self.past = [self.t], [self.y()]
+        self.norm.maxima = self.norm.grown(self.past[0])
+
+    # -- one step of a given size ------------------------------------------------------------
+
+    def _method(self, h: float):
+        if h == self.dt0:
+            return self.home, self.loop
+        made = self._methods.get(h)
+        if made is None:
+            made = self.make(h)
+            if len(self._methods) < KEPT:
+                self._methods[h] = made
+        return made
+
+    def _take(self, h: float, start: dict) -> None:
+        """Home from the state ``start`` (at self.t) one step h on."""
+        method, loop = self._method(h)
+        n = self.nodes
+        if method is self.home:
+            method.restore(start)
+        else:
+            state = dict(start, state=start["state"].copy())
+            state["state"][n:2 * n] *= h / self.dt0
+            method.restore(state)
+        method.clock = self.t
+        if loop is not None and not method.first_step_special:
+            loop.advance(1, self._rows)
+        else:
+            method.advance()
+        if method is not self.home:
+            back = method.saved_state()
+            back["state"][n:2 * n] *= self.dt0 / h
+            self.home.restore(back)
+
+    # -- the step ----------------------------------------------------------------------------
+
+    def _proposal(self) -> float:
+        h = self.controller.ladder(min(self.h, self.cap))
+        left = self.end - self.t
+        return left if h >= left * (1.0 - 1e-9) else h
+
+    def step(self) -> None:
+        """One accepted step (two at a restart of the estimate), each recorded."""
+        start = self.home.saved_state()
+        before = self.contact() > 0.0
+        while True:
+            h = self._proposal()
+            try:
+                if self._attempt(h, start, before):
+                    return
+            except RETRIED as failure:
+                self._failed(h, start, failure)
+
+    def _attempt(self, h: float, start: dict, before: bool) -> bool:
+        """Try the step h from ``start``: accepted (True), or rejected with the next size set."""
+        f0 = self.contact_of(start)
+        self._take(h, start)
+        event = (self.contact() > 0.0) != before
+        if event:
+            h = self._locate(h, start, f0, before)
+        if len(self.past) > self.order:
+            error = self._predicted(h)
+            if error <= 1.0:
+                self._accept([(h, event)], error)
+                return True
+        elif event:
+            self._accept([(h, event)], None)
+            return True
+        else:
+            error, halves = self._halves(h, start, self.y())
+            if error <= 1.0:
+                self._accept(halves, error)
+                return True
+        self._reject(h, start, error)
+        return False
+
+    def contact_of(self, state: dict) -> float:
+        """:meth:`contact` of a saved state."""
+        u_1, p = float(state["state"][-1]), float(state["pressure"][0])
+        return u_1 - self.gap + (self.cell * p if self.rigid else 0.0)
+
+    def _accept(self, steps, error) -> None:
+        """Record the accepted step(s); the next step's size."""
+        for h, event, *state in steps:
+            if state:
+                self.home.restore(state[0])
+            self.t = self.end if abs(self.end - (self.t + h)) <= 1e-12 * self.end else self.t + h
+            y = self.y()
+            self.norm.maxima = self.norm.grown(y)
+            self.past_t.append(self.t)
+            self.past.append(y)
+            if event:
+                self.past_t, self.past = [self.t], [y]
+                self.events += 1
+            del self.past_t[:-(self.order + 1)], self.past[:-(self.order + 1)]
+            self.steps += 1
+            self.record(h, event)
+        last = steps[-1][0]
+        if error is not None:
+            self.h = self.controller.accepted(last, error)
+        else:
+            self.h = max(self.h, last)
+
+    def _reject(self, h: float, start: dict, error: float) -> None:
+        self.rejected += 1
+        self.home.restore(start)
+        self.h = self.controller.rejected(h, error)
+        if self.h < self.controller.dt_min:
+            raise StepTooSmall(self.home.name, self.home.n + 1, self.t + h, self.h,
+                               self.controller.dt_min)
+
+    def _failed(self, h: float, start: dict, failure: NotConverged) -> None:
+        """A step the method did not solve: a quarter of it next (Picard: never again half)."""
+        self.rejected += 1
+        self.home.restore(start)
+        if self.home.name == "picard":
+            self.cap = min(self.cap, 0.5 * h)
+        self.h = 0.25 * h
+        if self.h < self.controller.dt_min:
+            raise failure
+
+    def _predicted(self, h: float) -> float:
+        """The local error of the step just taken, by Milne's device."""
+        times = np.array(self.past_t[-(self.order + 1):])
+        states = np.array(self.past[-(self.order + 1):])
+        y = self.y()
+        gaps = np.diff(times)[::-1]
+        factor = milne(self.order, h, gaps)
+        return self.norm(factor * (y - extrapolate(times, states, self.t + h)), y,
+                         self.tolerance)
+
+    def _halves(self, h: float, start: dict, whole: np.ndarray):
+        """The step h again as two halves: (their error, [(h/2, False, state)] * 2), the error
+        infinite if a half fails or meets an event (the step is then taken smaller)."""
+        before, t0, half = self.contact_of(start) > 0.0, self.t, 0.5 * h
+        kept, state = [], start
+        try:
+            for _ in range(2):
+                self._take(half, state)
+                if (self.contact() > 0.0) != before:
+                    return np.inf, []
+                state = self.home.saved_state()
+                kept.append((half, False, state))
+                self.t = t0 + half
+        except RETRIED:
+            return np.inf, []
+        finally:
+            self.t = t0
+        y = self.y()
+        return self.norm((y - whole) / (2.0**self.order - 1.0), y, self.tolerance), kept
+
+    def _locate(self, h: float, start: dict, fa: float, before: bool) -> float:
+        """The step's size where contact changes, to a bracket EVENT_WIDTH wide, by the Illinois
+        method (bisection after 60 tries); home is left at the far end, contact changed."""
+        a, b, fb = 0.0, h, self.contact()
+        side, at_b, tries = 0, True, 0
+        while b - a > EVENT_WIDTH:
+            tries += 1
+            c = b - fb * (b - a) / (fb - fa) if fb != fa and tries < 60 else 0.5 * (a + b)
+            c = min(max(c, a + 0.25 * EVENT_WIDTH), b - 0.25 * EVENT_WIDTH)
+            self._take(c, start)
+            fc = self.contact()
+            if (fc > 0.0) != before:
+                b, fb, at_b = c, fc, True
+                if side == -1:
+                    fa *= 0.5
+                side = -1
+            else:
+                a, fa, at_b = c, fc, False
+                if side == 1:
+                    fb *= 0.5
+                side = 1
+        if not at_b:
+            self._take(b, start)
+        return b
+
+    def counts(self) -> dict:
+        """What the run's summary reports of the steps."""
+        return {"steps": self.steps, "rejected": self.rejected, "events": self.events,
+                "t": self.t}
+
+    # -- a checkpoint ------------------------------------------------------------------------
+
+    def saved(self) -> dict[str, np.ndarray]:
+        """What the next steps depend on, beyond the method's state."""
+        return {"controller": np.array([self.t, self.h, self.controller.previous, self.cap,
+                                        *self.norm.maxima], dtype=float),
+                "past_t": np.array(self.past_t, dtype=float),
+                "past": np.array(self.past, dtype=float).reshape(len(self.past), -1)}
+
+    def restore(self, saved: dict[str, np.ndarray]) -> None:
+        c = saved["controller"]
+        self.t, self.h, self.controller.previous, self.cap = (float(v) for v in c[:4])
+        self.norm.maxima = np.array(c[4:8], dtype=float)
+        self.past_t = [float(v) for v in saved["past_t"]]
+        self.past = [np.array(row) for row in saved["past"]]
