@@ -47,7 +47,7 @@ CASES = [
     (["initial.theta0=__import__('os').getcwd()"], "initial.theta0:"),
     (["initial.u0=1 + x"], "initial.u0: must equal 0 at x = 0"),
     (["initial.u1=1"], "initial.u1: must equal 0 at x = 0"),
-    (["initial.u0=true"], "initial.u0: True must be a string expression in x"),
+    (["initial.u0=true"], "initial.u0: true must be a string expression in x"),
     (["initial.u1=log(x)"], "initial.u1: not finite at x = 0"),
     (["discretisation.mass=lumpy"], 'discretisation.mass: must be one of "lumped" | '
      '"consistent" | "redistributed" | "redistributed-lumped"'),

@@ -17,6 +17,7 @@ _SPECIAL = re.compile(r"([\\`*_\[\]<>|$#{}])")
 KINDS = {
     "real": "real",
     "integer": "integer",
+    "boolean": "boolean",
     "choice": "choice",
     "expression": "expression",
     "reals": "list of reals",
@@ -54,6 +55,8 @@ def allowed(name: str, key: Key) -> str:
     if key.kind in ("choice", "choices"):
         text = ", ".join(f"`{c}`" for c in key.choices)
         text = ("one of " if key.kind == "choice" else "any of ") + text
+    elif key.kind == "boolean":
+        text = "`true` or `false`"
     elif key.kind == "expression":
         names = "x, t" if name.startswith("source.") else "x"
         text = (f"an expression in {names} and the model's names (`a b zeta k theta_A`), "
