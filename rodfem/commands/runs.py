@@ -89,8 +89,11 @@ def report_run(scene, result, out: Path, quiet: bool) -> int:
         say(f"rodfem: interrupted by {name}; steps 0..{s['steps']} are in {out}, and {again}.")
         return 128 + (result.signal or signal.SIGINT)
     if not quiet:
+        adaptive = s.get("adaptive")
+        steps = (f"{s['steps']} adaptive steps ({adaptive['rejected']} rejected, "
+                 f"{adaptive['events']} contact events)" if adaptive else f"{s['steps']} steps")
         say(
-            f"{scene.source}: {s['steps']} steps in {s['loop_seconds']:.2f} s "
+            f"{scene.source}: {steps} in {s['loop_seconds']:.2f} s "
             f"({s['us_per_step']:.1f} µs/step, {s['method']}: {s['iterations_mean']:.2f} "
             f"{PER_STEP[s['method']]})"
             f" -> {out}",
