@@ -10,32 +10,25 @@ node's row and column out of the consistent mass and gives its neighbour 7h/12 (
 choice). The step is GetFEM's: a predictor without contact, and where it crosses the wall the
 same system again with U(1) = 0, the force read off its residual.
 
-    /usr/bin/python3 benchmarks/getfem_impact.py [--h 1e-2 2e-3 1e-3 5e-4] [--ratio 1 0.5]
+    .venv/bin/python benchmarks/getfem_impact.py [--h 1e-2 2e-3 1e-3 5e-4] [--ratio 1 0.5]
 
-Runs only where ``import getfem`` works (GetFEM's Python interface, not in rodfem's environment:
-the system's Python 3 with python3-getfem). Prints a Markdown table.
+Runs only where ``import getfem`` works (GetFEM's Python interface, Debian's python3-getfem,
+which rodfem's environment sees through the system's site-packages). Prints a Markdown table.
 """
 
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import subprocess
 
+import getfem as gf
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from mpi4py import MPI
 
-import getfem as gf
-
-
-def end_displacement(t: np.ndarray) -> np.ndarray:
-    """u(1, t) of the exact solution (rodfem.model.impact), period 3."""
-    tau = np.mod(t, 3.0)
-    phase = np.minimum(np.floor(tau), 2.0)
-    s = tau - phase
-    return np.where(phase == 0, -(1.0 - s) / 2.0, np.where(phase == 1, 0.0, -s / 2.0))
+from rodfem.model import impact
+from rodfem.studies.common import machine
 
 
 def matrices(cells: int) -> tuple[sp.csr_matrix, sp.csr_matrix]:
@@ -108,8 +101,9 @@ def run(cells: int, dt: float, end: float = 3.0, beta: float = 0.25,
         V1[last] = (U1[last] - U0[last]) / dt
         U0, V0, MV0, MA0 = U1, V1, MV1, MA1
         u1[n] = U0[last]
-    error = np.abs(u1 - end_displacement(dt * np.arange(1, steps + 1)))  # 0 at t = 0
-    return {"u1_l1": float(dt * error.sum()), "trapezoid": float(dt * (error.sum() - error[-1] / 2)),
+    error = np.abs(u1 - impact.end_displacement(dt * np.arange(1, steps + 1)))  # 0 at t = 0
+    return {"u1_l1": float(dt * error.sum()),
+            "trapezoid": float(dt * (error.sum() - error[-1] / 2)),
             "energy": float(0.5 * (V0 @ (M @ V0) + U0 @ (K @ U0)))}
 
 
@@ -126,18 +120,8 @@ def main() -> None:
         rows = [run(round(1.0 / h), ratio / round(1.0 / h)) for h in args.h]
         print(f"| Δt = {ratio:g} h | " + " | ".join(
             f"{r['u1_l1']:.3g} ({r['trapezoid']:.3g})" for r in rows) + " |")
-    print(f"\n{cpu()}, {os.cpu_count()} cores; GetFEM "
-          f"{version()}, NumPy {np.__version__}")
-
-
-def cpu() -> str:
-    """The processor's name, as rodfem's benchmarks give it."""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            return next(line.split(":", 1)[1].strip() for line in f
-                        if line.startswith("model name"))
-    except (OSError, StopIteration):
-        return platform.machine()
+    m = machine(MPI.COMM_SELF)
+    print(f"\n{m['cpu']}, {m['cpus']} cores; GetFEM {version()}, NumPy {m['numpy']}")
 
 
 def version() -> str:
