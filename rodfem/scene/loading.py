@@ -216,7 +216,7 @@ def _check_mass(scene: Scene) -> None:
             '"redistributed-lumped"'
         )
     ratio = scene["time.dt"] * scene["mesh.cells"]
-    if ratio > 1.0 + 1e-9:
+    if ratio > 1.0 + 4 * np.finfo(float).eps:  # Δt = 1/cells, rounded, is Δt = h
         raise SceneError(
             'discretisation.mass: "dispersion-free" needs time.dt <= h = 1/mesh.cells (beyond, '
             f"its blend is not positive definite), got time.dt/h = {ratio:.6g}; use a smaller "
