@@ -50,7 +50,12 @@ CASES = [
     (["initial.u0=true"], "initial.u0: true must be a string expression in x"),
     (["initial.u1=log(x)"], "initial.u1: not finite at x = 0"),
     (["discretisation.mass=lumpy"], 'discretisation.mass: must be one of "lumped" | '
-     '"consistent" | "redistributed" | "redistributed-lumped"'),
+     '"consistent" | "redistributed" | "redistributed-lumped" | "dispersion-free"'),
+    (["discretisation.mass=dispersion-free"], 'discretisation.mass: "dispersion-free" is blended '
+     'for time.scheme = "crank-nicolson", not "paper"'),
+    (["discretisation.mass=dispersion-free", "time.scheme=crank-nicolson", "time.dt=0.008"],
+     'discretisation.mass: "dispersion-free" needs time.dt <= h = 1/mesh.cells (beyond, its '
+     "blend is not positive definite), got time.dt/h = 2"),
     (["solver.method=gauss"], "solver.method: must be one of \"direct\" | \"newton\" | \"picard\""),
     (["obstacle.kind=rigid"], "solver.method: \"picard\" cannot solve obstacle.kind = \"rigid\""),
     (["solver.tol=0"], "solver.tol: must be >= 1e-300"),

@@ -89,7 +89,8 @@ def test_verify_quick_impact(shared_dir, capsys):
 def test_work_precision_quick_impact(shared_dir):
     """Each (mass, scheme, method) exactly once: a complete ladder h = Δt whose L¹ error of
     u(1, ·) falls at every rung, or a rejected choice with the scene's own message (picard with
-    the rigid obstacle; Crank–Nicolson with it on a mass at x = 1)."""
+    the rigid obstacle; Crank–Nicolson with it on a mass at x = 1; the dispersion-free mass with
+    the paper scheme); the dispersion-free mass the most accurate."""
     from rodfem.post.verify import plot_work_precision
 
     out = shared_dir / "wp"
@@ -119,11 +120,12 @@ def test_work_precision_quick_impact(shared_dir):
                                           f"time.scheme={scheme}", f"solver.method={method}"])
         assert rejected[mass, scheme, method] == str(err.value)
     assert {k for k in rejected if k[2] != "picard"} == {
-        (m, "crank-nicolson", k) for m in ("lumped", "consistent") for k in ("direct", "newton")}
+        (m, "crank-nicolson", k) for m in ("lumped", "consistent") for k in ("direct", "newton")
+    } | {("dispersion-free", "paper", k) for k in ("direct", "newton")}
     assert ("redistributed", "crank-nicolson", "direct") in ran
     summary = data["impact"]
-    assert summary["best"] == "redistributed, crank-nicolson, direct" or \
-        summary["best"] == "redistributed, crank-nicolson, newton"
+    assert summary["best"] == "dispersion-free, crank-nicolson, direct" or \
+        summary["best"] == "dispersion-free, crank-nicolson, newton"
     assert summary["rejected"] == len(rejected) and data["reach"] is None
     if COMM.rank == 0:
         figure = plot_work_precision(out)

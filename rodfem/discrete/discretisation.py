@@ -35,6 +35,7 @@ from petsc4py import PETSc
 from rodfem.discrete.cache import CELLS_MAX, OperatorCache, conforms, digest
 from rodfem.discrete.nodes import NodeOrder
 from rodfem.scene import Scene
+from rodfem.scene.schema import REDISTRIBUTED
 
 OBSTACLE = 1  # facet tag of the point x = 1
 PARAMETERS = ("a", "b", "zeta", "k", "theta_A")  # the model's, constants of the forms
@@ -63,7 +64,7 @@ class Discretisation:
     def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, cache: bool = False):
         self.scene = scene
         self.comm = comm
-        self.redistributed = scene["discretisation.mass"].startswith("redistributed")
+        self.redistributed = scene["discretisation.mass"] in REDISTRIBUTED
         self._symbols: dict[str, object] = {}
         self._forms: dict[str, object] = {}  # by the UFL expression's repr
         self._keyed: dict[tuple, object] = {}  # by a caller's name for it
@@ -113,14 +114,14 @@ class Discretisation:
         # rule, which makes (η_i, η_j) diagonal. Exact quadrature gives the consistent M.
         mass = scene["discretisation.mass"]
         vertices = ufl.dx(domain=self.mesh, scheme="GLL", degree=1)
-        self.dx_m = vertices if mass in ("lumped", "redistributed-lumped") else self.dx
-        self.dx_b = self._redistributed(vertices) if self.redistributed else None
         # The parameters are constants of the forms, not literals in them: one compiled form
         # serves every value, and no value of a scene is ever written into C code.
         self.const = types.SimpleNamespace(**{
             name: fem.Constant(self.mesh, PETSc.ScalarType(value))
             for name, value in self._constants(scene).items()
         })
+        self.dx_m = vertices if mass in ("lumped", "redistributed-lumped") else self.dx
+        self.dx_b = self._redistributed(vertices) if self.redistributed else None
         self.r = copetti.robin_shift(ufl.SpatialCoordinate(self.mesh), self.const.k)
 
     def _node_order(self) -> NodeOrder:
@@ -186,7 +187,8 @@ class Discretisation:
         & Renard): on the last cell the vertex rule with the density ρ = 2(1 − x)/h, whose
         weights are h at x = 1 − h and 0 at x = 1, so that the node x = 1 has no mass and the
         total mass is kept; elsewhere the base mass, lumped or consistent. (density, measure)
-        pairs for ``forms.copetti.inertia``; χ marks the last cell."""
+        pairs for ``forms.copetti.inertia``; χ marks the last cell. The dispersion-free mass's
+        base is consistent and lumped blended for the ratio Δt/h (a constant of the forms)."""
         import ufl
         from dolfinx import fem
 
@@ -195,9 +197,15 @@ class Discretisation:
         χ = fem.Function(W)
         χ.interpolate(lambda x: (x[0] > 1.0 - h).astype(PETSc.ScalarType))  # at its midpoint
         x = ufl.SpatialCoordinate(self.mesh)[0]
-        last = χ * 2.0 * (1.0 - x) / ufl.CellVolume(self.mesh)
+        h_cell = ufl.CellVolume(self.mesh)
+        last = χ * 2.0 * (1.0 - x) / h_cell
         if self.dx_m is vertices:
             return ((1.0 - χ + last, vertices),)
+        if self.scene["discretisation.mass"] == "dispersion-free":
+            # β consistent + (1 − β) lumped: P1's frequency is k(1 + (2β − 1)k²h²/24), and the
+            # midpoint rule's −k²Δt²/12 cancels it at β = 1/2 + (Δt/h)² (docs/time-schemes.md)
+            β = 0.5 + (self.const.dt / h_cell) ** 2
+            return ((β * (1.0 - χ), self.dx), ((1.0 - β) * (1.0 - χ) + last, vertices))
         return ((1.0 - χ, self.dx), (last, vertices))
 
     @contextlib.contextmanager

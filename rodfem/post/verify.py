@@ -196,7 +196,7 @@ def _save(chart, path: Path, size: tuple[int, int]) -> Path:
 
 
 # The impact's mass matrices, each a colour of its own (where the file does not list them).
-MASSES = ("lumped", "consistent", "redistributed", "redistributed-lumped")
+MASSES = ("lumped", "consistent", "redistributed", "redistributed-lumped", "dispersion-free")
 
 
 def impact_work_precision_figure(data: dict, path: Path) -> Path:

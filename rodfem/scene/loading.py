@@ -25,6 +25,7 @@ from rodfem.scene.schema import (  # noqa: F401 (re-exported)
     MAX_STEPS,
     METHODS,
     MODEL_NAMES,
+    REDISTRIBUTED,
     SCHEMA,
     SMALL,
     SOURCE_NAMES,
@@ -154,6 +155,7 @@ def _check_consistency(scene: Scene) -> None:
     """What no single key's range says: keys that do not go together, the steps, the data."""
     _check_combinations(scene)
     _check_steps(scene)
+    _check_mass(scene)
     _check_data(scene)
 
 
@@ -176,12 +178,13 @@ def _check_combinations(scene: Scene) -> None:
             "model.zeta > 0): with b = zeta = 0 the momentum equation has no time derivative and "
             'the midpoint rule makes U oscillate from step to step; use "paper"'
         )
-    redistributed = scene["discretisation.mass"].startswith("redistributed")
+    redistributed = scene["discretisation.mass"] in REDISTRIBUTED
     if (scene["time.scheme"] == "crank-nicolson" and scene["obstacle.kind"] == "rigid"
             and not redistributed):
         raise SceneError(
             'time.scheme: "crank-nicolson" models obstacle.kind = "rigid" only with '
-            'discretisation.mass = "redistributed" or "redistributed-lumped": with mass at x = 1 '
+            'discretisation.mass = "redistributed", "redistributed-lumped" or "dispersion-free": '
+            "with mass at x = 1 "
             "its velocity there flips sign every step while the rod rests on the obstacle (the "
             'midpoint rule with U(1) held at g), and the contact force with it; or use "paper"'
         )
@@ -203,6 +206,27 @@ def _check_combinations(scene: Scene) -> None:
                 '"crank-nicolson" and model.zeta = 0 (the end x = 1 is then in equilibrium and '
                 "eliminated, without a source); use model.zeta > 0 or another mass"
             )
+
+
+def _check_mass(scene: Scene) -> None:
+    """The dispersion-free mass blends for the midpoint rule at Δt/h = ν ≤ 1: its weight
+    1/2 + ν² of the consistent mass (rodfem.discrete.discretisation) leaves it positive definite
+    only there (at ν = 1 just: its condition number grows as the cells squared)."""
+    if scene["discretisation.mass"] != "dispersion-free":
+        return
+    if scene["time.scheme"] != "crank-nicolson":
+        raise SceneError(
+            'discretisation.mass: "dispersion-free" is blended for time.scheme = '
+            f'"crank-nicolson", not "{scene["time.scheme"]}"; use "redistributed" or '
+            '"redistributed-lumped"'
+        )
+    ratio = scene["time.dt"] * scene["mesh.cells"]
+    if ratio > 1.0 + 4 * np.finfo(float).eps:  # Δt = 1/cells, rounded, is Δt = h
+        raise SceneError(
+            'discretisation.mass: "dispersion-free" needs time.dt <= h = 1/mesh.cells (beyond, '
+            f"its blend is not positive definite), got time.dt/h = {ratio:.6g}; use a smaller "
+            'time.dt or "redistributed"'
+        )
 
 
 def _check_steps(scene: Scene) -> None:

@@ -42,7 +42,9 @@ MAX_CELLS, MAX_STEPS = 10_000_000, 100_000_000
 # The methods that solve each step of (3.1)–(3.2): the fastest exact one is the default.
 METHODS = ("direct", "newton", "picard")
 TIME_SCHEMES = ("paper", "crank-nicolson")
-MASSES = ("lumped", "consistent", "redistributed", "redistributed-lumped")
+MASSES = ("lumped", "consistent", "redistributed", "redistributed-lumped", "dispersion-free")
+# The masses with none at the contact node x = 1: it is moved to its neighbour.
+REDISTRIBUTED = ("redistributed", "redistributed-lumped", "dispersion-free")
 # What a run can save and record besides the default history (rodfem.output.columns, .fields).
 FIELDS = ("theta", "u", "sigma", "velocity", "heat_flux")
 QUANTITIES = ("theta_1", "heat_flux_1", "contact_force", "contact")
@@ -109,7 +111,10 @@ SCHEMA: dict[str, dict[str, Key]] = {
                     help="lumped: the paper's (vertex quadrature); consistent: exact; "
                     "redistributed: consistent, with the mass of the contact node x = 1 moved "
                     "to its neighbour (for stiff and rigid contact, docs/time-schemes.md); "
-                    "redistributed-lumped: the same from the lumped mass"),
+                    "redistributed-lumped: the same from the lumped mass; dispersion-free: "
+                    "redistributed, from consistent and lumped blended by 1/2 + (dt/h)^2, which "
+                    "cancels Crank-Nicolson's leading dispersion error (crank-nicolson, "
+                    "dt <= h only)"),
     },
     "solver": {
         "method": Key("choice", "direct", choices=METHODS,
