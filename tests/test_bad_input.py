@@ -56,6 +56,9 @@ CASES = [
     (["discretisation.mass=dispersion-free", "time.scheme=crank-nicolson", "time.dt=0.008"],
      'discretisation.mass: "dispersion-free" needs time.dt <= h = 1/mesh.cells (beyond, its '
      "blend is not positive definite), got time.dt/h = 2"),
+    (["discretisation.mass=dispersion-free", "time.scheme=crank-nicolson", "time.dt=0.004",
+      "time.adaptive=true"], 'discretisation.mass: "dispersion-free" is blended for one ratio of '
+     "time.dt to h, not for steps that adapt"),
     (["solver.method=gauss"], "solver.method: must be one of \"direct\" | \"newton\" | \"picard\""),
     (["obstacle.kind=rigid"], "solver.method: \"picard\" cannot solve obstacle.kind = \"rigid\""),
     (["solver.tol=0"], "solver.tol: must be >= 1e-300"),

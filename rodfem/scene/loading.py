@@ -220,6 +220,12 @@ def _check_mass(scene: Scene) -> None:
             f'"crank-nicolson", not "{scene["time.scheme"]}"; use "redistributed" or '
             '"redistributed-lumped"'
         )
+    if scene.adaptive:
+        raise SceneError(
+            'discretisation.mass: "dispersion-free" is blended for one ratio of time.dt to h, '
+            "not for steps that adapt (time.adaptive = true): its mass would change with every "
+            'step; use "redistributed"'
+        )
     ratio = scene["time.dt"] * scene["mesh.cells"]
     if ratio > 1.0 + 4 * np.finfo(float).eps:  # Δt = 1/cells, rounded, is Δt = h
         raise SceneError(
