@@ -199,3 +199,20 @@ def test_load_returns_the_times_as_written(shared_dir):
     kept = json.loads((out / "summary.json").read_text())
     assert kept["steps"] == t.size - 1
     assert result.measures["t_final"] == t[-1]
+
+
+def test_the_impacts_l1_error_weighs_each_step_by_its_length():
+    """GetFEM's measure Σ Δtⁿ |Uⁿ(1) − u(1, tⁿ)| of the impact benchmark over uneven steps, and a
+    fixed-step history's Δt · Σ as before."""
+    from rodfem.model import impact
+
+    t = np.array([0.0, 0.5, 1.0, 1.0 + 1e-10, 1.5, 3.0])
+    error = np.array([0.0, 1.0, -2.0, 4.0, 0.5, 0.25])
+    history = {"t": t, "u_1": impact.end_displacement(t) + error, "dt": np.diff(t, prepend=0.0),
+               "sigma_1": impact.end_stress(t), "energy": np.full(t.size, impact.ENERGY)}
+    expected = 0.5 * 1.0 + 0.5 * 2.0 + 1e-10 * 4.0 + (0.5 - 1e-10) * 0.5 + 1.5 * 0.25
+    assert impact.errors(history)["u1_l1"] == pytest.approx(expected, rel=1e-14)
+    even = np.arange(7) * 0.5
+    fixed = {**history, "t": even, "u_1": impact.end_displacement(even) + np.arange(7.0)}
+    del fixed["dt"]
+    assert impact.errors(fixed)["u1_l1"] == 0.5 * np.sum(np.arange(1.0, 7.0))
