@@ -216,3 +216,21 @@ def test_the_impacts_l1_error_weighs_each_step_by_its_length():
     fixed = {**history, "t": even, "u_1": impact.end_displacement(even) + np.arange(7.0)}
     del fixed["dt"]
     assert impact.errors(fixed)["u1_l1"] == 0.5 * np.sum(np.arange(1.0, 7.0))
+
+
+def test_fields_of_a_step_of_another_length():
+    """σ (whose ζ u_xt is ζ D_x/Δt) and the velocity D/Δt of a state whose D is over a step of
+    another length: those of a scene with that step; the scene's own step, bit for bit."""
+    from rodfem.discrete.discretisation import Discretisation
+    from rodfem.output.pointwise import Pointwise
+
+    base = ["mesh.cells=20", "model.zeta=0.7"]
+    made = Pointwise(Discretisation(rodfem.scene.load("paper1", [*base, "time.dt=0.001"]), COMM))
+    other = Pointwise(Discretisation(rodfem.scene.load("paper1", [*base, "time.dt=0.00025"]),
+                                     COMM))
+    s = np.random.default_rng(3).standard_normal(3 * made.n)
+    for name in ("sigma", "velocity", "heat_flux", "theta", "u"):
+        scaled, direct = made.field(name, s, 0.00025), other.field(name, s)
+        scale = np.max(np.abs(direct))
+        assert np.max(np.abs(scaled - direct)) <= 1e-14 * scale, name
+        assert made.field(name, s, 0.001).tobytes() == made.field(name, s).tobytes()

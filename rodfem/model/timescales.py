@@ -37,7 +37,10 @@ SCHEME_NAMES = {"paper": "the paper's scheme", "crank-nicolson": "Crank–Nicols
 
 
 class CoarseStepWarning(UserWarning):
-    """A fixed time step that is coarse for the scene's contact (:func:`coarse_step`)."""
+    """A complete fixed-step run touched its obstacle with a step coarse for the contact (fewer
+    steps per contact time √(b ε) than its scheme needs), or touched the rigid obstacle, whose
+    impacts fall inside a step: the contact stress and the times of contact may be off. The
+    message is the line ``rodfem run`` prints, with its fix (``rodfem.model.timescales``)."""
 
 
 @dataclasses.dataclass(frozen=True)
