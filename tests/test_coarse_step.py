@@ -149,3 +149,14 @@ def test_a_sweep_says_it_once_for_each_kind(shared_dir, capsys):
         assert all(w.category is rodfem.CoarseStepWarning for w in said)
     else:
         assert not said
+
+
+def test_resume_says_it_as_run_does(shared_dir, capsys):
+    out = shared_dir / "extended"
+    code, err = run(out, *STIFF[1:], "time.end=0.1", capsys=capsys)  # before the first contact
+    assert code == 0 and err == ""
+    code = main(["resume", str(out), "--quiet", "--set", "time.end=0.5"])
+    err = capsys.readouterr().err
+    assert code == 0
+    if COMM.rank == 0:
+        assert err.count("\n") == 1 and err.startswith("rodfem: warning: time.dt = 0.001"), err
