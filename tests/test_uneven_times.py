@@ -234,3 +234,19 @@ def test_fields_of_a_step_of_another_length():
         scale = np.max(np.abs(direct))
         assert np.max(np.abs(scaled - direct)) <= 1e-14 * scale, name
         assert made.field(name, s, 0.001).tobytes() == made.field(name, s).tobytes()
+
+
+def test_contact_shading_reaches_the_events():
+    from rodfem.output.readers import History
+    from rodfem.post.curves import _contact_intervals
+
+    t = np.array([0.0, 0.1, 0.2, 0.2 + 1e-10, 0.3, 0.4, 0.5])
+    u_1 = np.array([0.0, 0.05, GAP, 0.2, 0.3, GAP, 0.0])  # events at rows 2 and 5
+    rows = np.column_stack([t, u_1, np.array([0, 0, 1, 0, 0, 1, 0.0])])
+
+    class Run:
+        gap, history = GAP, History(rows, ("t", "u_1", "event"))
+
+    assert _contact_intervals(Run) == [(0.2, 0.4)]
+    Run.history = History(rows[:, :2], ("t", "u_1"))  # without events: the rows with u(1) > g
+    assert _contact_intervals(Run) == [(0.2 + 1e-10, 0.3)]
