@@ -250,3 +250,25 @@ def test_contact_shading_reaches_the_events():
     assert _contact_intervals(Run) == [(0.2, 0.4)]
     Run.history = History(rows[:, :2], ("t", "u_1"))  # without events: the rows with u(1) > g
     assert _contact_intervals(Run) == [(0.2 + 1e-10, 0.3)]
+
+
+def test_errors_in_time_of_uneven_steps_against_a_fine_run():
+    """An adaptive run's u(1, ·) against a fine fixed-step one: the reference at its own times
+    where they are the fine run's, interpolated between them elsewhere; its norms weigh each
+    step by its length."""
+    from rodfem.studies import convergence as cv
+
+    t_fine = np.arange(9) * 0.125
+    y_fine = t_fine ** 2
+    t = np.array([0.0, 0.25, 0.3, 0.3 + 1e-10, 1.0])
+    error = np.array([0.0, 0.5, -1.0, 2.0, 0.25])
+    reference = np.interp(t, t_fine, y_fine)
+    assert cv.reference_at(t, t_fine, y_fine)[[0, 1, 4]].tolist() == [0.0, 0.0625, 1.0]
+    e_max, e_l1, e_l2 = cv.time_errors(t, reference + error, t_fine, y_fine)
+    steps = np.diff(t)
+    assert e_max == 2.0
+    assert e_l1 == pytest.approx(np.sum(steps * np.abs(error[1:])), rel=1e-15)
+    assert e_l2 == pytest.approx(np.sqrt(np.sum(steps * error[1:] ** 2)), rel=1e-15)
+    with pytest.raises(ValueError, match="outside the fine run's"):
+        cv.time_errors(t, t, t_fine[:5], y_fine[:5])
+    assert not cv.uneven(np.arange(8001) * 0.001) and cv.uneven(t)
