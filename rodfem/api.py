@@ -42,7 +42,9 @@ class Result:
         history: the rows of ``history.h5``, one per kept step n = 0 … N (every step, or every
             n-th with ``output.history_every``), as a structured array:
             ``r.history["u_1"]`` (the default columns :data:`rodfem.output.columns.COLUMNS`,
-            then those the scene's ``output.history`` and ``output.probes`` add).
+            then those the scene's ``output.history`` and ``output.probes`` add). The times are
+            ``r.history["t"]`` as the run wrote them: an adaptive run's steps vary, so a row's
+            time is never to be taken as n·Δt.
         saved_fields: the fields, or what reads them (for :attr:`fields`).
         path: the run directory, or None for a run in memory.
     """
