@@ -272,3 +272,18 @@ def test_errors_in_time_of_uneven_steps_against_a_fine_run():
     with pytest.raises(ValueError, match="outside the fine run's"):
         cv.time_errors(t, t, t_fine[:5], y_fine[:5])
     assert not cv.uneven(np.arange(8001) * 0.001) and cv.uneven(t)
+
+
+def test_spacetime_maps_place_each_save_at_its_time(shared_dir):
+    from rodfem.output.readers import read_fields
+    from rodfem.post.spacetime import _grid
+
+    out = shared_dir / "uneven-map"
+    t, _ = _uneven_run(out, event_columns=False)
+    if COMM.rank != 0:
+        return
+    fields = read_fields(out / "fields.xdmf")
+    nodes = _grid(fields, "u", 0.0, 1.0)
+    assert np.array_equal(nodes.x, t)  # a column of points at each saved time
+    cells = _grid(fields, "sigma", 0.0, 1.0)  # each save's cells reach halfway to its neighbours
+    assert np.array_equal(cells.x, np.concatenate([[t[0]], (t[1:] + t[:-1]) / 2, [t[-1]]]))
