@@ -14,7 +14,8 @@ __version__ = "0.1.0"
 _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "SceneError": "rodfem.scene", "OutputError": "rodfem.output.directories",
         "sweep": "rodfem.studies.sweep", "load_sweep": "rodfem.studies.sweep",
-        "read_fields": "rodfem.output.readers", "Fields": "rodfem.output.readers"}
+        "read_fields": "rodfem.output.readers", "Fields": "rodfem.output.readers",
+        "CoarseStepWarning": "rodfem.model.timescales"}
 __all__ = [*_API, "__version__"]
 
 

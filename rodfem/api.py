@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import json
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,7 +42,9 @@ class Result:
         history: the rows of ``history.h5``, one per kept step n = 0 … N (every step, or every
             n-th with ``output.history_every``), as a structured array:
             ``r.history["u_1"]`` (the default columns :data:`rodfem.output.columns.COLUMNS`,
-            then those the scene's ``output.history`` and ``output.probes`` add).
+            then those the scene's ``output.history`` and ``output.probes`` add). The times are
+            ``r.history["t"]`` as the run wrote them: an adaptive run's steps vary, so a row's
+            time is never to be taken as n·Δt.
         saved_fields: the fields, or what reads them (for :attr:`fields`).
         path: the run directory, or None for a run in memory.
     """
@@ -135,7 +138,9 @@ def simulate(scene: str | Path | Mapping | Scene, overrides=None, out: str | Pat
         progress: draw a progress bar on a terminal.
 
     A run whose method fails or which a signal stops is returned with ``status`` failed or
-    interrupted and the steps it took.
+    interrupted and the steps it took. A complete fixed-step run that touched the obstacle with
+    a step coarse for it warns (:class:`rodfem.CoarseStepWarning`, on rank 0: the line
+    ``rodfem run`` prints, with its fix); the result is the same.
 
     Raises:
         SceneError: a mistake in the scene or the overrides (the CLI's one-line message).
@@ -162,16 +167,30 @@ def _simulate(scene, overrides, out, comm, force: bool, progress: bool) -> Resul
             _, t, values = result.fields
             x = result.x
             fields = Fields(x, t, (x[1:] + x[:-1]) / 2, **values)
-        return Result(resolved, result.summary,
+        done = Result(resolved, result.summary,
                       named_history(result.history, for_scene(resolved)), fields)
-    out = Path(out)
-    from rodfem.output.files import write_text
+    else:
+        out = Path(out)
+        from rodfem.output.files import write_text
 
-    prepare_directory(out, force, comm)
-    write_text(out / "scene.toml", resolved.to_toml(), comm)
-    run(resolved, out, comm, progress=progress)
-    comm.barrier()
-    return load(out)
+        prepare_directory(out, force, comm)
+        write_text(out / "scene.toml", resolved.to_toml(), comm)
+        run(resolved, out, comm, progress=progress)
+        comm.barrier()
+        done = load(out)
+    if comm.rank == 0:
+        _warn_coarse(done)
+    return done
+
+
+def _warn_coarse(result: Result) -> None:
+    """The warning of a complete run whose fixed step is coarse for the contact it had
+    (:func:`rodfem.model.timescales.coarse_run`), pointing at the caller of simulate."""
+    from rodfem.model.timescales import CoarseStepWarning, coarse_run
+
+    coarse = coarse_run(result.scene, {**result.summary, "status": result.status})
+    if coarse is not None:
+        warnings.warn(coarse.line, CoarseStepWarning, stacklevel=4)
 
 
 def load(path: str | Path) -> Result:

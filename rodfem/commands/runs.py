@@ -88,6 +88,11 @@ def report_run(scene, result, out: Path, quiet: bool) -> int:
         name = signal.Signals(result.signal).name if result.signal else "a signal"
         say(f"rodfem: interrupted by {name}; steps 0..{s['steps']} are in {out}, and {again}.")
         return 128 + (result.signal or signal.SIGINT)
+    from rodfem.model.timescales import coarse_run
+
+    coarse = coarse_run(scene, {**s, "status": result.status})
+    if coarse is not None:  # said whether quiet or not: the results may be off
+        say(f"rodfem: warning: {coarse.line}")
     if not quiet:
         adaptive = s.get("adaptive")
         steps = (f"{s['steps']} adaptive steps ({adaptive['rejected']} rejected, "

@@ -108,12 +108,12 @@ class FieldFile:
                                              {"geometry": geometry, "topology": topology})
             self._write_xdmf()
 
-    def write(self, step: int, t: float, state: np.ndarray) -> None:
-        """Keep the fields of ``step`` at time t, of the state [Θ; D; U] (node order), until the
-        next :meth:`checkpoint`."""
+    def write(self, step: int, t: float, state: np.ndarray, dt: float | None = None) -> None:
+        """Keep the fields of ``step`` at time t, of the state [Θ; D; U] (node order), D over a
+        step of length ``dt`` (None: the scene's time.dt), until the next :meth:`checkpoint`."""
         if self.comm.rank != 0:
             return
-        self._pending.append((step, t, [self.pointwise.field(name, state)
+        self._pending.append((step, t, [self.pointwise.field(name, state, dt)
                                         for name in self.names]))
 
     def kept(self) -> tuple | None:

@@ -5,7 +5,16 @@ run. Importing this module needs NumPy only.
 
 The rod is *in contact* at tⁿ when the obstacle pushes on it: σ(1, tⁿ) < 0 (the elastic laws:
 u(1, tⁿ) > g; the rigid obstacle: a positive multiplier). Counts and fractions are over the steps
-n = 1 … N that the run took (the initial state, n = 0, is data, not a step).
+n = 1 … N that the run took (the initial state, n = 0, is data, not a step). Times are the
+history's ``t`` column, never n·Δt: they hold for steps of any length.
+
+A step (tⁿ⁻¹, tⁿ] is in contact when the rod is at its end tⁿ. An adaptive run's history marks
+the rows where a step ends at a contact event (its ``event`` column: contact begins or ends
+there); σ(1) is zero there to round-off and tells nothing, so a step ending at an event is in the
+state of its start (or, when an event ends the step before too, in the opposite state of that
+step), and the state changes at the event's time. Its fraction in contact weighs each step by its
+length Δtⁿ = tⁿ − tⁿ⁻¹. Fixed-step runs have no events and steps of one length: their measures
+count steps, as they always did, bit for bit.
 
 A run keeps the measures of contact over every step as it goes (:class:`Contact`, in its summary
 as ``contact``), so that they are the same whatever rows its history keeps
@@ -32,9 +41,41 @@ class Measure:
     integer: bool = False
 
 
+def adaptive(history: dict[str, np.ndarray]) -> bool:
+    """Whether the history is an adaptive run's (it has the ``event`` column)."""
+    return "event" in history
+
+
+def step_states(touching: np.ndarray, event: np.ndarray | None, before_touching: bool = False,
+                before_event: bool = False, before_state: bool = False) -> np.ndarray:
+    """Whether the steps ending at a block of rows are in contact (the module's docstring):
+    ``touching``, whether the rod is in contact at each row; ``event``, whether the row is a
+    contact event (None: no events); ``before_*``: the same of the row before the block, and
+    the state of the step that ends there."""
+    states = touching.copy()
+    if event is None:
+        return states
+    for i in np.flatnonzero(event != 0):
+        previous_event = event[i - 1] != 0 if i else before_event
+        previous_state = states[i - 1] if i else before_state
+        previous_touching = touching[i - 1] if i else before_touching
+        states[i] = (not previous_state) if previous_event else previous_touching
+    return states
+
+
 def in_contact(history: dict[str, np.ndarray]) -> np.ndarray:
-    """Whether the rod is in contact at each step n = 1 … N (the module's docstring)."""
-    return history["sigma_1"][1:] < 0.0
+    """Whether the rod is in contact over each step n = 1 … N (the module's docstring)."""
+    touching = history["sigma_1"] < 0.0
+    return step_states(touching, history.get("event"))[1:]
+
+
+def _change_times(t: np.ndarray, events: np.ndarray, states: np.ndarray,
+                  was: bool) -> np.ndarray:
+    """When the state of a block's steps changes: tⁿ of the first step in its new state, or the
+    time tⁿ⁻¹ of an event that ends the step before. ``t``, ``events``: the block's rows with
+    the row before them first; ``states``: its steps' states; ``was``: the state before."""
+    changed = np.flatnonzero(np.diff(states.astype(np.int8), prepend=np.int8(was)) != 0)
+    return np.where(events[:-1][changed], t[:-1][changed], t[1:][changed])
 
 
 def _final(name: str):
@@ -45,23 +86,41 @@ def _final(name: str):
 class Contact:
     """The measures of contact over every step, updated block by block as a run records its
     rows (and continued from a checkpoint): what :data:`MEASURES` computes from a history of
-    every step, bit for bit."""
+    every step."""
 
     steps: int = 0  # steps n ≥ 1 seen
     touching: int = 0  # of them in contact
     intervals: int = 0
     last_change: int | None = None  # the step n of the last change of contact state
-    was: bool = False  # in contact at the last step seen (none: not)
+    was: bool = False  # in contact over the last step seen (none: not)
     max_penetration: float = 0.0  # max over n ≥ 0 of [u(1, tⁿ) − g]₊
+    # With the rows' times (update's t): the time of the last change, the time the steps span and
+    # of it the time in contact; the last row seen: its time, contact and event.
+    last_change_t: float | None = None
+    time: float = 0.0
+    time_touching: float = 0.0
+    row_t: float | None = None
+    row_touching: bool = False
+    row_event: bool = False
 
-    def update(self, steps: np.ndarray, u_1: np.ndarray, sigma_1: np.ndarray,
-               gap: float) -> None:
+    def update(self, steps: np.ndarray, u_1: np.ndarray, sigma_1: np.ndarray, gap: float,
+               t: np.ndarray | None = None, event: np.ndarray | None = None) -> None:
+        """Count a block of consecutive rows: their step numbers n, u(1) and σ(1); ``t``, their
+        times (the history's t column); ``event``, an adaptive run's event column."""
         if steps.size == 0:
             return
         self.max_penetration = max(self.max_penetration,
                                    float(np.max(np.maximum(u_1 - gap, 0.0))))
         taken = steps >= 1
-        touching = sigma_1[taken] < 0.0
+        rows_touching = sigma_1 < 0.0
+        states = step_states(rows_touching, event, self.row_touching, self.row_event, self.was)
+        touching = states[taken]
+        if t is not None:
+            if touching.size:
+                self._times(t, event, taken, touching)
+            self.row_t = float(t[-1])
+        self.row_touching = bool(rows_touching[-1])
+        self.row_event = bool(event is not None and event[-1] != 0)
         if touching.size == 0:
             return
         change = np.diff(touching.astype(np.int8), prepend=np.int8(self.was))
@@ -72,6 +131,25 @@ class Contact:
         if changed.size:
             self.last_change = int(steps[taken][changed[-1]])
         self.was = bool(touching[-1])
+
+    def _times(self, t: np.ndarray, event: np.ndarray | None, taken: np.ndarray,
+               touching: np.ndarray) -> None:
+        """The times of a block's steps (:meth:`update`): their lengths Δtⁿ = tⁿ − tⁿ⁻¹, the
+        time in contact, the time of the last change."""
+        before = np.nan if self.row_t is None else self.row_t
+        times = np.concatenate([[before], t])
+        events = np.concatenate([[self.row_event], np.zeros(t.size, dtype=bool)
+                                 if event is None else event != 0])
+        at = np.concatenate([[False], taken])  # the rows of the steps, in times
+        ends = np.flatnonzero(at)
+        starts = ends - 1
+        dt = times[ends] - times[starts]
+        self.time += float(np.sum(dt))
+        self.time_touching += float(np.sum(dt[touching]))
+        changes = _change_times(times[np.concatenate([[starts[0]], ends])],
+                                events[np.concatenate([[starts[0]], ends])], touching, self.was)
+        if changes.size:
+            self.last_change_t = float(changes[-1])
 
 
 def _kept(summary: dict) -> dict | None:
@@ -86,11 +164,23 @@ def _max_penetration(history, scene, summary) -> float:
     return float(np.max(np.maximum(history["u_1"] - scene["obstacle.gap"], 0.0)))
 
 
+def _timed(kept: dict | None) -> bool:
+    """Whether the run's record of contact was kept with the rows' times."""
+    return kept is not None and (kept.get("time") or 0.0) > 0.0
+
+
 def _contact_fraction(history, scene, summary) -> float:
-    if (kept := _kept(summary)) is not None:
-        return kept["touching"] / kept["steps"] if kept["steps"] else 0.0
-    touching = in_contact(history)
-    return float(touching.mean()) if touching.size else 0.0
+    kept = _kept(summary)
+    if not adaptive(history):
+        if kept is not None:
+            return kept["touching"] / kept["steps"] if kept["steps"] else 0.0
+        touching = in_contact(history)
+        return float(touching.mean()) if touching.size else 0.0
+    if _timed(kept):
+        return float(kept["time_touching"] / kept["time"])
+    touching, dt = in_contact(history), np.diff(history["t"])
+    span = float(np.sum(dt))
+    return float(np.sum(dt[touching])) / span if span > 0.0 else 0.0
 
 
 def _contact_intervals(history, scene, summary) -> int:
@@ -101,12 +191,15 @@ def _contact_intervals(history, scene, summary) -> int:
 
 
 def _last_contact_change(history, scene, summary) -> float:
-    if (kept := _kept(summary)) is not None:
+    kept = _kept(summary)
+    if kept is not None and kept.get("last_change_t") is not None:
+        return float(kept["last_change_t"])
+    if kept is not None and (kept["last_change"] is None or not adaptive(history)):
         step = kept["last_change"]
         return float(step * scene["time.dt"]) if step is not None else float("nan")
-    touching = in_contact(history)
-    changed = np.flatnonzero(np.diff(touching.astype(np.int8), prepend=0) != 0)
-    return float(history["t"][1:][changed[-1]]) if changed.size else float("nan")
+    events = history.get("event", np.zeros(history["t"].size)) != 0
+    changes = _change_times(history["t"], events, in_contact(history), False)
+    return float(changes[-1]) if changes.size else float("nan")
 
 
 MEASURES = (
@@ -115,12 +208,13 @@ MEASURES = (
     Measure("sigma_1_final", "the contact stress σ(1, t) at the last step", _final("sigma_1")),
     Measure("max_penetration", "max over the steps of [u(1, tⁿ) − g]₊ (the rigid obstacle: "
             "round-off)", _max_penetration),
-    Measure("contact_fraction", "the fraction of the steps in contact", _contact_fraction),
+    Measure("contact_fraction", "the fraction of the steps in contact (an adaptive run: of the "
+            "time, each step weighed by its length)", _contact_fraction),
     Measure("contact_intervals", "how many separate intervals of contact (runs of steps in "
             "contact)", _contact_intervals, integer=True),
     Measure("last_contact_change", "the time tⁿ of the last step whose contact state differs "
-            "from the step before's (nan if it never changes; a run starting in contact counts "
-            "as a change at t¹)", _last_contact_change),
+            "from the step before's, or of the contact event before it (nan if it never "
+            "changes; a run starting in contact counts as a change at t¹)", _last_contact_change),
     Measure("energy_final", "the discrete energy Êⁿ at the last step", _final("energy")),
     Measure("iterations_max", "the most iterations any step took (a failed step's included)",
             lambda history, scene, summary: int(summary["iterations_max"]), integer=True),

@@ -30,6 +30,7 @@ from rodfem.discrete.discretisation import Discretisation
 NODE_FIELDS = ("theta", "u", "velocity")
 CELL_FIELDS = ("sigma", "heat_flux")
 PARTS = ("Θ", "D", "U")  # the parts of the state, in order
+D_COLUMNS = (2, 3)  # a CellMap's columns of D: its two nodes, after Θ's
 
 
 class Pointwise:
@@ -59,16 +60,19 @@ class Pointwise:
             np.all((0 <= maps[f"{name}_columns"]) & (maps[f"{name}_columns"] < 3 * n))
             for name in CELL_FIELDS)
 
-    def field(self, name: str, s: np.ndarray) -> np.ndarray:
-        """The field ``name`` (of :data:`NODE_FIELDS` or :data:`CELL_FIELDS`) of the state s."""
+    def field(self, name: str, s: np.ndarray, dt: float | None = None) -> np.ndarray:
+        """The field ``name`` (of :data:`NODE_FIELDS` or :data:`CELL_FIELDS`) of the state s,
+        whose D = Uⁿ − Uⁿ⁻¹ is over a step of length ``dt`` (None: the scene's ``time.dt``; an
+        adaptive run's steps vary, and D/Δt is the velocity and enters σ through ζ u_xt)."""
         n = self.n
         if name == "theta":
             return s[:n] + self.theta0
         if name == "u":
             return s[2 * n:].copy()
         if name == "velocity":
-            return s[n:2 * n] / self.dt
-        values = self.cell_maps[name].apply(s)
+            return s[n:2 * n] / (self.dt if dt is None else dt)
+        scale = None if dt is None or dt == self.dt else self.dt / dt
+        values = self.cell_maps[name].apply(s, scale)
         values += self.cell0[name]
         return values
 
@@ -111,12 +115,16 @@ class CellMap:
     def __init__(self, values: np.ndarray, columns: np.ndarray):
         self.values, self.columns = values, columns
 
-    def apply(self, s: np.ndarray) -> np.ndarray:
+    def apply(self, s: np.ndarray, d_scale: float | None = None) -> np.ndarray:
         """The field's linear part at the state s: the products summed from 0 in the table's
-        order, as a sparse CSR product does."""
+        order, as a sparse CSR product does; ``d_scale`` multiplies the weights of D (a step of
+        another length than the one the weights were read at: they go as 1/Δt)."""
         total = np.zeros(self.values.shape[0])
         for k in range(self.values.shape[1]):
-            total += self.values[:, k] * s[self.columns[:, k]]
+            weights = self.values[:, k]
+            if d_scale is not None and k in D_COLUMNS:
+                weights = weights * d_scale
+            total += weights * s[self.columns[:, k]]
         return total
 
 

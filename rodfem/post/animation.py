@@ -43,13 +43,42 @@ TICKS = np.linspace(0.0, 1.0, 11)
 CONTACT_COLOUR, TEXT_COLOUR = "tab:red", "black"
 
 
-def frame_indices(count: int, limit: int = MAX_FRAMES) -> np.ndarray:
-    """Every k-th saved step (k as small as keeps at most ``limit`` frames), and the last one."""
+def frame_indices(times: np.ndarray | int, limit: int = MAX_FRAMES) -> np.ndarray:
+    """The saved steps drawn: at most ``limit``, evenly spaced in time, and the last one.
+
+    ``times``: the saved times (increasing), or their count for evenly spaced ones. Evenly spaced
+    saves give every k-th (k as small as keeps at most ``limit``); saves at uneven times (an
+    adaptive run's, crowded at contact events) give the one nearest each of as many times evenly
+    spaced over the same span, each once."""
+    t = np.arange(times, dtype=float) if np.ndim(times) == 0 else np.asarray(times, float)
+    count = t.size
     stride = max(1, math.ceil(count / limit))
     indices = np.arange(0, count, stride)
+    span = t[-1] - t[0] if count else 0.0
+    if count > 1 and span > 0.0:
+        wanted = t[0] + indices * (span / (count - 1))
+        right = np.clip(np.searchsorted(t, wanted), 1, count - 1)
+        nearer_left = wanted - t[right - 1] <= t[right] - wanted
+        indices = np.unique(np.where(nearer_left, right - 1, right))
     if indices[-1] != count - 1:
         indices = np.append(indices[: limit - 1], count - 1)
     return indices
+
+
+def frame_durations(times: np.ndarray, frames: np.ndarray) -> list[int] | int:
+    """How long each frame shows, ms, given the saved ``times`` and the ``frames`` drawn of them:
+    SECONDS over them all (between 4 and 20 frames a second), one number where the saves are
+    evenly spaced; where they are not, each frame as long as the time it stands for (until the
+    next frame; the last as long as the mean)."""
+    fps = min(20.0, max(4.0, len(frames) / SECONDS))
+    each = round(1000 / fps)
+    saves = np.diff(np.asarray(times, float))
+    if saves.size == 0 or np.allclose(saves, saves.mean(), rtol=1e-6, atol=0.0):
+        return each
+    gaps = np.diff(np.asarray(times, float)[frames])
+    gaps = np.append(gaps, gaps.mean())
+    # in GIF's unit, 10 ms, at least 2 (browsers show shorter frames for 100 ms)
+    return [10 * max(2, round(each * len(frames) * gap / gaps.sum() / 10)) for gap in gaps]
 
 
 def displacement_scale(fields_x: np.ndarray, u: np.ndarray) -> float:
@@ -169,7 +198,7 @@ def rod_animation(run: Run, run_label: str, path: Path,
         window: the interval of time shown (its saved steps), or None for the whole run.
     """
     fields, gap = fields_in_window(run.fields, window), run.gap
-    x, frames = fields.x, frame_indices(fields.t.size)
+    x, frames = fields.x, frame_indices(fields.t)
     scale = displacement_scale(x, fields.u)
     theta_range = _theta_range(fields.theta)
     rest = 1.0 + scale * gap
@@ -234,10 +263,9 @@ def rod_animation(run: Run, run_label: str, path: Path,
             palette = _palette(rgb)
         images.append(Image.fromarray(rgb).quantize(palette=palette, dither=Image.Dither.NONE))
     plotter.close()
-    fps = min(20.0, max(4.0, len(images) / SECONDS))
     with replacing(path, "wb") as file:  # whole or not at all
         images[0].save(file, format="GIF", save_all=True, append_images=images[1:],
-                       duration=round(1000 / fps), loop=0)
+                       duration=frame_durations(fields.t, frames), loop=0)
     return path
 
 

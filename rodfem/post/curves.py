@@ -56,10 +56,16 @@ def _t_range(runs: list[Run], window: tuple[float, float] | None) -> list[float]
 
 
 def _contact_intervals(run: Run) -> list[tuple[float, float]]:
-    """The intervals [t_i, t_j] of consecutive steps with u(1, t) > g."""
+    """The intervals [t_i, t_j] of consecutive steps with u(1, t) > g; in an adaptive run's
+    history, from and to the contact events around them (rows where u(1) = g to round-off)."""
     t, touching = run.history.t, run.history.u_1 > run.gap
     edges = np.diff(np.concatenate([[0], touching.astype(int), [0]]))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    if "event" in run.history.names:
+        event = run.history["event"] != 0
+        starts = np.where((starts > 0) & event[np.maximum(starts - 1, 0)], starts - 1, starts)
+        last = t.size - 1
+        ends = np.where((ends < last) & event[np.minimum(ends + 1, last)], ends + 1, ends)
     return [(float(t[i]), float(t[j])) for i, j in zip(starts, ends, strict=True)]
 
 

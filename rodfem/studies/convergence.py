@@ -13,6 +13,9 @@ that divide the coarse one:
   that its figures compare with rodfem's on any of them);
 * the observed order: the least-squares slope of log error against log h (or log Δt).
 
+A coarse run of uneven steps (``time.adaptive``) is compared at its own times, the reference
+interpolated linearly between its steps where a time is not one of them.
+
 :func:`run_ladder` runs a ladder of (cells, Δt) refinements of a scene against a reference run.
 """
 
@@ -93,16 +96,48 @@ def time_norms(t: np.ndarray, e: np.ndarray) -> tuple[float, float, float]:
             math.sqrt(float(np.sum(dt * e[1:] ** 2))))
 
 
+def uneven(t: np.ndarray) -> bool:
+    """Whether the times t are not evenly spaced (an adaptive run's steps): steps that differ
+    by more than :data:`MATCH` of the longest (nΔt rounded in binary are even)."""
+    steps = np.diff(np.asarray(t, float))
+    return bool(steps.size and np.ptp(steps) > MATCH * np.max(np.abs(steps)))
+
+
+def reference_at(t_coarse: np.ndarray, t_fine: np.ndarray, y_fine: np.ndarray) -> np.ndarray:
+    """The fine run's values at the coarse times: its own where a coarse time is one of its
+    times (to :data:`MATCH`), else interpolated linearly between its two times around it.
+
+    Raises:
+        ValueError: a coarse time is outside the fine run's span.
+    """
+    t_coarse, t_fine = np.asarray(t_coarse, float), np.asarray(t_fine, float)
+    y_fine = np.asarray(y_fine, float)
+    scale = MATCH * max(1.0, float(np.max(np.abs(t_fine))) if t_fine.size else 1.0)
+    if t_fine.size == 0 or t_coarse.min() < t_fine[0] - scale or \
+            t_coarse.max() > t_fine[-1] + scale:
+        raise ValueError("the coarse run's times reach outside the fine run's: the fine run must "
+                         "cover the same interval")
+    at = np.clip(np.searchsorted(t_fine, t_coarse - scale), 0, t_fine.size - 1)
+    on = np.abs(t_fine[at] - t_coarse) <= scale
+    return np.where(on, y_fine[at], np.interp(t_coarse, t_fine, y_fine))
+
+
 def time_errors(t_coarse: np.ndarray, y_coarse: np.ndarray, t_fine: np.ndarray,
                 y_fine: np.ndarray) -> tuple[float, float, float]:
     """max_n |y_c(tₙ) − y_f(tₙ)|, Σ_{n≥1} (tₙ − tₙ₋₁) |y_c − y_f| and
-    (Σ_{n≥1} (tₙ − tₙ₋₁) |y_c − y_f|²)^½ over the coarse times (:func:`time_norms`).
+    (Σ_{n≥1} (tₙ − tₙ₋₁) |y_c − y_f|²)^½ over the coarse times (:func:`time_norms`). A coarse
+    run of uneven steps (an adaptive one) is compared with the fine run at its own times
+    (:func:`reference_at`); one of even steps with the fine run's values there.
 
     Raises:
-        ValueError: the coarse times are not a subset of the fine ones (:func:`sample_indices`).
+        ValueError: even coarse times that are not a subset of the fine ones
+            (:func:`sample_indices`), or coarse times outside the fine run's span.
     """
     t_coarse, y_coarse = np.asarray(t_coarse, float), np.asarray(y_coarse, float)
-    e = y_coarse - np.asarray(y_fine, float)[sample_indices(t_coarse, t_fine)]
+    if uneven(t_coarse):
+        e = y_coarse - reference_at(t_coarse, t_fine, y_fine)
+    else:
+        e = y_coarse - np.asarray(y_fine, float)[sample_indices(t_coarse, t_fine)]
     return time_norms(t_coarse, e)
 
 

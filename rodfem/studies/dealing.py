@@ -15,7 +15,7 @@ from mpi4py import MPI
 from rodfem.output import interrupts
 from rodfem.output import results as table
 from rodfem.output.atomic import io_line
-from rodfem.output.columns import NAMES as HISTORY_COLUMNS
+from rodfem.output.columns import for_scene
 from rodfem.output.measures import measures
 from rodfem.studies.design import Sweep
 
@@ -73,8 +73,8 @@ def run_scene(sweep: Sweep, index: int, setups, keep_history: bool) -> Outcome:
                                                    message), None)
     rows = result.history
     summary = result.summary
-    values = measures({name: rows[:, j] for j, name in enumerate(HISTORY_COLUMNS)}, scene,
-                      summary)
+    names = (column.name for column in for_scene(scene))  # an adaptive run's t, dt and event too
+    values = measures({name: rows[:, j] for j, name in enumerate(names)}, scene, summary)
     error = " ".join(summary.get("error", "").split())
     line = table.line(index, point, sweep.axes, result.status, values, error)
     return Outcome(index, result.status, line, rows if keep_history else None)

@@ -104,7 +104,7 @@ def run_sweep(spec, out: str | Path | None = None, comm: MPI.Comm | None = None,
     _validate_all(sweep, comm, progress)
     progress_line = Progress(len(sweep), 0, progress and comm.rank == 0)
     if out is None:
-        return _in_memory(sweep, comm, histories, progress_line)
+        return _warned(sweep, _in_memory(sweep, comm, histories, progress_line), comm)
     out = Path(out)
     from rodfem.output.directories import prepare_directory
     from rodfem.output.files import write_json, write_text
@@ -126,7 +126,39 @@ def run_sweep(spec, out: str | Path | None = None, comm: MPI.Comm | None = None,
         write_json(out / "sweep.json", written, comm)
     if interrupts.signal_received() is not None:
         raise interrupts.Interrupted(interrupts.signal_received())
-    return _run_into(out, sweep, comm, histories, tag(written), 0, {}, progress_line)
+    return _warned(sweep, _run_into(out, sweep, comm, histories, tag(written), 0, {},
+                                    progress_line), comm)
+
+
+def coarse_steps(sweep: Sweep, result: SweepResult) -> tuple[str, ...]:
+    """The warnings of the complete scenes that touched the obstacle with a fixed step coarse
+    for it (:func:`rodfem.model.timescales.coarse_step`): one line for each kind, of the scene
+    with the fewest steps per contact time, and how many more there are."""
+    from rodfem.model.timescales import coarse_step
+
+    found: dict[str, tuple[int, int, object]] = {}  # kind: (count, index, judgement)
+    for index, status, intervals in zip(result.columns.get("index", ()),
+                                        result.columns.get("status", ()),
+                                        result.columns.get("contact_intervals", ()),
+                                        strict=True):
+        if status != "complete" or not float(intervals) > 0.0:  # nan: not measured
+            continue
+        coarse = coarse_step(sweep.scene(int(index)))
+        if coarse is None:
+            continue
+        count, worst, judged = found.get(coarse.kind, (0, int(index), coarse))
+        if coarse.steps < judged.steps:
+            worst, judged = int(index), coarse
+        found[coarse.kind] = (count + 1, worst, judged)
+    return tuple(f"scene {index}" + (f" and {count - 1} more of the {len(result)}"
+                                     if count > 1 else "") + f": {judged.line}"
+                 for count, index, judged in found.values())
+
+
+def _warned(sweep: Sweep, result: SweepResult, comm: MPI.Comm) -> SweepResult:
+    """``result`` with its :func:`coarse_steps` (judged on rank 0)."""
+    lines = comm.bcast(coarse_steps(sweep, result) if comm.rank == 0 else None, root=0)
+    return dataclasses.replace(result, coarse_steps=lines)
 
 
 def sweep(spec, out: str | Path | None = None, comm=None, *, histories: bool = False,
@@ -137,14 +169,23 @@ def sweep(spec, out: str | Path | None = None, comm=None, *, histories: bool = F
     result). Under mpirun every rank calls it; every rank gets the table
     (:class:`~rodfem.studies.sweep.SweepResult`). ``force`` replaces a sweep directory, never one
     that holds the sweep file. A signal received during the call stops it (its scenes so far
-    kept, ``status`` interrupted), not the next.
+    kept, ``status`` interrupted), not the next. Scenes that touched the obstacle with a fixed
+    step coarse for it warn (:class:`rodfem.CoarseStepWarning`, rank 0), once for each kind.
 
     Raises:
         SceneError: a mistake in the sweep or a scene (nothing has run, nothing is written).
         rodfem.OutputError: ``out`` cannot be used.
     """
+    import warnings
+
+    from rodfem.model.timescales import CoarseStepWarning
+
     with interrupts.call():
-        return run_sweep(spec, out, comm, histories=histories, force=force, progress=progress)
+        result = run_sweep(spec, out, comm, histories=histories, force=force, progress=progress)
+    if (comm or MPI.COMM_WORLD).rank == 0:
+        for line in result.coarse_steps:
+            warnings.warn(line, CoarseStepWarning, stacklevel=2)
+    return result
 
 
 def _in_memory(sweep: Sweep, comm: MPI.Comm, histories: bool, progress) -> SweepResult:
@@ -234,8 +275,10 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SweepResult:
     session = comm.bcast(journal.sessions(out) if comm.rank == 0 else None, root=0)
     mark_running(out, comm)
     reserve_marker(out, comm)
-    return _run_into(out, sweep, comm, bool(written.get("histories")), tag(written), session,
-                     done, Progress(len(sweep), len(done), progress and comm.rank == 0))
+    return _warned(sweep, _run_into(out, sweep, comm, bool(written.get("histories")),
+                                    tag(written), session, done,
+                                    Progress(len(sweep), len(done), progress and comm.rank == 0)),
+                   comm)
 
 
 def _journal(out: Path, sweep: Sweep, journal_tag: bytes, comm: MPI.Comm) -> dict:

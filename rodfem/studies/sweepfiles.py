@@ -40,6 +40,8 @@ class SweepResult:
         status: complete, or interrupted (a sweep that was stopped; resume continues it), or
             failed (a file could not be written: ``error`` says which).
         path: the sweep directory, or None for a sweep run in memory.
+        coarse_steps: the warnings of its scenes that touched the obstacle with a fixed step
+            coarse for it (:mod:`rodfem.model.timescales`), one line for each kind.
     """
 
     columns: dict[str, np.ndarray]
@@ -48,6 +50,7 @@ class SweepResult:
     path: Path | None = None
     _histories: dict[int, tuple] | None = None  # in memory: the rows and their columns
     error: str | None = None  # a file that could not be written, which stopped the sweep
+    coarse_steps: tuple[str, ...] = ()
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.columns[name]

@@ -1,0 +1,162 @@
+"""The warning on a fixed step that is coarse for the scene's contact (rodfem.model.timescales):
+one line on stderr after a complete run that touched the obstacle, with the fix; the paper's
+scenes, quasi-static scenes, scenes that never touch and adaptive scenes say nothing; the rigid
+obstacle says so whatever the step; a sweep says it once for each kind; the API warns with
+:class:`rodfem.CoarseStepWarning`; the run itself never changes."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import rodfem
+import rodfem.scene
+from conftest import COMM, history_rows
+from rodfem.cli import main
+from rodfem.model.timescales import STEPS_NEEDED, coarse_step
+
+SHORT = ["time.end=0.5", "mesh.cells=40", "solver.method=direct"]  # the first contact: t ≈ 0.2
+STIFF = [*SHORT, "obstacle.epsilon=1e-4"]  # √(b ε) = 0.01: 10 steps of the default 1e-3
+
+
+def run(out, *overrides, scene="paper1", capsys=None):
+    argv = ["run", scene, "--out", str(out), "--quiet"]
+    for item in overrides:
+        argv += ["--set", item]
+    code = main(argv)
+    err = capsys.readouterr().err
+    return code, COMM.bcast(err if COMM.rank == 0 else None, root=0)
+
+
+@pytest.mark.parametrize("name", [f"paper{i}" for i in range(1, 6)])
+def test_the_papers_scenes_say_nothing(name, shared_dir, capsys):
+    assert coarse_step(rodfem.scene.load(name)) is None  # the whole scene, as the paper ran it
+    code, err = run(shared_dir / name, "time.end=0.5", scene=name, capsys=capsys)
+    assert code == 0 and err == ""
+
+
+def test_a_stiff_obstacle_warns_in_one_line_and_the_run_is_the_same(shared_dir, capsys):
+    out = shared_dir / "stiff"
+    code, err = run(out, *STIFF, capsys=capsys)
+    assert code == 0
+    assert err.count("\n") == 1 and err.startswith("rodfem: warning: time.dt = 0.001 is coarse")
+    for said in ("10 steps per contact time √(b ε) = 0.01", "needs 50",
+                 "peak contact stress", "fix: time.adaptive = true, or time.dt = 0.0002"):
+        assert said in err, err
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        quiet = rodfem.simulate("paper1", STIFF)
+    assert quiet.status == "complete" and (quiet.history["sigma_1"] < 0).any()
+    rows = np.column_stack([quiet.history[name] for name in quiet.history.dtype.names])
+    assert history_rows(out).tobytes() == rows.astype(float).tobytes()
+    # the step it offers does not warn
+    code, err = run(shared_dir / "fixed", *STIFF, "time.dt=0.0002", capsys=capsys)
+    assert code == 0 and err == ""
+
+
+def test_crank_nicolson_needs_fewer_steps(shared_dir, capsys):
+    scene = rodfem.scene.load("paper1", [*STIFF, "time.scheme=crank-nicolson"])
+    found = coarse_step(scene)
+    assert found.steps == pytest.approx(10.0) and found.fix_dt == 0.0005
+    assert STEPS_NEEDED["crank-nicolson"] < STEPS_NEEDED["paper"]
+    assert coarse_step(rodfem.scene.load("paper1", [*STIFF, "time.scheme=crank-nicolson",
+                                                    "time.dt=0.0005"])) is None
+
+
+def test_the_rigid_obstacle_says_so_with_adaptive_steps_as_the_fix(shared_dir, capsys):
+    code, err = run(shared_dir / "rigid", *SHORT, "obstacle.kind=rigid", "time.dt=0.0001",
+                    capsys=capsys)
+    assert code == 0 and err.count("\n") == 1, err
+    assert err.startswith("rodfem: warning: the rigid obstacle's impacts take no time")
+    assert "fix: time.adaptive = true (a step ends at each impact)" in err
+    assert "or time.dt" not in err  # no fixed step resolves an impact
+    found = coarse_step(rodfem.scene.load("impact"))
+    assert found.kind == "rigid" and found.scale == 0.0 and found.fix_dt is None
+
+
+def test_quiet_runs_say_nothing(shared_dir, capsys):
+    """b = 0 is quasi-static; a scene that never touches its obstacle (gap 10) has no contact to
+    resolve; a failed run says why it failed, in its one line."""
+    code, err = run(shared_dir / "static", *STIFF, "model.b=0", capsys=capsys)
+    assert code == 0 and err == ""
+    assert coarse_step(rodfem.scene.load("paper1", [*STIFF, "model.b=0"])) is None
+    code, err = run(shared_dir / "far", *STIFF, "obstacle.gap=10", capsys=capsys)
+    assert code == 0 and err == ""
+    assert coarse_step(rodfem.scene.load("paper1", [*STIFF, "obstacle.gap=10"])) is not None
+    code, err = run(shared_dir / "failed", *STIFF, "solver.method=picard", "time.dt=0.01",
+                    "solver.max_iterations=3", capsys=capsys)
+    assert code == 3 and err.count("\n") == 1 and "warning" not in err, err
+
+
+class Adaptive:
+    """A scene with ``time.adaptive = true`` (before the key exists: its data say so)."""
+
+    def __init__(self, scene):
+        self.scene = scene
+
+    def __getitem__(self, key):
+        return self.scene[key]
+
+    def data(self):
+        data = self.scene.data()
+        data["time"]["adaptive"] = True
+        return data
+
+
+def test_an_adaptive_scene_is_never_coarse():
+    for overrides in (STIFF, [*SHORT, "obstacle.kind=rigid"]):
+        scene = rodfem.scene.load("paper1", overrides)
+        assert coarse_step(scene) is not None
+        assert coarse_step(Adaptive(scene)) is None
+
+
+def test_the_api_warns_with_its_own_category():
+    if COMM.rank == 0:
+        with pytest.warns(rodfem.CoarseStepWarning, match="time.dt = 0.001 is coarse") as said:
+            rodfem.simulate("paper1", STIFF)
+        assert len(said) == 1 and said[0].filename == __file__
+    else:
+        rodfem.simulate("paper1", STIFF)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert rodfem.simulate("paper1", SHORT).status == "complete"
+
+
+def test_a_sweep_says_it_once_for_each_kind(shared_dir, capsys):
+    spec = shared_dir / "stiff.toml"
+    if COMM.rank == 0:
+        spec.write_text('scene = "paper1"\n[set]\n"time.end" = 0.5\n"mesh.cells" = 40\n'
+                        '"solver.method" = "direct"\n[grid]\n'
+                        '"obstacle.kind" = ["elastic", "rigid"]\n'
+                        '"obstacle.epsilon" = [1e-4, 2e-4, 0.01]\n', encoding="utf-8")
+    COMM.barrier()
+    code = main(["sweep", str(spec), "--out", str(shared_dir / "sweep"), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 0
+    if COMM.rank == 0:
+        lines = err.splitlines()
+        assert len(lines) == 2, err
+        assert lines[0].startswith("rodfem: warning: scene 0 and 1 more of the 6: time.dt = "
+                                   "0.001 is coarse for this obstacle: 10 steps"), err
+        assert lines[1].startswith("rodfem: warning: scene 3 and 2 more of the 6: the rigid"), err
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        result = rodfem.sweep(str(spec))
+    lines = COMM.bcast(err.splitlines() if COMM.rank == 0 else None, root=0)
+    assert result.coarse_steps == tuple(line.removeprefix("rodfem: warning: ") for line in lines)
+    if COMM.rank == 0:  # rank 0 warns, once for each kind
+        assert [str(w.message) for w in said] == list(result.coarse_steps)
+        assert all(w.category is rodfem.CoarseStepWarning for w in said)
+    else:
+        assert not said
+
+
+def test_resume_says_it_as_run_does(shared_dir, capsys):
+    out = shared_dir / "extended"
+    code, err = run(out, *STIFF[1:], "time.end=0.1", capsys=capsys)  # before the first contact
+    assert code == 0 and err == ""
+    code = main(["resume", str(out), "--quiet", "--set", "time.end=0.5"])
+    err = capsys.readouterr().err
+    assert code == 0
+    if COMM.rank == 0:
+        assert err.count("\n") == 1 and err.startswith("rodfem: warning: time.dt = 0.001"), err
