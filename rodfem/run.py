@@ -182,8 +182,10 @@ class Simulation:
         steps_of = self.history.steps
         self.energy.update(steps_of, rows[:, INDEX["energy"]])
         self.iterations.update(steps_of, rows[:, INDEX["iterations"]].astype(int))
+        names = [column.name for column in self.history.columns]
+        event = rows[:, names.index("event")] if "event" in names else None
         self.contact.update(steps_of, rows[:, INDEX["u_1"]], rows[:, INDEX["sigma_1"]],
-                            self.scene["obstacle.gap"])
+                            self.scene["obstacle.gap"], t=rows[:, INDEX["t"]], event=event)
         self.rows_out.append(rows[steps_of % self.scene["output.history_every"] == 0])
 
     def state_meta(self) -> dict:
