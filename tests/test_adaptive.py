@@ -54,7 +54,8 @@ def replay(scene, steps):
 
 
 def relative(got, expected):
-    return np.abs(got - expected).max() / np.abs(expected).max()
+    """max |got − expected| over max |expected| (the difference itself where that is 0)."""
+    return np.abs(got - expected).max() / (np.abs(expected).max() or 1.0)
 
 
 PAPER1 = ("paper1", "time.end=1")

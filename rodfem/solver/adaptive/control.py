@@ -81,6 +81,7 @@ class ErrorNorm:
     b: float = 0.0
     dt0: float = 1.0
     maxima: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4))
+    force: bool = True  # whether p is measured (not an impulse: see AdaptiveStepper)
 
     def sizes(self, y: np.ndarray) -> np.ndarray:
         n = self.nodes
@@ -98,7 +99,7 @@ class ErrorNorm:
         if self.b > 0.0:
             scale[1] = max(scale[1], self.dt0 * scale[3] / np.sqrt(self.b))
         parts = [np.sqrt(np.mean(error[k * n:(k + 1) * n] ** 2)) for k in range(3)]
-        parts.append(abs(float(error[3 * n])))
+        parts.append(abs(float(error[3 * n])) if self.force else 0.0)
         ratios = [p / (tolerance * s) if s > 0.0 else (0.0 if p == 0.0 else np.inf)
                   for p, s in zip(parts, scale)]
         return float(max(ratios))
