@@ -97,3 +97,43 @@ def test_adaptive_history_agrees_with_the_reference_at_its_steps(simulate, case)
     for field in ("theta", "u"):
         error = relative(getattr(result, field), ref[field])
         assert error <= TOL, f"final {field}: relative difference {error:.2e}"
+
+
+def _compare_runs(rows, other, tolerance):
+    """The largest relative difference of two histories' columns (the same steps asserted)."""
+    assert len(rows) == len(other), f"{len(rows)} steps against {len(other)}"
+    np.testing.assert_array_equal(rows["event"], other["event"])
+    # The ladder's steps are the same numbers; a located event's step (and the last, to the end)
+    # is where the contact function crosses 0, found from values that differ by round-off.
+    ladder = (rows["event"] == 0) & (np.arange(len(rows)) < len(rows) - 1)
+    np.testing.assert_array_equal(rows["dt"][ladder], other["dt"][ladder])
+    errors = {"dt": relative(other["dt"], rows["dt"])}
+    errors.update({column: relative(other[column], rows[column]) for column in COMPARED})
+    for column, error in errors.items():
+        assert error <= tolerance, f"{column}: relative difference {error:.2e}"
+    return errors
+
+
+METHODS = {
+    # scene, the methods it allows
+    "paper1": ((*PAPER1, "solver.tol=1e-13"), ("newton", "picard")),
+    "paper1-cn": ((*PAPER1, CN, "solver.tol=1e-13"), ("newton", "picard")),
+    "impact-cn-rigid": (IMPACT, ("newton",)),
+}
+
+
+@serial_only
+@pytest.mark.parametrize("case", METHODS)
+def test_every_method_and_loop_takes_the_same_steps(simulate, case, monkeypatch):
+    """direct with the compiled loop against direct with the PETSc loop (RODFEM_KERNEL=0),
+    newton and picard: the same steps and events, the histories within TOL (Newton and Picard
+    stop within solver.tol = 1e-13 of the step's solution)."""
+    (name, *overrides), methods = METHODS[case]
+    _, rows = adaptive_run(simulate, name, *overrides, "solver.method=direct")
+    monkeypatch.setenv("RODFEM_KERNEL", "0")
+    _, petsc = adaptive_run(simulate, name, *overrides, "solver.method=direct")
+    _compare_runs(rows, petsc, TOL)
+    monkeypatch.delenv("RODFEM_KERNEL")
+    for method in methods:
+        _, other = adaptive_run(simulate, name, *overrides, f"solver.method={method}")
+        _compare_runs(rows, other, TOL)
