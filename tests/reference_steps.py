@@ -35,9 +35,11 @@ above with w_c = −q_Δ at x_{s−1}; then the end is put where its equation at
 U_s = g + ε ψ'(yⁿ) where ψ'(yⁿ) = [yⁿ − g]₊/(ε + h) > 0 (else yⁿ), σ(1) = −ψ'(yⁿ), and its
 velocity is (U_sⁿ − U_sⁿ⁻¹)/h. The initial end is so placed too.
 
-The history has the columns of reference.simulate (t, u(1), u(0.5), u_t(1), σ(1), energy) and
-the step h; u_t(1) is Vⁿ(1) and the energy ½(‖Θ‖²_M + b‖V‖²_Mb + ‖U_x‖²) + a θ_A (r, U_x) + φ(U(1))
-(no φ for the rigid obstacle, whose σ(1) is −p).
+The history has the columns of reference.simulate (t, u(1), u(0.5), u_t(1), σ(1), energy),
+the step h and the step's dissipation; u_t(1) is Vⁿ(1) and the energy ½(‖Θ‖²_M + b‖V‖²_Mb +
+‖U_x‖²) + a θ_A (r, U_x) + φ(U(1)) (no φ for the rigid obstacle, whose σ(1) is −p). Without
+sources, Crank–Nicolson's step changes the energy by minus its dissipation exactly
+(docs/time-schemes.md), and the paper's by at most that (Remark 4.4, for n ≥ 2).
 """
 
 from __future__ import annotations
@@ -107,8 +109,10 @@ def simulate_steps(
     scheme: str = "paper", obstacle: str = "elastic",
 ) -> dict[str, Array]:
     """The scheme over the steps ``steps`` (the module's docstring). Returns ``history``
-    (len(steps) + 1 rows: t, u(1), u(0.5), u_t(1), σ(1), energy, h; h = 0 in row 0) and the final
-    ``theta``, ``u`` at the nodes x_0..x_s (first entry 0)."""
+    (len(steps) + 1 rows: t, u(1), u(0.5), u_t(1), σ(1), energy, h, the step's dissipation
+    h (‖Θ_x‖² + k Θ(1)² + ζ ‖δ_x‖²) at Θ = Θⁿ⁻¹ + w ΔΘ, δ = ΔU/h; h = 0 in row 0, and the
+    dissipation 0 there and at the paper's first step with inertia) and the final ``theta``, ``u``
+    at the nodes x_0..x_s (first entry 0)."""
     w = WEIGHTS[scheme]
     rigid = obstacle == "rigid"
     ops = assemble(cells, k, mass)
@@ -132,10 +136,10 @@ def simulate_steps(
     v = nodal(u1) if b > 0.0 else np.zeros_like(d)
     penalty = 0.0 if rigid else epsilon
     pressure = settle(d, gap, law, penalty) if massless else 0.0
-    history = np.zeros((len(steps) + 1, 7))
+    history = np.zeros((len(steps) + 1, 8))
     full = np.zeros(x.size)
 
-    def record(n: int, t: float, h: float) -> None:
+    def record(n: int, t: float, h: float, dissipated: float = 0.0) -> None:
         full[1:] = d
         energy = 0.5 * (c @ (mm @ c) + b * (v @ (mb @ v)) + d @ (kk @ d)) + a * theta_A * (z @ d)
         if rigid:
@@ -143,7 +147,7 @@ def simulate_steps(
         else:
             sigma = -max(d[-1] - gap, 0.0) / epsilon
             energy += 0.5 * max(d[-1] - gap, 0.0) ** 2 / epsilon
-        history[n] = (t, d[-1], np.interp(0.5, x, full), v[-1], sigma, energy, h)
+        history[n] = (t, d[-1], np.interp(0.5, x, full), v[-1], sigma, energy, h, dissipated)
 
     record(0, 0.0, 0.0)
     t = 0.0
@@ -153,13 +157,13 @@ def simulate_steps(
             heat.diag[-1] += h * k
             d_new = d + h * v
             c = _solve_spd(heat, mm @ c + a * (cc @ (d - d_new)))
-            d, pressure = d_new, 0.0
+            d, pressure, dissipated = d_new, 0.0, 0.0
         else:
             step = made.get(h) or made.setdefault(h, Step(ops, h, w, a, b, zeta, k, node))
-            c, d, v, pressure = _step(step, h, w, c, d, v, ops, a, b, k, theta_A, gap, law,
-                                      penalty, massless)
+            c, d, v, pressure, dissipated = _step(step, h, w, c, d, v, ops, a, b, zeta, k,
+                                                  theta_A, gap, law, penalty, massless)
         t += h
-        record(n, t, h)
+        record(n, t, h, dissipated)
     return {"history": history, "theta": np.concatenate(([0.0], c)),
             "u": np.concatenate(([0.0], d)), "x": x.copy()}
 
@@ -172,8 +176,9 @@ def settle(d: Array, gap: float, law: float, penalty: float) -> float:
     return force
 
 
-def _step(step, h, w, c, d, v, ops, a, b, k, theta_A, gap, law, penalty, massless):  # noqa: N803
-    """One step of size h from (Θ, U, V): (Θ, U, V, p) after it."""
+def _step(step, h, w, c, d, v, ops, a, b, zeta, k, theta_A, gap, law, penalty,  # noqa: N803
+          massless):
+    """One step of size h from (Θ, U, V): (Θ, U, V, p, the dissipation) after it."""
     mb, kk, cc, z = ops["Mb"], ops["K"], ops["C"], ops["z"]
     node = -2 if massless else -1
     heat_rhs = -h * (kk @ c)
@@ -196,9 +201,11 @@ def _step(step, h, w, c, d, v, ops, a, b, k, theta_A, gap, law, penalty, massles
     else:
         v = 2.0 * delta / h - v
     pressure = settle(d_new, gap, law, penalty) if massless else force
+    mid, rate = c + w * dtheta, delta / h
+    dissipated = h * (mid @ (kk @ mid) + k * mid[-1] ** 2 + zeta * (rate @ (kk @ rate)))
     if mb.diag[-1] == 0.0:  # no mass at x = 1: no velocity of its own
         v[-1] = (d_new[-1] - d[-1]) / h
-    return c + dtheta, d_new, v, pressure
+    return c + dtheta, d_new, v, pressure, dissipated
 
 
 def _solve_spd(matrix: Tridiagonal, rhs: Array) -> Array:
