@@ -251,7 +251,7 @@ BAD = [
     (["time.adaptive=true", "time.dt_min=0.01"],
      "time.dt: the first step must be >= time.dt_min = 0.01, got 0.001"),
     (["time.adaptive=true", "time.dt_min=0.002", "time.dt_max=0.0005"],
-     "time.dt: the first step must be >= time.dt_min = 0.002"),
+     "time.dt_max: must be 0 or >= time.dt_min = 0.002, got 0.0005"),
     (["time.adaptive=true", "time.dt_max=0.0005", "time.dt_min=0.0001"],
      "time.dt: the first step must be <= time.dt_max = 0.0005, got 0.001"),
     (["time.adaptive=1"], "time.adaptive: must be true or false, got 1"),
