@@ -6,9 +6,9 @@ the same hand-assembled matrices (:func:`reference.assemble`) and the same bande
 of refinement (:class:`reference.CoupledSolver`), for the scheme at weight w:
 
 * ``paper`` (w = 1): (3.1)–(3.2) as printed, the force at tⁿ, U¹ = U⁰ + h₁ P u₁ with inertia;
-* ``crank-nicolson`` (w = ½): the implicit midpoint rule on u_t = v, b v_t = σ_x, θ_t = θ_xx − a v_x,
-  the contact force the discrete gradient (φ(y) − φ(c))/(y − c) of φ(u) = [u − g]₊²/(2ε)
-  (docs/time-schemes.md).
+* ``crank-nicolson`` (w = ½): the implicit midpoint rule on u_t = v, b v_t = σ_x,
+  θ_t = θ_xx − a v_x, the contact force the discrete gradient (φ(y) − φ(c))/(y − c) of
+  φ(u) = [u − g]₊²/(2ε) (docs/time-schemes.md).
 
 **Across a change of step the velocity is kept**: the state is (Θ, V, U) with V the velocity, and
 a step of size h starts from D = h V (rodfem's convention: D scaled by h_new/h_old). With
