@@ -125,17 +125,24 @@ METHODS = {
 @pytest.mark.parametrize("case", METHODS)
 def test_every_method_and_loop_takes_the_same_steps(simulate, case, monkeypatch):
     """direct with the compiled loop against direct with the PETSc loop (RODFEM_KERNEL=0),
-    newton and picard: the same steps and events, the histories within TOL (Newton and Picard
-    stop within solver.tol = 1e-13 of the step's solution)."""
+    newton and picard (and Picard's two loops): the same steps and events, the histories within
+    TOL (Newton and Picard stop within solver.tol = 1e-13 of the step's solution). Measured: the
+    ladder's steps are the same numbers, a located event's step differs by at most 6.5e-12
+    relative (its contact function differs by round-off), the columns by at most 4e-12."""
     (name, *overrides), methods = METHODS[case]
     _, rows = adaptive_run(simulate, name, *overrides, "solver.method=direct")
     monkeypatch.setenv("RODFEM_KERNEL", "0")
     _, petsc = adaptive_run(simulate, name, *overrides, "solver.method=direct")
     _compare_runs(rows, petsc, TOL)
     monkeypatch.delenv("RODFEM_KERNEL")
+    runs = {}
     for method in methods:
-        _, other = adaptive_run(simulate, name, *overrides, f"solver.method={method}")
-        _compare_runs(rows, other, TOL)
+        _, runs[method] = adaptive_run(simulate, name, *overrides, f"solver.method={method}")
+        _compare_runs(rows, runs[method], TOL)
+    if "picard" in runs:  # Picard's compiled loop against its PETSc loop
+        monkeypatch.setenv("RODFEM_KERNEL", "0")
+        _, petsc = adaptive_run(simulate, name, *overrides, "solver.method=picard")
+        _compare_runs(runs["picard"], petsc, TOL)
 
 
 def contact(rows, gap, cell):
