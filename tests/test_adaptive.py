@@ -83,6 +83,10 @@ def adaptive_run(simulate, name, *overrides):
 
 @pytest.mark.parametrize("case", REPLAYED)
 def test_adaptive_history_agrees_with_the_reference_at_its_steps(simulate, case):
+    """paper1, paper4 (to t = 1) and impact (to t = 2.5, h = 1e-2), both schemes, lumped,
+    consistent and redistributed masses, elastic and rigid obstacles: the run's steps (varied,
+    with contact events among them) replayed by the reference give its history (u(1), u(0.5),
+    u_t(1), σ(1), energy) and its final fields within TOL."""
     name, *overrides = REPLAYED[case]
     result, rows = adaptive_run(simulate, name, *overrides)
     steps = rows["dt"][1:]
@@ -100,7 +104,7 @@ def test_adaptive_history_agrees_with_the_reference_at_its_steps(simulate, case)
 
 
 def _compare_runs(rows, other, tolerance):
-    """The largest relative difference of two histories' columns (the same steps asserted)."""
+    """Two histories of the same steps and events, their columns within ``tolerance``."""
     assert len(rows) == len(other), f"{len(rows)} steps against {len(other)}"
     np.testing.assert_array_equal(rows["event"], other["event"])
     # The ladder's steps are the same numbers; a located event's step (and the last, to the end)
@@ -111,7 +115,6 @@ def _compare_runs(rows, other, tolerance):
     errors.update({column: relative(other[column], rows[column]) for column in COMPARED})
     for column, error in errors.items():
         assert error <= tolerance, f"{column}: relative difference {error:.2e}"
-    return errors
 
 
 METHODS = {
@@ -171,9 +174,10 @@ def test_impact_events_located_and_energy_kept(simulate, cells):
     columns = np.column_stack([rows["u_1"], -rows["sigma_1"]])
     on = contact(columns, 0.0, h) > 0.0
     assert not on[impact - 1] and on[impact] and on[release - 1] and not on[release]
-    assert (on[impact:release] == 1).all() and not on[:impact].any() and not on[release:].any()
+    assert on[impact:release].all() and not on[:impact].any() and not on[release:].any()
 
-    # The reference at rodfem's steps, the event's step 1e-10 shorter: still before the change.
+    # The reference at rodfem's steps, the event's step 1e-10 shorter: still before the change;
+    # 1e-10 longer: after it. Its contact changes within 1e-10 of where rodfem's step ends.
     scene = rodfem.scene.load("impact", ["time.adaptive=true", *overrides])
     steps = rows["dt"][1:]
     for n in events:
@@ -189,8 +193,10 @@ def test_impact_events_located_and_energy_kept(simulate, cells):
     # round-off. The strain energy reads U_x from differences of nodal values |U| ≤ 1/2 over
     # h, which carry ε_mach |U| each: a relative error of about ε_mach/h in the energy (|U_x| =
     # 1/2 too), made afresh by every step's solve, and adding up as a random walk over the N
-    # steps: √N ε_mach/h E₀. (Measured: 888 ulps of 1/8 over 1449 steps at h = 1e-2, 7877 over
-    # 9893 at h = 1e-3, 4 and 12 times below this bound; a few ulps per step per node.)
+    # steps: √N ε_mach/h E₀. (Measured to t = 2.5: 686 ulps of 1/8 over 1211 steps at h = 1e-2,
+    # 6188 over 8211 at h = 1e-3, 5 and 15 times below this bound. A few hundred ulps, as for
+    # fixed steps, is not what these sizes give: one step's change is up to 3400 ulps at
+    # h = 1e-3, where the bound for one step, ε_mach/h E₀, is 10000.)
     energy = rows["energy"]
     bound = np.sqrt(len(steps)) * np.finfo(float).eps / h * energy[0]
     assert energy.max() - energy.min() <= bound, (energy.max() - energy.min(), bound)
