@@ -71,7 +71,11 @@ REPLAYED = {
     "paper4": (*PAPER4, "solver.method=direct"),
     "paper4-cn": (*PAPER4, CN, "solver.method=direct"),
     "impact-paper-rigid": (*IMPACT, "time.scheme=paper", "discretisation.mass=lumped"),
+    "impact-paper-rigid-consistent": (*IMPACT, "time.scheme=paper",
+                                      "discretisation.mass=consistent"),
     "impact-cn-rigid": IMPACT,
+    "impact-cn-rigid-lumped": (*IMPACT, "discretisation.mass=redistributed-lumped"),
+    "impact-cn-elastic": (*IMPACT, "obstacle.kind=elastic", "obstacle.epsilon=0.001"),
 }
 
 
