@@ -19,8 +19,9 @@ the two halves are kept, which gives the next step its three states.
 
 **The norm** is relative, per field: the root mean square over the nodes of the error in Θ, in
 the velocity and in U, each over the largest max-norm that field has had in the run so far, and
-the error in p over the largest contact force or strain (a stress) so far; the step's error is
-the largest of the four over ``time.tolerance``, and a step is accepted where it is at most 1.
+the error in p over the largest contact force or strain (a stress) so far (not for the rigid
+obstacle's multiplier at a node with mass, an impulse at an impact); the step's error is the
+largest of these over ``time.tolerance``, and a step is accepted where it is at most 1.
 
 **The next step** follows Gustafsson's PI controller (Hairer & Wanner, IV.8; Söderlind):
 h_new = h · 0.9 · err^(−0.7/k) · err_prev^(0.4/k), k = q + 1, within [h/5, 5h]; after a rejected
