@@ -177,7 +177,8 @@ class CoupledSolver:
 
 
 def assemble(cells: int, k: float, mass: str) -> dict[str, object]:
-    """Hand-assemble M, K, C, z and e for P1 on a uniform mesh of ``cells`` cells on [0, 1].
+    """Hand-assemble M, K, C, z and e for P1 on a uniform mesh of ``cells`` cells on [0, 1], and
+    the inertia's mass Mb (M but for a redistributed mass, whose heat equation has the base one).
 
     Unknowns are the nodes x_1..x_s. B = e e^T is not stored explicitly.
     """
@@ -189,17 +190,30 @@ def assemble(cells: int, k: float, mass: str) -> dict[str, object]:
     ones = np.ones(s)
     off = np.ones(s - 1)
 
-    # Mass matrix: node x_s = 1 belongs to one cell only.
-    if mass == "consistent":
+    # Mass matrix: node x_s = 1 belongs to one cell only. A redistributed mass (the inertia's
+    # only; Khenous, Laborde & Renard) is its base mass with the last cell's inertia taken by
+    # the vertex rule of weights h at x_{s-1} and 0 at x_s: the node x = 1 has no mass.
+    base = mass.removeprefix("redistributed-") if mass != "redistributed" else "consistent"
+    moved = mass.startswith("redistributed")
+    if base == "consistent":
         diag = 2.0 * h / 3.0 * ones
         diag[-1] = h / 3.0
         mass_matrix = Tridiagonal(h / 6.0 * off, diag, h / 6.0 * off)
-    elif mass == "lumped":
+    elif base == "lumped":
         diag = h * ones
         diag[-1] = h / 2.0
         mass_matrix = Tridiagonal(0.0 * off, diag, 0.0 * off)
     else:
-        raise ValueError(f"mass must be 'consistent' or 'lumped', got {mass!r}")
+        raise ValueError("mass must be 'consistent', 'lumped', 'redistributed' or "
+                         f"'redistributed-lumped', got {mass!r}")
+    inertia = mass_matrix
+    if moved:  # the last cell's share of the base mass replaced by h at x_{s-1}
+        inertia = Tridiagonal(mass_matrix.lower.copy(), mass_matrix.diag.copy(),
+                              mass_matrix.upper.copy())
+        own = h / 3.0 if base == "consistent" else h / 2.0  # the last cell's diagonal entries
+        inertia.diag[-2] += h - own
+        inertia.diag[-1] = 0.0
+        inertia.lower[-1] = inertia.upper[-1] = 0.0
 
     # Stiffness matrix.
     diag = 2.0 / h * ones
@@ -220,7 +234,8 @@ def assemble(cells: int, k: float, mass: str) -> dict[str, object]:
 
     e = np.zeros(s)
     e[-1] = 1.0
-    return {"x": x, "h": h, "M": mass_matrix, "K": stiffness, "C": coupling, "z": z, "e": e}
+    return {"x": x, "h": h, "M": mass_matrix, "Mb": inertia, "K": stiffness, "C": coupling,
+            "z": z, "e": e}
 
 
 def simulate(

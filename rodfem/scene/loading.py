@@ -255,12 +255,12 @@ def _check_steps(scene: Scene) -> None:
 def _check_adaptive(scene: Scene) -> None:
     """The first step, the smallest and the largest in order."""
     dt, low, high = scene["time.dt"], scene["time.dt_min"], scene["time.dt_max"]
+    if high and high < low:
+        raise SceneError(f"time.dt_max: must be 0 or >= time.dt_min = {low!r}, got {high!r}")
     if dt < low:
         raise SceneError(f"time.dt: the first step must be >= time.dt_min = {low!r}, got {dt!r}")
     if high and dt > high:
         raise SceneError(f"time.dt: the first step must be <= time.dt_max = {high!r}, got {dt!r}")
-    if high and high < low:
-        raise SceneError(f"time.dt_max: must be 0 or >= time.dt_min = {low!r}, got {high!r}")
 
 
 def _check_data(scene: Scene) -> None:

@@ -19,8 +19,9 @@ the two halves are kept, which gives the next step its three states.
 
 **The norm** is relative, per field: the root mean square over the nodes of the error in Θ, in
 the velocity and in U, each over the largest max-norm that field has had in the run so far, and
-the error in p over the largest contact force or strain (a stress) so far; the step's error is
-the largest of the four over ``time.tolerance``, and a step is accepted where it is at most 1.
+the error in p over the largest contact force or strain (a stress) so far (not for the rigid
+obstacle's multiplier at a node with mass, an impulse at an impact); the step's error is the
+largest of these over ``time.tolerance``, and a step is accepted where it is at most 1.
 
 **The next step** follows Gustafsson's PI controller (Hairer & Wanner, IV.8; Söderlind):
 h_new = h · 0.9 · err^(−0.7/k) · err_prev^(0.4/k), k = q + 1, within [h/5, 5h]; after a rejected
@@ -82,6 +83,7 @@ class ErrorNorm:
     dt0: float = 1.0
     massless_end: bool = False  # a redistributed mass: D(1) is not a velocity, left out
     maxima: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4))
+    force: bool = True  # whether p is measured (not an impulse: see AdaptiveStepper)
 
     def sizes(self, y: np.ndarray) -> np.ndarray:
         n = self.nodes
@@ -108,7 +110,7 @@ class ErrorNorm:
             scale[1] = max(scale[1], self.dt0 * scale[3] / np.sqrt(self.b))
         error = self._without_end(error)
         parts = [np.sqrt(np.mean(error[k * n:(k + 1) * n] ** 2)) for k in range(3)]
-        parts.append(abs(float(error[3 * n])))
+        parts.append(abs(float(error[3 * n])) if self.force else 0.0)
         ratios = [p / (tolerance * s) if s > 0.0 else (0.0 if p == 0.0 else np.inf)
                   for p, s in zip(parts, scale)]
         return float(max(ratios))
