@@ -186,6 +186,16 @@ class Method:
         self.n, self.iterations = (int(v) for v in saved["step"])
         self.pressure = float(saved["pressure"][0])
 
+    def take_state(self, other: Method) -> None:
+        """:meth:`restore` of ``other``'s :meth:`saved_state` (a method of the same scene, of
+        another step: an adaptive run's), without copying it twice."""
+        self.values[:] = other.values
+        self.u_prev.array[:] = other.u_prev.array_r
+        for vector in (self.state, self.theta, self.du, self.u, self.u_prev):
+            vector.stateIncrease()
+        self.n, self.iterations = int(other.n), int(other.iterations)
+        self.pressure = float(other.pressure)
+
     def coupled_operator(self) -> PETSc.Mat:
         """[[A_h, −N_U], [−N_Θ, A_m]]: (3.1)–(3.2) for [ΔΘⁿ; ΔUⁿ] without the contact term
         (made once; not to be changed)."""
