@@ -94,10 +94,10 @@ def instrumented(scene):
     init = saved["__init__"]
 
     def __init__(self, home, scene, make, loop, record, *args, **kwargs):
-        def timed_make(h):
+        def timed_make(h, *once):
             started = time.perf_counter()
             try:
-                return make(h)
+                return make(h, *once)
             finally:
                 made.append((h, time.perf_counter() - started, rung(self.dt0, h) == h))
 

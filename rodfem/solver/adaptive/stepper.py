@@ -46,9 +46,10 @@ class StepTooSmall(NotConverged):
 
 class AdaptiveStepper:
     """Accepted steps of ``home`` (a :class:`~rodfem.solver.methods.base.Method` of the first
-    step Δt₀), one :meth:`step` at a time. ``make(h)`` returns (method for step h, its compiled
-    loop or None); ``loop`` is the home method's compiled loop or None; ``record(dt, event)`` is
-    called with home in each accepted state."""
+    step Δt₀), one :meth:`step` at a time. ``make(h, once)`` returns (method for step h, its
+    compiled loop or None), ``once`` for a size off the ladder (it takes a step or two);
+    ``loop`` is the home method's compiled loop or None; ``record(dt, event)`` is called with
+    home in each accepted state."""
 
     def __init__(self, home, scene, make, loop, record, width: int):
         self.home, self.make, self.loop, self.record = home, make, loop, record
@@ -102,8 +103,9 @@ class AdaptiveStepper:
         if made is None and self._located is not None and self._located[0] == h:
             return self._located[1]
         if made is None:
-            made = self.make(h)
-            if rung(self.dt0, h) != h:
+            once = rung(self.dt0, h) != h
+            made = self.make(h, once)
+            if once:
                 self._located = (h, made)
                 return made
             if len(self._methods) >= KEPT:
