@@ -87,7 +87,8 @@ class ErrorNorm:
     def sizes(self, y: np.ndarray) -> np.ndarray:
         n = self.nodes
         fields = np.abs(y[:3 * n].reshape(3, n)).max(axis=1)  # Θ, D, U
-        strain = float(np.abs(np.diff(y[2 * n:3 * n])).max()) / self.cell if n > 1 else 0.0
+        u = y[2 * n:3 * n]
+        strain = float(np.abs(u[1:] - u[:-1]).max()) / self.cell if n > 1 else 0.0
         return np.array([fields[0], fields[1], fields[2], max(abs(float(y[3 * n])), strain)])
 
     def grown(self, y: np.ndarray) -> np.ndarray:
