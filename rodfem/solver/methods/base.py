@@ -30,7 +30,7 @@ from rodfem.discrete.nodes import block_diagonal, block_matrix
 from rodfem.model import contact
 from rodfem.model.robin import robin_shift
 from rodfem.solver.errors import SourceNotFinite
-from rodfem.solver.linalg import lu_factor, stacked
+from rodfem.solver.linalg import lu_solver, stacked
 from rodfem.solver.methods import massless
 from rodfem.solver.time_schemes import TIME_SCHEMES
 
@@ -138,8 +138,7 @@ class Method:
         self.last = disc.nodes.size - 1  # the node x = 1
         self._index = disc.nodes.size + self.last  # of ΔU(1) in the unknowns [ΔΘ; ΔU]
 
-        self.heat_ksp, heat_factor = lu_factor(self.heat.A, "rodfem_heat_")
-        self.solve_heat = heat_factor.solve
+        self.solve_heat = lu_solver(self.heat.A, "rodfem_heat_")
 
         # The state s = [Θⁿ; ΔUⁿ; Uⁿ] in one array (History reads its energy off it at once);
         # theta, du and u are views of its thirds. Both right-hand sides of a step, [h; m], are
