@@ -1,9 +1,10 @@
 """Benchmark: what an adaptive step costs against a step of the fixed-step compiled loop, and
 where its time goes (rodfem/solver/adaptive/stepper.py).
 
-Runs, without files: paper1 (250 cells) with ``picard`` and ``direct``, and impact (1000 cells,
-``direct``: Picard cannot take the rigid obstacle), each fixed-step and adaptive at the default
-tolerance. For each: the time loop's µs per step (``Simulation.loop``'s over the steps), of
+Runs, without files: paper1 (250 cells) with ``picard`` and ``direct``, impact (1000 cells) with
+``direct``, and with ``picard`` against an elastic obstacle (ε = 0.01: Picard cannot take the
+rigid one; with a = 0 its steps are the PETSc loop's), each fixed-step and adaptive at the
+default tolerance. For each: the time loop's µs per step (``Simulation.loop``'s over the steps), of
 the adaptive run the second in its process; the first, as a run of its own, also pays the
 imports and the forms' compilation that its first new step size needs: its loop's seconds are
 given too. Then, from a third adaptive run with each part of the stepper timed (its timers add
@@ -47,6 +48,8 @@ CASES = {  # name: (scene, overrides)
     "paper1 picard": ("paper1", []),
     "paper1 direct": ("paper1", ["solver.method=direct"]),
     "impact direct": ("impact", []),
+    "impact picard": ("impact", ["solver.method=picard", "obstacle.kind=elastic",
+                                 "obstacle.epsilon=0.01"]),
 }
 # The process's CPU time: what other work on the shared cores takes does not count (its effect on
 # the caches and the memory bus does).
