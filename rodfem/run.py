@@ -157,10 +157,12 @@ class Simulation:
 
         disc, history, kernel = self.disc, self.history, self.kernel
 
-        def make(h: float):
+        def make(h: float, once: bool):
             with disc.at_step(h):
                 method = make_method(disc, h)
-            return method, compiled_loop(method, history) if kernel is not None else None
+            if kernel is None:
+                return method, None
+            return method, compiled_loop(method, history, compress=not once)
 
         stepper = AdaptiveStepper(self.method, self.scene, make, kernel, self.record_step,
                                   history.width)

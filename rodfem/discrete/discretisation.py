@@ -308,8 +308,10 @@ class Discretisation:
                key: tuple | None = None) -> PETSc.Mat:
         """The matrix of a bilinear form on S_E (``diagonal`` in the row of x = 0), node order.
         With ``rows_only`` the column of x = 0 is kept and only its row is zero. ``a`` and
-        ``key`` as for :meth:`form`; a keyed matrix is cached (:meth:`arrays`)."""
-        if key is None:
+        ``key`` as for :meth:`form`; a keyed matrix is cached (:meth:`arrays`). Without a
+        cache the assembled matrix is the one returned: its CSR copy would be made the same way
+        from the same arrays (where rows are not zeroed, which drops their entries)."""
+        if key is None or (self._cache is None and not rows_only):
             return self._assembled_matrix(a, diagonal, rows_only, key)
 
         def csr() -> dict[str, np.ndarray]:

@@ -36,6 +36,20 @@ def lu_factor(A: PETSc.Mat, prefix: str, ordering: str = "natural"):
     return ksp, ksp.getPC().getFactorMatrix()
 
 
+def lu_solver(A: PETSc.Mat, prefix: str):
+    """``solve(b, x)`` by A's LU (:func:`lu_factor`), factored on the first solve: a method whose
+    steps its compiled loop takes never needs it (an adaptive run makes one for each step
+    size)."""
+    made = []
+
+    def solve(b: PETSc.Vec, x: PETSc.Vec) -> None:
+        if not made:
+            made.extend(lu_factor(A, prefix))  # the KSP (which owns the factor) and the factor
+        made[1].solve(b, x)
+
+    return solve
+
+
 def stacked(parts: int, n: int) -> tuple[PETSc.Vec, list[PETSc.Vec]]:
     """A sequential vector of ``parts`` blocks of length n, and a vector for each block that
     shares its memory."""

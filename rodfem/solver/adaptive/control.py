@@ -48,15 +48,16 @@ def rung(dt0: float, h: float) -> float:
     return step if step <= h else dt0 * 2.0 ** ((j - 1) / RUNGS)
 
 
-def extrapolate(times: np.ndarray, states: np.ndarray, t: float) -> np.ndarray:
-    """The polynomial through (times[i], states[i]) at t (Lagrange's form)."""
-    out = np.zeros(states.shape[1])
+def extrapolate(times, states, t: float) -> np.ndarray:
+    """The polynomial through (times[i], states[i]) at t (Lagrange's form; sequences of floats
+    and of equal arrays)."""
+    out, term = np.zeros(states[0].shape[0]), np.empty(states[0].shape[0])
     for i, ti in enumerate(times):
         weight = 1.0
         for j, tj in enumerate(times):
             if j != i:
                 weight *= (t - tj) / (ti - tj)
-        out += weight * states[i]
+        out += np.multiply(states[i], weight, out=term)
     return out
 
 
@@ -84,14 +85,15 @@ class ErrorNorm:
     massless_end: bool = False  # a redistributed mass: D(1) is not a velocity, left out
     maxima: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4))
     force: bool = True  # whether p is measured (not an impulse: see AdaptiveStepper)
+    _last: tuple | None = dataclasses.field(default=None, repr=False)  # (y, maxima, grown)
 
     def sizes(self, y: np.ndarray) -> np.ndarray:
         n = self.nodes
         y = self._without_end(y)
+        fields = np.abs(y[:3 * n].reshape(3, n)).max(axis=1)  # Θ, D, U
         u = y[2 * n:3 * n]
-        strain = float(np.max(np.abs(np.diff(u)))) / self.cell if n > 1 else 0.0
-        return np.array([np.max(np.abs(y[:n])), np.max(np.abs(y[n:2 * n])),
-                         np.max(np.abs(u)), max(abs(float(y[3 * n])), strain)])
+        strain = float(np.abs(u[1:] - u[:-1]).max()) / self.cell if n > 1 else 0.0
+        return np.array([fields[0], fields[1], fields[2], max(abs(float(y[3 * n])), strain)])
 
     def _without_end(self, y: np.ndarray) -> np.ndarray:
         if not self.massless_end:
@@ -101,16 +103,23 @@ class ErrorNorm:
         return y
 
     def grown(self, y: np.ndarray) -> np.ndarray:
-        """The maxima with y counted."""
+        """The maxima with y counted (those of the last y measured, without counting it
+        again)."""
+        last = self._last
+        if last is not None and last[0] is y and last[1] is self.maxima:
+            return last[2]
         return np.maximum(self.maxima, self.sizes(y))
 
     def __call__(self, error: np.ndarray, y: np.ndarray, tolerance: float) -> float:
-        n, scale = self.nodes, self.grown(y)
+        n, grown = self.nodes, self.grown(y)
+        self._last = (y, self.maxima, grown)
+        scale = grown.copy()
         if self.b > 0.0:
             scale[1] = max(scale[1], self.dt0 * scale[3] / np.sqrt(self.b))
         error = self._without_end(error)
-        parts = [np.sqrt(np.mean(error[k * n:(k + 1) * n] ** 2)) for k in range(3)]
-        parts.append(abs(float(error[3 * n])) if self.force else 0.0)
+        squares = error[:3 * n].reshape(3, n)
+        parts = [*np.sqrt(np.add.reduce(squares * squares, axis=1) / n),  # RMS per field
+                 abs(float(error[3 * n])) if self.force else 0.0]
         ratios = [p / (tolerance * s) if s > 0.0 else (0.0 if p == 0.0 else np.inf)
                   for p, s in zip(parts, scale)]
         return float(max(ratios))

@@ -28,12 +28,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from rodfem.solver.adaptive.control import Controller, ErrorNorm, extrapolate, milne
+from rodfem.solver.adaptive.control import Controller, ErrorNorm, extrapolate, milne, rung
 from rodfem.solver.errors import NotConverged, PicardNotConverged
 
 EVENT_WIDTH = 1e-10  # the located event's bracket in time
 RETRIED = (PicardNotConverged,)
-KEPT = 64  # the step sizes whose methods are kept (the ladder's; a located step's is not)
+KEPT = 64  # the most step sizes of the ladder whose methods are kept (the least recent go)
 
 
 class StepTooSmall(NotConverged):
@@ -46,9 +46,10 @@ class StepTooSmall(NotConverged):
 
 class AdaptiveStepper:
     """Accepted steps of ``home`` (a :class:`~rodfem.solver.methods.base.Method` of the first
-    step Δt₀), one :meth:`step` at a time. ``make(h)`` returns (method for step h, its compiled
-    loop or None); ``loop`` is the home method's compiled loop or None; ``record(dt, event)`` is
-    called with home in each accepted state."""
+    step Δt₀), one :meth:`step` at a time. ``make(h, once)`` returns (method for step h, its
+    compiled loop or None), ``once`` for a size off the ladder (it takes a step or two);
+    ``loop`` is the home method's compiled loop or None; ``record(dt, event)`` is called with
+    home in each accepted state."""
 
     def __init__(self, home, scene, make, loop, record, width: int):
         self.home, self.make, self.loop, self.record = home, make, loop, record
@@ -71,7 +72,9 @@ class AdaptiveStepper:
         self.cap = np.inf  # Picard: half the smallest step it failed at
         self.past_t: list[float] = []
         self.past: list[np.ndarray] = []
-        self._methods: dict[float, tuple] = {}
+        self._methods: dict[float, tuple] = {}  # of the ladder's sizes, the most recent last
+        self._located: tuple | None = None  # (h, its method and loop): the last size off it
+        self._home_at: dict | None = None  # the saved state home is at, if known
         self._rows = np.zeros((1, width))
         self.steps = self.rejected = self.events = 0
 
@@ -96,34 +99,45 @@ class AdaptiveStepper:
     # -- one step of a given size ------------------------------------------------------------
 
     def _method(self, h: float):
+        """The method and loop of the step h: kept for the ladder's sizes, which repeat; a
+        size off it (an event's, the last step's) is tried once or twice in a row."""
         if h == self.dt0:
             return self.home, self.loop
-        made = self._methods.get(h)
+        made = self._methods.pop(h, None)
+        if made is None and self._located is not None and self._located[0] == h:
+            return self._located[1]
         if made is None:
-            made = self.make(h)
-            if len(self._methods) < KEPT:
-                self._methods[h] = made
+            once = rung(self.dt0, h) != h
+            made = self.make(h, once)
+            if once:
+                self._located = (h, made)
+                return made
+            if len(self._methods) >= KEPT:
+                del self._methods[next(iter(self._methods))]
+        self._methods[h] = made
         return made
 
-    def _take(self, h: float, start: dict) -> None:
-        """Home from the state ``start`` (at self.t) one step h on."""
-        method, loop = self._method(h)
+    def _take(self, h: float, start: dict, made: tuple | None = None) -> tuple:
+        """Home from the state ``start`` (at self.t) one step h on, by ``made`` (h's method and
+        loop, if at hand): those returned. The state goes to the method of h as it is, with D
+        scaled (the module's docstring), and back."""
+        method, loop = made = made or self._method(h)
         n = self.nodes
-        if method is self.home:
+        if method is not self.home:
             method.restore(start)
-        else:
-            state = dict(start, state=start["state"].copy())
-            state["state"][n:2 * n] *= h / self.dt0
-            method.restore(state)
+            method.values[n:2 * n] *= h / self.dt0
+        elif self._home_at is not start:
+            method.restore(start)
+        self._home_at = None
         method.clock = self.t
         if loop is not None and not method.first_step_special:
             loop.advance(1, self._rows)
         else:
             method.advance()
         if method is not self.home:
-            back = method.saved_state()
-            back["state"][n:2 * n] *= self.dt0 / h
-            self.home.restore(back)
+            self.home.take_state(method)
+            self.home.values[n:2 * n] *= self.dt0 / h
+        return made
 
     # -- the step ----------------------------------------------------------------------------
 
@@ -134,7 +148,7 @@ class AdaptiveStepper:
 
     def step(self) -> None:
         """One accepted step (two at a restart of the estimate), each recorded."""
-        start = self.home.saved_state()
+        start = self._home_at = self.home.saved_state()
         before = self.contact() > 0.0
         while True:
             h = self._proposal()
@@ -151,16 +165,17 @@ class AdaptiveStepper:
         event = (self.contact() > 0.0) != before
         if event:
             h = self._locate(h, start, f0, before)
+        y = self.y()
         if len(self.past) > self.order:
-            error = self._predicted(h)
+            error = self._predicted(h, y)
             if error <= 1.0:
-                self._accept([(h, event)], error)
+                self._accept([(h, event, None, y)], error)
                 return True
         elif event:
-            self._accept([(h, event)], None)
+            self._accept([(h, event, None, y)], None)
             return True
         else:
-            error, halves = self._halves(h, start, self.y())
+            error, halves = self._halves(h, start, y)
             if error <= 1.0:
                 self._accept(halves, error)
                 return True
@@ -174,11 +189,11 @@ class AdaptiveStepper:
 
     def _accept(self, steps, error) -> None:
         """Record the accepted step(s); the next step's size."""
-        for h, event, *state in steps:
-            if state:
-                self.home.restore(state[0])
+        for h, event, state, y in steps:
+            if state is not None:
+                self.home.restore(state)
+                self._home_at, y = state, self.y()
             self.t = self.end if abs(self.end - (self.t + h)) <= 1e-12 * self.end else self.t + h
-            y = self.y()
             self.norm.maxima = self.norm.grown(y)
             self.past_t.append(self.t)
             self.past.append(y)
@@ -197,6 +212,7 @@ class AdaptiveStepper:
     def _reject(self, h: float, start: dict, error: float) -> None:
         self.rejected += 1
         self.home.restore(start)
+        self._home_at = start
         self.h = self.controller.rejected(h, error)
         if self.h < self.controller.dt_min:
             raise StepTooSmall(self.home.name, self.home.n + 1, self.t + h, self.h,
@@ -206,25 +222,26 @@ class AdaptiveStepper:
         """A step the method did not solve: a quarter of it next (Picard: never again half)."""
         self.rejected += 1
         self.home.restore(start)
+        self._home_at = start
         if self.home.name == "picard":
             self.cap = min(self.cap, 0.5 * h)
         self.h = 0.25 * h
         if self.h < self.controller.dt_min:
             raise failure
 
-    def _predicted(self, h: float) -> float:
-        """The local error of the step just taken, by Milne's device."""
-        times = np.array(self.past_t[-(self.order + 1):])
-        states = np.array(self.past[-(self.order + 1):])
-        y = self.y()
-        gaps = np.diff(times)[::-1]
-        factor = milne(self.order, h, gaps)
-        return self.norm(factor * (y - extrapolate(times, states, self.t + h)), y,
-                         self.tolerance)
+    def _predicted(self, h: float, y: np.ndarray) -> float:
+        """The local error of the step just taken (to y), by Milne's device."""
+        k = self.order + 1
+        times, states = self.past_t[-k:], self.past[-k:]
+        gaps = [times[-1] - times[-2], times[-2] - times[-3]] if k == 3 else [times[1] - times[0]]
+        difference = extrapolate(times, states, self.t + h)
+        np.subtract(y, difference, out=difference)
+        difference *= milne(self.order, h, gaps)
+        return self.norm(difference, y, self.tolerance)
 
     def _halves(self, h: float, start: dict, whole: np.ndarray):
-        """The step h again as two halves: (their error, [(h/2, False, state)] * 2), the error
-        infinite if a half fails or meets an event (the step is then taken smaller)."""
+        """The step h again as two halves: (their error, [(h/2, False, state, None)] * 2), the
+        error infinite if a half fails or meets an event (the step is then taken smaller)."""
         before, t0, half = self.contact_of(start) > 0.0, self.t, 0.5 * h
         kept, state = [], start
         try:
@@ -232,8 +249,8 @@ class AdaptiveStepper:
                 self._take(half, state)
                 if (self.contact() > 0.0) != before:
                     return np.inf, []
-                state = self.home.saved_state()
-                kept.append((half, False, state))
+                state = self._home_at = self.home.saved_state()
+                kept.append((half, False, state, None))
                 self.t = t0 + half
         except RETRIED:
             return np.inf, []
@@ -246,15 +263,15 @@ class AdaptiveStepper:
         """The step's size where contact changes, to a bracket EVENT_WIDTH wide, by the Illinois
         method (bisection after 60 tries); home is left at the far end, contact changed."""
         a, b, fb = 0.0, h, self.contact()
-        side, at_b, tries = 0, True, 0
+        side, at_b, tries, made_b = 0, True, 0, None
         while b - a > EVENT_WIDTH:
             tries += 1
             c = b - fb * (b - a) / (fb - fa) if fb != fa and tries < 60 else 0.5 * (a + b)
             c = min(max(c, a + 0.25 * EVENT_WIDTH), b - 0.25 * EVENT_WIDTH)
-            self._take(c, start)
+            made = self._take(c, start)
             fc = self.contact()
             if (fc > 0.0) != before:
-                b, fb, at_b = c, fc, True
+                b, fb, at_b, made_b = c, fc, True, made
                 if side == -1:
                     fa *= 0.5
                 side = -1
@@ -264,7 +281,7 @@ class AdaptiveStepper:
                     fb *= 0.5
                 side = 1
         if not at_b:
-            self._take(b, start)
+            self._take(b, start, made_b)
         return b
 
     def counts(self) -> dict:

@@ -17,13 +17,15 @@ from mpi4py import MPI
 _warned: dict[str, bool] = {}
 
 
-def compiled_loop(method, history):
+def compiled_loop(method, history, compress: bool = True):
     """The compiled time loop of the direct method (:mod:`.direct`) or of Picard's
     (:mod:`.picard`) where it applies and can be built, else None: the same steps, a block of
     them per C call, to round-off (Picard: the same iterations). RODFEM_KERNEL=0 in the
     environment keeps the PETSc loop; so do sources (the manufactured scene), Newton, Picard
     with a = 0 or a rigid obstacle, and an eliminated massless end with the power law
-    (:func:`.loop.end_supported`)."""
+    (:func:`.loop.end_supported`). ``compress=False``: the loop reads a coefficient row per
+    node, not tables of the distinct rows (the same steps bit for bit, quicker to build: for a
+    loop that takes a step or two)."""
     from rodfem.solver.compiled.loop import end_supported
 
     if os.environ.get("RODFEM_KERNEL", "1") == "0":
@@ -46,4 +48,4 @@ def compiled_loop(method, history):
                   "loop, the same steps, slower", file=sys.stderr)
         return None
     cls = module.DirectKernel if method.name == "direct" else module.PicardKernel
-    return cls(method, history)
+    return cls(method, history, compress=compress)

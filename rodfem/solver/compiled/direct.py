@@ -59,7 +59,7 @@ from pathlib import Path
 import numpy as np
 
 from rodfem.solver.compiled.build import CompiledSource
-from rodfem.solver.compiled.loop import CompiledLoop, check_library, classes
+from rodfem.solver.compiled.loop import CompiledLoop, check_library, classes, energy_tables
 
 SOURCE = Path(__file__).with_name("direct.c")
 KMAX = 8  # the widest band of the blocked substitutions (direct.c)
@@ -140,6 +140,14 @@ def _blocked(lu: np.ndarray, kl: int, ku: int, kl_kept: int, ku_kept: int, n: in
     return fwd, bwd
 
 
+def _energy(history, n: int, compress: bool) -> tuple:
+    """E by slots and [E | 2w] as a table of its distinct rows: (slot counts, offsets, width,
+    class of each node, tables)."""
+    counts, offsets, values, width = _slots(history.energy.E, 3, n)
+    two_w = history.energy.two_w.array_r.reshape(3, n).T
+    return (counts, offsets, width, *classes({"e_value": values, "two_w": two_w}, compress))
+
+
 class DirectKernel(CompiledLoop):
     """Steps of a :class:`~rodfem.solver.methods.direct.DirectMethod` in compiled code (the
     module's docstring).
@@ -190,17 +198,16 @@ class DirectKernel(CompiledLoop):
         self.blocked = blocked and not pivoting and max(kl_kept, ku_kept) <= KMAX
         if self.blocked:  # per node: these differ in their last bits from node to node
             arrays["fwd"], arrays["bwd"] = _blocked(lu, kl, ku, kl_kept, ku_kept, n)
-        rows_r, rows_e = {}, {}
+        rows_r = {}
         # R and E by slots, b, q and 2w interleaved.
         r_counts, arrays["r_offset"], rows_r["r_value"], r_width = _slots(method.R, 2, n)
-        e_counts, arrays["e_offset"], rows_e["e_value"], e_width = _slots(history.energy.E, 3, n)
         rows_r["b"] = method.b.array_r[to_block].reshape(n, 2)
         arrays["q"] = np.ascontiguousarray(method.response.array_r[to_block])
-        rows_e["two_w"] = history.energy.two_w.array_r.reshape(3, n).T
         # R and b (read by the forward pass), E and 2w (the backward pass): tables of their
         # distinct rows and each node's row in them (the module's docstring).
         arrays["r_class"], tables_r = classes(rows_r, compress)
-        arrays["e_class"], tables_e = classes(rows_e, compress)
+        e_counts, arrays["e_offset"], e_width, arrays["e_class"], tables_e = energy_tables(
+            history, ("direct", compress), lambda: _energy(history, n, compress))
         arrays.update(tables_r)
         arrays.update(tables_e)
         self.compress = compress

@@ -14,10 +14,25 @@ steps as ``method.advance()`` followed by ``history.record(method)`` would, writ
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from rodfem.model.contact import LinearLaw, PowerLaw, RigidObstacle
 from rodfem.solver.record import RAW
+
+# What a loop reads off a history's energy, by the history's Energy: the same for every loop of
+# a run (an adaptive run makes one for each step size; its energy rows are the home step's).
+_energy_tables: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def energy_tables(history, key: tuple, make):
+    """``make()`` of ``history.energy``, once for each ``key``: kept while that energy lives
+    (its arrays are read only)."""
+    kept = _energy_tables.setdefault(history.energy, {})
+    if key not in kept:
+        kept[key] = make()
+    return kept[key]
 
 
 def end_supported(method) -> bool:

@@ -61,7 +61,7 @@ from pathlib import Path
 import numpy as np
 
 from rodfem.solver.compiled.build import CompiledSource
-from rodfem.solver.compiled.loop import CompiledLoop, check_library, classes
+from rodfem.solver.compiled.loop import CompiledLoop, check_library, classes, energy_tables
 from rodfem.solver.errors import PicardNotConverged
 from rodfem.solver.record import RAW_INDEX
 
@@ -73,15 +73,20 @@ available = _source.available
 unavailable_reason = _source.unavailable_reason
 
 
-def _tridiagonal(A, n: int, row_block: int = 0, col_block: int = 0) -> np.ndarray:
-    """The block (row_block, col_block) of n × n of a PETSc AIJ matrix as its three diagonals,
-    an n × 3 array (i − 1, i, i + 1 per row; 0 outside the matrix). ValueError if it couples
-    more than neighbours."""
+def _entries(A) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(row of each entry, column, value) of a PETSc AIJ matrix."""
     ia, ja, a = A.getValuesCSR()
     rows = np.repeat(np.arange(len(ia) - 1), np.diff(ia))
-    cols = np.asarray(ja, dtype=np.int64)
+    return rows, np.asarray(ja, dtype=np.int64), np.asarray(a, dtype=float)
+
+
+def _tridiagonal(A, n: int, row_block: int = 0, col_block: int = 0) -> np.ndarray:
+    """The block (row_block, col_block) of n × n of a PETSc AIJ matrix (or of its
+    :func:`_entries`) as its three diagonals, an n × 3 array (i − 1, i, i + 1 per row; 0 outside
+    the matrix). ValueError if it couples more than neighbours."""
+    rows, cols, values = A if isinstance(A, tuple) else _entries(A)
     mine = (rows // n == row_block) & (cols // n == col_block)
-    r, c, v = rows[mine] % n, cols[mine] % n, np.asarray(a, dtype=float)[mine]
+    r, c, v = rows[mine] % n, cols[mine] % n, values[mine]
     offset = c - r
     if np.any(np.abs(offset[v != 0.0]) > 1):
         raise ValueError("the Picard kernel needs tridiagonal operators in node order")
@@ -89,6 +94,20 @@ def _tridiagonal(A, n: int, row_block: int = 0, col_block: int = 0) -> np.ndarra
     out = np.zeros((n, 3))
     out[r[near], offset[near] + 1] = v[near]
     return out
+
+
+def _energy(history, n: int) -> np.ndarray:
+    """[E | 2w] by node: E's three diagonal blocks as diagonals and 2w (ValueError if E is not
+    block diagonal)."""
+    E = _entries(history.energy.E)
+    rows, cols, values = E
+    if np.any((rows // n != cols // n) & (values != 0.0)):
+        raise ValueError("the Picard kernel needs a block-diagonal energy matrix")
+    energy = np.zeros((n, 12))
+    for k in range(3):
+        energy[:, 3 * k:3 * k + 3] = _tridiagonal(E, n, k, k)
+        energy[:, 9 + k] = history.energy.two_w.array_r[k * n:(k + 1) * n]
+    return energy
 
 
 class PicardKernel(CompiledLoop):
@@ -117,9 +136,10 @@ class PicardKernel(CompiledLoop):
         n = self.n
 
         fixed = np.zeros((n, 20))  # a row per node; tabled by _classes below
+        R = _entries(method.R)
         for c in range(2):
             for k in range(3):
-                fixed[:, 10 * c + 3 * k:10 * c + 3 * k + 3] = _tridiagonal(method.R, n, c, k)
+                fixed[:, 10 * c + 3 * k:10 * c + 3 * k + 3] = _tridiagonal(R, n, c, k)
             fixed[:, 10 * c + 9] = method.b.array_r[c * n:(c + 1) * n]
         heat, momentum = np.zeros((n, 3)), np.zeros((n, 3))  # (p, q, cp) per node
         for A, out, ul in ((method.heat.A, heat, 0), (method.momentum.A, momentum, 1)):
@@ -133,19 +153,13 @@ class PicardKernel(CompiledLoop):
         coupling[:, 0:3] = _tridiagonal(method.heat.N["du"], n)
         coupling[:, 3:6] = _tridiagonal(method.momentum.N["dtheta"], n)
         coupling[:, 6] = method.contact_load.array_r
-        energy = np.zeros((n, 12))
-        for k in range(3):
-            energy[:, 3 * k:3 * k + 3] = _tridiagonal(history.energy.E, n, k, k)
-            energy[:, 9 + k] = history.energy.two_w.array_r[k * n:(k + 1) * n]
-        E_csr = history.energy.E.getValuesCSR()
-        E_rows = np.repeat(np.arange(3 * n), np.diff(E_csr[0]))
-        if np.any((E_rows // n != np.asarray(E_csr[1]) // n) & (E_csr[2] != 0.0)):
-            raise ValueError("the Picard kernel needs a block-diagonal energy matrix")
         blocks = [int(np.any(fixed[:, 10 * c + 3 * k:10 * c + 3 * k + 3] != 0.0))
                   for c in range(2) for k in range(3)]
         self._arrays, self.classes = {}, {}
-        for name, table in (("fixed", fixed), ("coupling", coupling), ("energy", energy)):
-            cls, tables = classes({name: table}, compress)
+        energy = energy_tables(history, ("picard", compress),
+                               lambda: classes({"energy": _energy(history, n)}, compress))
+        for name, table in (("fixed", fixed), ("coupling", coupling), ("energy", None)):
+            cls, tables = classes({name: table}, compress) if table is not None else energy
             self._arrays[name + "_class"], self._arrays[name] = cls, tables[name]
             self.classes[name] = tables[name].shape[0]
         self._arrays["descending"] = np.ascontiguousarray(

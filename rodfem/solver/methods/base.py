@@ -30,7 +30,7 @@ from rodfem.discrete.nodes import block_diagonal, block_matrix
 from rodfem.model import contact
 from rodfem.model.robin import robin_shift
 from rodfem.solver.errors import SourceNotFinite
-from rodfem.solver.linalg import lu_factor, stacked
+from rodfem.solver.linalg import lu_solver, stacked
 from rodfem.solver.methods import massless
 from rodfem.solver.time_schemes import TIME_SCHEMES
 
@@ -138,8 +138,7 @@ class Method:
         self.last = disc.nodes.size - 1  # the node x = 1
         self._index = disc.nodes.size + self.last  # of ΔU(1) in the unknowns [ΔΘ; ΔU]
 
-        self.heat_ksp, heat_factor = lu_factor(self.heat.A, "rodfem_heat_")
-        self.solve_heat = heat_factor.solve
+        self.solve_heat = lu_solver(self.heat.A, "rodfem_heat_")
 
         # The state s = [Θⁿ; ΔUⁿ; Uⁿ] in one array (History reads its energy off it at once);
         # theta, du and u are views of its thirds. Both right-hand sides of a step, [h; m], are
@@ -185,6 +184,16 @@ class Method:
             vector.stateIncrease()
         self.n, self.iterations = (int(v) for v in saved["step"])
         self.pressure = float(saved["pressure"][0])
+
+    def take_state(self, other: Method) -> None:
+        """:meth:`restore` of ``other``'s :meth:`saved_state` (a method of the same scene, of
+        another step: an adaptive run's), without copying it twice."""
+        self.values[:] = other.values
+        self.u_prev.array[:] = other.u_prev.array_r
+        for vector in (self.state, self.theta, self.du, self.u, self.u_prev):
+            vector.stateIncrease()
+        self.n, self.iterations = int(other.n), int(other.iterations)
+        self.pressure = float(other.pressure)
 
     def coupled_operator(self) -> PETSc.Mat:
         """[[A_h, −N_U], [−N_Θ, A_m]]: (3.1)–(3.2) for [ΔΘⁿ; ΔUⁿ] without the contact term

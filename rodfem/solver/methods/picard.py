@@ -22,7 +22,7 @@ from petsc4py import PETSc
 
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.solver.errors import PicardNotConverged
-from rodfem.solver.linalg import lu_factor, stacked
+from rodfem.solver.linalg import lu_solver, stacked
 from rodfem.solver.methods.base import Method
 
 INF = PETSc.NormType.INFINITY
@@ -36,8 +36,7 @@ class PicardMethod(Method):
 
     def __init__(self, disc: Discretisation, dt: float | None = None):
         super().__init__(disc, dt)
-        self.momentum_ksp, momentum_factor = lu_factor(self.momentum.A, "rodfem_momentum_")
-        self.solve_momentum = momentum_factor.solve
+        self.solve_momentum = lu_solver(self.momentum.A, "rodfem_momentum_")
         new = self.heat.A.createVecRight
         self._work = [new() for _ in range(4)]
         self._fixed, (self._heat_step, self._momentum_step) = stacked(2, disc.nodes.size)
