@@ -165,7 +165,7 @@ class Simulation:
         stepper = AdaptiveStepper(self.method, self.scene, make, kernel, self.record_step,
                                   history.width)
         if resume:
-            stepper.restore(resume[0])
+            stepper.restore(resume[0], resume[1].get("adaptive"))
         return stepper
 
     def time(self) -> float:
@@ -182,8 +182,8 @@ class Simulation:
         steps_of = self.history.steps
         self.energy.update(steps_of, rows[:, INDEX["energy"]])
         self.iterations.update(steps_of, rows[:, INDEX["iterations"]].astype(int))
-        self.contact.update(steps_of, rows[:, INDEX["u_1"]], rows[:, INDEX["sigma_1"]],
-                            self.scene["obstacle.gap"])
+        self.contact.update(steps_of, rows[:, INDEX["t"]], rows[:, INDEX["u_1"]],
+                            rows[:, INDEX["sigma_1"]], self.scene["obstacle.gap"])
         self.rows_out.append(rows[steps_of % self.scene["output.history_every"] == 0])
 
     def state_meta(self) -> dict:
@@ -191,7 +191,10 @@ class Simulation:
                 "mpi_ranks": self.comm.size, "energy": dataclasses.asdict(self.energy),
                 "iterations": dataclasses.asdict(self.iterations),
                 "contact": dataclasses.asdict(self.contact),
-                "loop_seconds": self.loop_before + time.perf_counter() - self.loop_started}
+                "loop_seconds": self.loop_before + time.perf_counter() - self.loop_started,
+                **({} if self.stepper is None else
+                   {"adaptive": {"rejected": self.stepper.rejected,
+                                 "events": self.stepper.events}})}
 
     def checkpoint(self, state_valid: bool = True) -> None:
         """The rows and fields so far, and the state to resume from (rank 0 writes; a write

@@ -51,11 +51,14 @@ class Contact:
     touching: int = 0  # of them in contact
     intervals: int = 0
     last_change: int | None = None  # the step n of the last change of contact state
+    last_change_t: float | None = None  # and its time tⁿ (none: a record kept before it was)
     was: bool = False  # in contact at the last step seen (none: not)
     max_penetration: float = 0.0  # max over n ≥ 0 of [u(1, tⁿ) − g]₊
 
-    def update(self, steps: np.ndarray, u_1: np.ndarray, sigma_1: np.ndarray,
+    def update(self, steps: np.ndarray, t: np.ndarray, u_1: np.ndarray, sigma_1: np.ndarray,
                gap: float) -> None:
+        """Count the rows of the steps ``steps`` at the times ``t`` (non-uniform with adaptive
+        steps)."""
         if steps.size == 0:
             return
         self.max_penetration = max(self.max_penetration,
@@ -71,6 +74,7 @@ class Contact:
         changed = np.flatnonzero(change != 0)
         if changed.size:
             self.last_change = int(steps[taken][changed[-1]])
+            self.last_change_t = float(t[taken][changed[-1]])
         self.was = bool(touching[-1])
 
 
@@ -102,7 +106,10 @@ def _contact_intervals(history, scene, summary) -> int:
 
 def _last_contact_change(history, scene, summary) -> float:
     if (kept := _kept(summary)) is not None:
-        step = kept["last_change"]
+        step, t = kept["last_change"], kept.get("last_change_t")
+        if t is not None:
+            return float(t)
+        # a record from before it kept the time: of a run of fixed steps
         return float(step * scene["time.dt"]) if step is not None else float("nan")
     touching = in_contact(history)
     changed = np.flatnonzero(np.diff(touching.astype(np.int8), prepend=0) != 0)

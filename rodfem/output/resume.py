@@ -113,8 +113,8 @@ def _check_same_run(out: Path, scene, base, arrays: dict, meta: dict, ranks: int
                           f"on as many (mpirun -n {meta['mpi_ranks']}), for the same result "
                           "bit for bit")
     newton = scene["solver.method"] == "newton"  # the one method with a state of its own
-    if ("guess" in arrays) != newton or (ranks == 1 and arrays["u_prev"].size
-                                         != scene["mesh.cells"] + 1):
+    if ("guess" in arrays) != newton or ("controller" in arrays) != scene.adaptive or (
+            ranks == 1 and arrays["u_prev"].size != scene["mesh.cells"] + 1):
         raise ResumeError(f"{out / NAME} is not a checkpoint of the scene in "
                           f"{out / 'scene.toml'}; the run cannot continue from it")
 

@@ -277,7 +277,13 @@ class AdaptiveStepper:
                 "past_t": np.array(self.past_t, dtype=float),
                 "past": np.array(self.past, dtype=float).reshape(len(self.past), -1)}
 
-    def restore(self, saved: dict[str, np.ndarray]) -> None:
+    def restore(self, saved: dict[str, np.ndarray], counts: dict | None = None) -> None:
+        """Continue from :meth:`saved` (with the home method restored to the same step) and the
+        :meth:`counts` kept beside it. The methods of other step sizes are made again as they
+        are needed: a step's result does not depend on when its method was made."""
+        self.steps = self.home.n
+        if counts is not None:
+            self.rejected, self.events = int(counts["rejected"]), int(counts["events"])
         c = saved["controller"]
         self.t, self.h, self.controller.previous, self.cap = (float(v) for v in c[:4])
         self.norm.maxima = np.array(c[4:8], dtype=float)
