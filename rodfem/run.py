@@ -22,7 +22,7 @@ from rodfem.output.history import History
 from rodfem.output.measures import Contact
 from rodfem.output.pointwise import Pointwise
 from rodfem.output.progress import Progress
-from rodfem.output.sizes import save_every
+from rodfem.output.sizes import frame, save_every, save_interval
 from rodfem.output.summary import EnergyMonitor, Iterations, run_summary
 from rodfem.scene import Scene
 from rodfem.solver.compiled import compiled_loop
@@ -139,8 +139,12 @@ class Simulation:
         self.contact = Contact(**meta.get("contact", {}))  # over every step, whatever rows are kept
         self.steps, self.every, self.dt = scene.steps, save_every(scene), scene["time.dt"]
         self.io_error: list[str] = []
-        # the last step whose fields are saved (a resumed run's, from its checkpoint)
+        # the last step whose fields are saved (a resumed run's, from its checkpoint), and with
+        # adaptive steps the save interval of its time (fields are saved by time)
         self.saved = meta["saves"][-1][0] if meta.get("saves") else -1
+        self.interval = save_interval(scene) if scene.adaptive else None
+        self.frame = (frame(meta["saves"][-1][1], self.interval)
+                      if self.interval and meta.get("saves") else -1)
         if resume:
             method.restore(resume[0])
         self.kernel = compiled_loop(method, self.history)
@@ -213,13 +217,17 @@ class Simulation:
         (self.files.fields if self.kept is None else self.kept).write(
             method.n, self.time(), method.values)
 
-    def save_fields(self) -> None:
+    def save_fields(self, resumable: bool = True) -> None:
+        """The fields of the step reached, and a checkpoint when one is due and the state is
+        one to resume from (``resumable``)."""
         files, n = self.files, self.method.n
         if files is not None or self.kept is not None:
             self.write_fields()
-        if files is not None and self.comm.rank == 0 and n > 0 and files.due():
+        if files is not None and self.comm.rank == 0 and n > 0 and resumable and files.due():
             self.checkpoint()
         self.saved = n
+        if self.interval is not None:
+            self.frame = frame(self.time(), self.interval)
 
     def observe(self) -> None:
         self.history.record(self.method, (0.0, 0.0, 0.0) if self.stepper else None)
@@ -230,14 +238,17 @@ class Simulation:
         if n % self.every == 0 or n == self.steps:
             self.save_fields()
 
-    def record_step(self, h: float, event: bool) -> None:
-        """An adaptive step's row, and its fields when due."""
-        self.history.record(self.method, (self.stepper.t, h, float(event)))
+    def record_step(self, h: float, event: bool, whole: bool) -> None:
+        """An adaptive step's row, and its fields when due: at the first step of each save
+        interval (:func:`rodfem.output.sizes.save_interval`); a checkpoint only where the
+        stepper's state is ``whole`` (:mod:`rodfem.solver.adaptive.stepper`)."""
+        t = self.stepper.t
+        self.history.record(self.method, (t, h, float(event)))
         self.check()
         if self.history.full:
             self.flush()
-        if self.method.n % self.every == 0:
-            self.save_fields()
+        if frame(t, self.interval) > self.frame:
+            self.save_fields(whole)
 
     def adaptive_steps(self, bar: Progress) -> str:
         """Adaptive steps to the end, or to a request to stop: the status."""

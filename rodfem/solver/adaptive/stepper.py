@@ -47,8 +47,10 @@ class StepTooSmall(NotConverged):
 class AdaptiveStepper:
     """Accepted steps of ``home`` (a :class:`~rodfem.solver.methods.base.Method` of the first
     step Δt₀), one :meth:`step` at a time. ``make(h)`` returns (method for step h, its compiled
-    loop or None); ``loop`` is the home method's compiled loop or None; ``record(dt, event)`` is
-    called with home in each accepted state."""
+    loop or None); ``loop`` is the home method's compiled loop or None; ``record(dt, event,
+    whole)`` is called with home in each accepted state, ``whole`` where the stepper's state is
+    that of the end of a :meth:`step` (a checkpoint may be written; not after the first of two
+    halves)."""
 
     def __init__(self, home, scene, make, loop, record, width: int):
         self.home, self.make, self.loop, self.record = home, make, loop, record
@@ -169,8 +171,14 @@ class AdaptiveStepper:
         return u_1 - self.gap + (self.cell * p if self.rigid else 0.0)
 
     def _accept(self, steps, error) -> None:
-        """Record the accepted step(s); the next step's size."""
-        for h, event, *state in steps:
+        """Record the accepted step(s), the next step's size set before the last is recorded:
+        a checkpoint written as it is recorded holds the controller of the step after it."""
+        last = steps[-1][0]
+        if error is not None:
+            following = self.controller.accepted(last, error)
+        else:
+            following = max(self.h, last)
+        for k, (h, event, *state) in enumerate(steps):
             if state:
                 self.home.restore(state[0])
             self.t = self.end if abs(self.end - (self.t + h)) <= 1e-12 * self.end else self.t + h
@@ -183,12 +191,10 @@ class AdaptiveStepper:
                 self.events += 1
             del self.past_t[:-(self.order + 1)], self.past[:-(self.order + 1)]
             self.steps += 1
-            self.record(h, event)
-        last = steps[-1][0]
-        if error is not None:
-            self.h = self.controller.accepted(last, error)
-        else:
-            self.h = max(self.h, last)
+            whole = k == len(steps) - 1
+            if whole:
+                self.h = following
+            self.record(h, event, whole)
 
     def _reject(self, h: float, start: dict, error: float) -> None:
         self.rejected += 1
