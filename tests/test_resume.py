@@ -93,14 +93,20 @@ def test_stopped_anywhere_resumes_to_the_same_run(tmp_path, reference, sent, ran
 
 
 def stop_and_resume(out: Path, scene: list, sent: int, ranks: int, delay: float,
-                    reference: Path, whole=assert_whole, same=assert_same_run) -> None:
-    """``rodfem run`` of ``scene`` stopped by ``sent`` after ``delay`` seconds: its files whole
-    (``whole``), its marker saying how it stopped, and ``rodfem resume`` continues it to the
-    ``reference`` run (``same``)."""
+                    reference: Path, whole=assert_whole, same=assert_same_run,
+                    after: str | None = None) -> None:
+    """``rodfem run`` of ``scene`` stopped by ``sent`` after ``delay`` seconds (counted from
+    when the file ``after`` of the run appears, if given): its files whole (``whole``), its
+    marker saying how it stopped, and ``rodfem resume`` continues it to the ``reference`` run
+    (``same``)."""
     command = [RODFEM, "run", *scene, "--out", str(out), "--quiet"]
     if ranks > 1:
         command = ["mpirun", "-n", str(ranks), *command]
     process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, env=ENV)
+    deadline = time.monotonic() + 120
+    while after is not None and not (out / after).exists() and process.poll() is None:
+        assert time.monotonic() < deadline, f"the run wrote no {after}"
+        time.sleep(0.02)
     time.sleep(delay)
     if ranks > 1 and sent == signal.SIGKILL:  # a node lost: every rank killed at once
         subprocess.run(["pkill", "-KILL", "-f", f"rodfem run .*{out}"], check=False)
