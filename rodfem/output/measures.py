@@ -54,6 +54,8 @@ class Contact:
     last_change_t: float | None = None  # and its time tⁿ (none: a record kept before it was)
     was: bool = False  # in contact at the last step seen (none: not)
     max_penetration: float = 0.0  # max over n ≥ 0 of [u(1, tⁿ) − g]₊
+    time: float = 0.0  # tⁿ of the last step seen
+    touching_time: float = 0.0  # Σ tⁿ − tⁿ⁻¹ over the steps n in contact, summed in order
 
     def update(self, steps: np.ndarray, t: np.ndarray, u_1: np.ndarray, sigma_1: np.ndarray,
                gap: float) -> None:
@@ -68,13 +70,18 @@ class Contact:
         if touching.size == 0:
             return
         change = np.diff(touching.astype(np.int8), prepend=np.int8(self.was))
+        t = t[taken]
+        lengths = np.diff(t, prepend=self.time)[touching]
+        # step after step, so that the sum does not depend on how the rows come in blocks
+        self.touching_time = float(np.add.accumulate(np.append(self.touching_time, lengths))[-1])
+        self.time = float(t[-1])
         self.steps += int(touching.size)
         self.touching += int(np.count_nonzero(touching))
         self.intervals += int(np.count_nonzero(change == 1))
         changed = np.flatnonzero(change != 0)
         if changed.size:
             self.last_change = int(steps[taken][changed[-1]])
-            self.last_change_t = float(t[taken][changed[-1]])
+            self.last_change_t = float(t[changed[-1]])
         self.was = bool(touching[-1])
 
 
@@ -91,7 +98,10 @@ def _max_penetration(history, scene, summary) -> float:
 
 
 def _contact_fraction(history, scene, summary) -> float:
-    if (kept := _kept(summary)) is not None:
+    if (kept := _kept(summary)) is not None and scene["time.adaptive"]:
+        # steps of all sizes: each counts for its length (equal lengths: the fraction of steps)
+        return kept["touching_time"] / kept["time"] if kept["time"] else 0.0
+    if kept is not None:
         return kept["touching"] / kept["steps"] if kept["steps"] else 0.0
     touching = in_contact(history)
     return float(touching.mean()) if touching.size else 0.0
@@ -122,7 +132,8 @@ MEASURES = (
     Measure("sigma_1_final", "the contact stress σ(1, t) at the last step", _final("sigma_1")),
     Measure("max_penetration", "max over the steps of [u(1, tⁿ) − g]₊ (the rigid obstacle: "
             "round-off)", _max_penetration),
-    Measure("contact_fraction", "the fraction of the steps in contact", _contact_fraction),
+    Measure("contact_fraction", "the fraction of the steps in contact (adaptive steps: of the "
+            "time, each step counted for its length)", _contact_fraction),
     Measure("contact_intervals", "how many separate intervals of contact (runs of steps in "
             "contact)", _contact_intervals, integer=True),
     Measure("last_contact_change", "the time tⁿ of the last step whose contact state differs "
