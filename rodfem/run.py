@@ -101,7 +101,9 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     started = time.perf_counter()
     run = Simulation(scene, out, comm, resume, setups, keep_fields)
     on_terminal = sys.stderr.isatty() or force_progress
-    bar = Progress(scene.steps, enabled=progress and comm.rank == 0 and on_terminal)
+    enabled = progress and comm.rank == 0 and on_terminal
+    bar = (Progress(scene["time.end"], enabled, of_time=True) if scene.adaptive
+           else Progress(scene.steps, enabled))
     setup_seconds = time.perf_counter() - started
     with interrupts.deferred():
         status, error = run.loop(bar)
@@ -256,7 +258,7 @@ class Simulation:
         while stepper.t < end:
             stepper.step()
             calls += 1
-            bar.update(round(self.steps * stepper.t / end))
+            bar.update(stepper.t, self.method.n)
             if interrupts.requested(self.comm, calls, STOP_EVERY, also=bool(self.io_error)):
                 return "interrupted"
         if self.saved != self.method.n:
