@@ -62,11 +62,14 @@ class SizeError(ValueError):
 
 
 def estimate(scene) -> tuple[int, int]:
-    """(bytes written, bytes of memory at most) of a run of ``scene``."""
+    """(bytes written, bytes of memory at most) of a run of ``scene``. With adaptive steps the
+    fields are saved at most once per save interval (:func:`save_interval`), T/(output.every
+    Δt₀) + 2 times, whatever steps the run takes; those steps are not known before it runs, and
+    the history is estimated at T/Δt₀ rows (the steps of the first step's size)."""
     from rodfem.output.columns import for_scene, readings
 
     steps, nodes = scene.steps, scene["mesh.cells"] + 1
-    saves = steps // save_every(scene) + 2
+    saves = steps // save_every(scene) + 2  # adaptive: the save intervals in T, as many
     per_save = sum(nodes if name in ("theta", "u", "velocity") else nodes - 1
                    for name in scene["output.fields"])
     fields = saves * per_save * 8
