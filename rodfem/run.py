@@ -269,8 +269,9 @@ class Simulation:
         """Stop at the first recorded step that is not finite (the rows before it are kept)."""
         history = self.history
         bad = history.first_non_finite(history.count - 1 if since is None else since)
-        if bad is not None:
-            raise NotFinite(self.method.name, bad[0], bad[0] * self.dt, bad[1])
+        if bad is not None:  # an adaptive step is checked as it is recorded: at stepper.t
+            t = self.stepper.t if self.stepper is not None else bad[0] * self.dt
+            raise NotFinite(self.method.name, bad[0], t, bad[1])
 
     def loop(self, bar: Progress) -> tuple[str, NotConverged | None]:
         """The steps to the end, or to a failed step, a request to stop or a write error: the
