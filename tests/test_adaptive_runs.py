@@ -14,6 +14,7 @@ from test_resume import assert_same_run, rodfem, stop_and_resume
 
 from conftest import serial_only
 from rodfem.output.checkpoint import digest
+from rodfem.output.directories import state
 from rodfem.output.readers import read_fields, read_history
 
 ADAPTIVE = ["--set", "time.adaptive=true", "--set", "output.checkpoint=0.2"]
@@ -193,3 +194,107 @@ def test_an_unedited_controller_is_used(tmp_path):
     arrays, meta = read_npz(out / "checkpoint.npz")
     write_npz(out / "checkpoint.npz", *edited(arrays, meta, lambda a, m: None))
     rodfem("resume", out, "--set", "time.end=2", "--quiet", check=0)
+
+
+# Every method and loop, each scheme, both obstacles: stopped after a given step (in-process),
+# resumed from the checkpoint written there.
+STOPPED = {
+    "picard-cn": ["paper1", "--set", "time.scheme=crank-nicolson", "--set", "time.end=4"],
+    "newton": ["paper5", "--set", "solver.method=newton", "--set", "time.end=4"],
+    "direct-rigid": ["paper1", "--set", "solver.method=direct", "--set", "obstacle.kind=rigid",
+                     "--set", "discretisation.mass=redistributed", "--set", "time.end=2"],
+    "impact": ["impact", "--set", "mesh.cells=100", "--set", "time.dt=1e-2",
+               "--set", "time.end=4"],
+}
+
+
+@serial_only
+@pytest.mark.parametrize("scene", list(STOPPED))
+def test_an_adaptive_run_stopped_after_any_step_resumes_to_the_same_run(tmp_path, monkeypatch,
+                                                                       scene):
+    """Stopped at the end of steps chosen through the run (at a contact event, and where the
+    estimate starts again after it, among them), each time resumed from the checkpoint written
+    there: the uninterrupted run, bit for bit."""
+    from test_edits import rodfem as in_process
+
+    from rodfem.output import interrupts
+    from rodfem.solver.adaptive.stepper import AdaptiveStepper
+
+    args = [*STOPPED[scene], *ADAPTIVE, "--set", "output.every=20"]
+    reference, out = tmp_path / "reference", tmp_path / "run"
+    assert in_process("run", *args, "--out", reference, "--quiet").returncode == 0
+    h = read_history(reference / "history.h5")
+    events = np.flatnonzero(h["event"])
+    assert events.size >= 2
+    rows = {len(h.rows) // 5, int(events[0]), int(events[0]) + 2, int(events[-1]) + 3,
+            len(h.rows) // 2}
+    stops = {float(h["t"][k]) for k in rows}
+    step, reached = AdaptiveStepper.step, []
+
+    def stepping(self):
+        step(self)
+        reached.append(self.t)
+
+    def requested(comm, n, every, also=False):  # after each step() of the stepper
+        return reached[-1] in stops or also
+
+    stopped = 0
+    with monkeypatch.context() as patch:
+        patch.setattr(AdaptiveStepper, "step", stepping)
+        patch.setattr(interrupts, "requested", requested)
+        done = in_process("run", *args, "--out", out, "--quiet")
+        while state(out) == "interrupted":
+            stopped += 1
+            done = in_process("resume", out, "--quiet")
+    assert done.returncode == 0 and stopped >= 4, (stopped, done.stderr)
+    assert json.loads((out / "summary.json").read_text())["resumed"]
+    assert_same(out, reference)
+
+
+KILLER = """
+import os, signal, sys
+from rodfem.cli import main
+from rodfem.solver.adaptive.stepper import AdaptiveStepper
+
+step, end = AdaptiveStepper.step, float(sys.argv[1])
+
+def stepping(self):  # SIGKILL once the run reaches the time argv[1]
+    step(self)
+    if self.t >= end:
+        os.kill(os.getpid(), signal.SIGKILL)
+
+AdaptiveStepper.step = stepping
+sys.exit(main(sys.argv[2:]))
+"""
+
+
+@serial_only
+@pytest.mark.parametrize("scene", list(STOPPED))
+def test_an_adaptive_run_killed_again_and_again_resumes_to_the_same_run(tmp_path, scene):
+    """SIGKILL at chosen times (after a contact event among them), each time resumed from the
+    last checkpoint (one at every field save, saved nearly every step: after the first of two
+    halves too, where none may be written) and killed again further on: the uninterrupted run,
+    bit for bit."""
+    import subprocess
+    import sys
+
+    from test_edits import rodfem as in_process
+
+    args = [*STOPPED[scene], *ADAPTIVE, "--set", "output.every=2", "--set",
+            "output.checkpoint=0"]
+    reference, out = tmp_path / "reference", tmp_path / "run"
+    assert in_process("run", *args, "--out", reference, "--quiet").returncode == 0
+    h = read_history(reference / "history.h5")
+    events = np.flatnonzero(h["event"])
+    kills = sorted({float(h["t"][k]) for k in (len(h.rows) // 4, int(events[0]) + 1,
+                                                int(events[-1]) + 2)})
+    command = ["run", *args, "--out", str(out), "--quiet"]
+    for t in kills:
+        killed = subprocess.run([sys.executable, "-c", KILLER, str(t), *command],
+                                capture_output=True, text=True, timeout=600)
+        assert killed.returncode == -signal.SIGKILL, killed.stderr
+        assert state(out) == "gone"
+        command = ["resume", str(out), "--quiet"]
+    assert in_process(*command).returncode == 0
+    assert json.loads((out / "summary.json").read_text())["resumed"]
+    assert_same(out, reference)
