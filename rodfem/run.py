@@ -22,7 +22,7 @@ from rodfem.output.history import History
 from rodfem.output.measures import Contact
 from rodfem.output.pointwise import Pointwise
 from rodfem.output.progress import Progress
-from rodfem.output.sizes import save_every
+from rodfem.output.sizes import frame, save_every, save_interval
 from rodfem.output.summary import EnergyMonitor, Iterations, run_summary
 from rodfem.scene import Scene
 from rodfem.solver.compiled import compiled_loop
@@ -101,7 +101,9 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     started = time.perf_counter()
     run = Simulation(scene, out, comm, resume, setups, keep_fields)
     on_terminal = sys.stderr.isatty() or force_progress
-    bar = Progress(scene.steps, enabled=progress and comm.rank == 0 and on_terminal)
+    enabled = progress and comm.rank == 0 and on_terminal
+    bar = (Progress(scene["time.end"], enabled, of_time=True) if scene.adaptive
+           else Progress(scene.steps, enabled))
     setup_seconds = time.perf_counter() - started
     with interrupts.deferred():
         status, error = run.loop(bar)
@@ -139,8 +141,12 @@ class Simulation:
         self.contact = Contact(**meta.get("contact", {}))  # over every step, whatever rows are kept
         self.steps, self.every, self.dt = scene.steps, save_every(scene), scene["time.dt"]
         self.io_error: list[str] = []
-        # the last step whose fields are saved (a resumed run's, from its checkpoint)
+        # the last step whose fields are saved (a resumed run's, from its checkpoint), and with
+        # adaptive steps the save interval of its time (fields are saved by time)
         self.saved = meta["saves"][-1][0] if meta.get("saves") else -1
+        self.interval = save_interval(scene) if scene.adaptive else None
+        self.frame = (frame(meta["saves"][-1][1], self.interval)
+                      if self.interval and meta.get("saves") else -1)
         if resume:
             method.restore(resume[0])
         self.kernel = compiled_loop(method, self.history)
@@ -167,7 +173,7 @@ class Simulation:
         stepper = AdaptiveStepper(self.method, self.scene, make, kernel, self.record_step,
                                   history.width)
         if resume:
-            stepper.restore(resume[0])
+            stepper.restore(resume[0], resume[1].get("adaptive"))
         return stepper
 
     def time(self) -> float:
@@ -195,7 +201,10 @@ class Simulation:
                 "mpi_ranks": self.comm.size, "energy": dataclasses.asdict(self.energy),
                 "iterations": dataclasses.asdict(self.iterations),
                 "contact": dataclasses.asdict(self.contact),
-                "loop_seconds": self.loop_before + time.perf_counter() - self.loop_started}
+                "loop_seconds": self.loop_before + time.perf_counter() - self.loop_started,
+                **({} if self.stepper is None else
+                   {"adaptive": {"rejected": self.stepper.rejected,
+                                 "events": self.stepper.events}})}
 
     def checkpoint(self, state_valid: bool = True) -> None:
         """The rows and fields so far, and the state to resume from (rank 0 writes; a write
@@ -214,13 +223,17 @@ class Simulation:
         (self.files.fields if self.kept is None else self.kept).write(
             method.n, self.time(), method.values)
 
-    def save_fields(self) -> None:
+    def save_fields(self, resumable: bool = True) -> None:
+        """The fields of the step reached, and a checkpoint when one is due and the state is
+        one to resume from (``resumable``)."""
         files, n = self.files, self.method.n
         if files is not None or self.kept is not None:
             self.write_fields()
-        if files is not None and self.comm.rank == 0 and n > 0 and files.due():
+        if files is not None and self.comm.rank == 0 and n > 0 and resumable and files.due():
             self.checkpoint()
         self.saved = n
+        if self.interval is not None:
+            self.frame = frame(self.time(), self.interval)
 
     def observe(self) -> None:
         self.history.record(self.method, (0.0, 0.0, 0.0) if self.stepper else None)
@@ -231,14 +244,17 @@ class Simulation:
         if n % self.every == 0 or n == self.steps:
             self.save_fields()
 
-    def record_step(self, h: float, event: bool) -> None:
-        """An adaptive step's row, and its fields when due."""
-        self.history.record(self.method, (self.stepper.t, h, float(event)))
+    def record_step(self, h: float, event: bool, whole: bool) -> None:
+        """An adaptive step's row, and its fields when due: at the first step of each save
+        interval (:func:`rodfem.output.sizes.save_interval`); a checkpoint only where the
+        stepper's state is ``whole`` (:mod:`rodfem.solver.adaptive.stepper`)."""
+        t = self.stepper.t
+        self.history.record(self.method, (t, h, float(event)))
         self.check()
         if self.history.full:
             self.flush()
-        if self.method.n % self.every == 0:
-            self.save_fields()
+        if frame(t, self.interval) > self.frame:
+            self.save_fields(whole)
 
     def adaptive_steps(self, bar: Progress) -> str:
         """Adaptive steps to the end, or to a request to stop: the status."""
@@ -246,7 +262,7 @@ class Simulation:
         while stepper.t < end:
             stepper.step()
             calls += 1
-            bar.update(round(self.steps * stepper.t / end))
+            bar.update(stepper.t, self.method.n)
             if interrupts.requested(self.comm, calls, STOP_EVERY, also=bool(self.io_error)):
                 return "interrupted"
         if self.saved != self.method.n:
@@ -257,8 +273,9 @@ class Simulation:
         """Stop at the first recorded step that is not finite (the rows before it are kept)."""
         history = self.history
         bad = history.first_non_finite(history.count - 1 if since is None else since)
-        if bad is not None:
-            raise NotFinite(self.method.name, bad[0], bad[0] * self.dt, bad[1])
+        if bad is not None:  # an adaptive step is checked as it is recorded: at stepper.t
+            t = self.stepper.t if self.stepper is not None else bad[0] * self.dt
+            raise NotFinite(self.method.name, bad[0], t, bad[1])
 
     def loop(self, bar: Progress) -> tuple[str, NotConverged | None]:
         """The steps to the end, or to a failed step, a request to stop or a write error: the

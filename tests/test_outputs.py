@@ -267,3 +267,84 @@ def test_fields_are_saved_at_a_bounded_number_of_frames_by_default(end, expected
     assert save_every(scene) == expected
     assert scene.steps // expected <= FRAMES
     assert save_every(rodfem.scene.load("paper1", [f"time.end={end}", "output.every=3"])) == 3
+
+
+# --- adaptive steps --------------------------------------------------------------------------
+
+ADAPTIVE = ["time.adaptive=true", "mesh.cells=40", "time.end=3"]
+
+
+def saved_steps(t: np.ndarray, interval: float) -> np.ndarray:
+    """The rows whose fields an adaptive run saves: the first step of each save interval (the
+    step whose ⌊t/interval⌋ exceeds the step before's), and the last."""
+    frames = np.floor(t / interval)
+    first = np.flatnonzero(np.diff(frames, prepend=-1.0) > 0)
+    return np.union1d(first, [len(t) - 1])
+
+
+@pytest.mark.parametrize("method", ["picard", "newton", "direct"])
+def test_adaptive_runs_record_and_save_what_they_choose(simulate, method):
+    """Probes, the quantities of output.history and every field, with steps of all sizes: the
+    probes equal the default columns, and the fields are saved by time, at the first step of
+    each interval of output.every steps of time.dt, where they equal the probes."""
+    every, dt0 = 10, 1e-3
+    result, out = simulate("paper1", *ADAPTIVE, f"solver.method={method}",
+                           f"output.every={every}", "output.probes=[0, 0.5, 1]", QUANTITIES,
+                           ALL_FIELDS)
+    if COMM.rank != 0:
+        return
+    h, header = history(out)
+    assert header == [*NAMES, "dt", "event", "theta_1", "heat_flux_1", "contact_force",
+                      "contact", "u@0", "theta@0", "sigma@0", "u@0.5", "theta@0.5",
+                      "sigma@0.5", "u@1", "theta@1", "sigma@1"]
+    np.testing.assert_array_equal(h["u@1"], h["u_1"])
+    np.testing.assert_array_equal(h["u@0.5"], h["u_half"])
+    np.testing.assert_array_equal(h["sigma@1"], h["sigma_1"])
+    np.testing.assert_array_equal(h["theta@1"], h["theta_1"])
+    np.testing.assert_array_equal(h["contact_force"], -h["sigma_1"])
+    assert h["event"].sum() >= 2 and h["contact"].any() and not h["contact"].all()
+    f = read_fields(out / "fields.xdmf")
+    assert f.names == ("theta", "u", "velocity", "sigma", "heat_flux")
+    saved = saved_steps(h["t"], every * dt0)
+    assert len(saved) <= 3.0 / (every * dt0) + 2 < len(h["t"])  # fewer frames than steps
+    np.testing.assert_array_equal(f.t, h["t"][saved])
+    np.testing.assert_array_equal(f.u[:, -1], h["u_1"][saved])
+    np.testing.assert_array_equal(f.theta[:, -1], h["theta_1"][saved])
+    np.testing.assert_array_equal(f.velocity[:, -1], h["ut_1"][saved])
+
+
+@serial_only
+def test_an_adaptive_history_of_every_nth_step_keeps_the_measures_of_every_step():
+    """output.history_every = 3 keeps the rows of the steps 0, 3, 6, … (by count, whatever
+    their times), and the measures of contact are those of every step."""
+    import rodfem
+
+    scene = {"time.adaptive": True, "mesh.cells": 40, "time.end": 3.0}
+    every = rodfem.simulate("paper1", {**scene, "output.history_every": 3})
+    full = rodfem.simulate("paper1", scene)
+    assert every.history.tobytes() == full.history[::3].tobytes()
+    assert every.summary["contact"] == full.summary["contact"]
+    assert every.measures["last_contact_change"] == full.measures["last_contact_change"]
+    assert len(every.history) == (len(full.history) + 2) // 3 < len(full.history)
+
+
+@serial_only
+def test_the_frames_of_an_adaptive_run_are_bounded_by_time():
+    """Many more steps than T/Δt₀ (a tight tolerance): as many frames as a run of fixed steps
+    Δt₀ saves, at most, and the size check's estimate counts them."""
+    import rodfem
+    from rodfem.output.sizes import estimate, save_interval
+
+    overrides = {"time.adaptive": True, "time.dt": 1e-2, "time.tolerance": 1e-5,
+                 "mesh.cells": 40, "time.end": 3.0}
+    result = rodfem.simulate("paper1", overrides)
+    scene, steps = result.scene, result.summary["steps"]
+    assert steps > 3 * scene.steps
+    assert save_interval(scene) == 50 * 1e-2  # the default: every 50 steps of Δt₀
+    assert result.fields.t.size <= 3.0 / 0.5 + 2
+    fixed = estimate(rodfem.scene.load("paper1", [f"{k}={v}" for k, v in overrides.items()
+                                                  if k in ("time.dt", "mesh.cells",
+                                                           "time.end")]))
+    # T/Δt₀ rows (the steps are not known before the run), with two columns more (dt, event)
+    rows = scene.steps + 2
+    assert estimate(scene)[0] - fixed[0] == rows * 2 * 8

@@ -95,3 +95,29 @@ def test_time_schemes_demo_runs_under_mpirun():
     orders = [float(line.split("order ")[1]) for line in out.splitlines() if "; order " in line]
     assert len(orders) == 2 and orders[1] > orders[0] + 0.8, out  # rank 0 only: paper, then CN
     assert out.count("energy non-increasing: True") == 2, out
+
+
+ADAPTIVE = {
+    "paper1": ["paper1", "--set", "time.end=20", "--set", "mesh.cells=100"],
+    "paper1-cn": ["paper1", "--set", "time.scheme=crank-nicolson", "--set", "solver.method=direct",
+                  "--set", "time.end=2"],
+    "paper5-newton": ["paper5", "--set", "solver.method=newton", "--set", "time.end=2"],
+    "impact": ["impact", "--set", "mesh.cells=100", "--set", "time.dt=1e-2", "--set",
+               "time.end=6"],
+}
+
+
+@serial_only
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+@pytest.mark.parametrize("scene, ranks", [("paper1", 2), ("paper1-cn", 2), ("paper5-newton", 2),
+                                          ("impact", 2), ("impact", 3)])
+def test_ranks_take_the_serial_adaptive_steps(tmp_path, scene, ranks):
+    """Adaptive steps: every rank takes the same decisions (accepted, rejected, located events)
+    as the serial run, so the history (its times and steps included) is the same, bit for bit."""
+    args = [*ADAPTIVE[scene], "--set", "time.adaptive=true"]
+    serial = rodfem_run(tmp_path, 1, *args)
+    parallel = rodfem_run(tmp_path, ranks, *args)
+    assert serial.shape[1] == 9 and serial.shape[0] > 100
+    assert serial[:, 8].sum() >= 2  # contact events located
+    assert np.unique(np.diff(serial[:, 0])).size > 10  # the steps did adapt
+    np.testing.assert_array_equal(parallel, serial)

@@ -25,6 +25,17 @@ def test_progress_draws_after_its_delay():
     assert "50.0%" in text and "step 50/100" in text and text.endswith("\n")
 
 
+def test_progress_of_adaptive_steps_shows_the_time():
+    """Adaptive steps: the fraction of the time, the time and the steps taken so far (their
+    number is not known in advance)."""
+    stream = io.StringIO()
+    bar = Progress(120.0, enabled=True, delay=0.0, stream=stream, of_time=True)
+    bar.update(30.0, 812)
+    bar.close()
+    text = stream.getvalue()
+    assert "25.0%" in text and "t 30/120 (812 steps)" in text and "step " not in text
+
+
 def test_progress_is_quiet_for_short_runs_and_off_terminals():
     for enabled, delay in ((True, 3600.0), (False, 0.0)):
         stream = io.StringIO()

@@ -89,11 +89,24 @@ CASES = [(signal.SIGINT, 1), (signal.SIGTERM, 1), (signal.SIGHUP, 1), (signal.SI
                               enumerate(CASES)])
 def test_stopped_anywhere_resumes_to_the_same_run(tmp_path, reference, sent, ranks):
     delay = random.Random(f"{sent}{ranks}{tmp_path.name}").uniform(0.3, 2.5 * ranks)
-    out = tmp_path / "run"
-    command = [RODFEM, "run", *SCENE, "--out", str(out), "--quiet"]
+    stop_and_resume(tmp_path / "run", SCENE, sent, ranks, delay, reference[ranks])
+
+
+def stop_and_resume(out: Path, scene: list, sent: int, ranks: int, delay: float,
+                    reference: Path, whole=assert_whole, same=assert_same_run,
+                    after: str | None = None) -> None:
+    """``rodfem run`` of ``scene`` stopped by ``sent`` after ``delay`` seconds (counted from
+    when the file ``after`` of the run appears, if given): its files whole (``whole``), its
+    marker saying how it stopped, and ``rodfem resume`` continues it to the ``reference`` run
+    (``same``)."""
+    command = [RODFEM, "run", *scene, "--out", str(out), "--quiet"]
     if ranks > 1:
         command = ["mpirun", "-n", str(ranks), *command]
     process = subprocess.Popen(command, stderr=subprocess.PIPE, text=True, env=ENV)
+    deadline = time.monotonic() + 120
+    while after is not None and not (out / after).exists() and process.poll() is None:
+        assert time.monotonic() < deadline, f"the run wrote no {after}"
+        time.sleep(0.02)
     time.sleep(delay)
     if ranks > 1 and sent == signal.SIGKILL:  # a node lost: every rank killed at once
         subprocess.run(["pkill", "-KILL", "-f", f"rodfem run .*{out}"], check=False)
@@ -112,7 +125,7 @@ def test_stopped_anywhere_resumes_to_the_same_run(tmp_path, reference, sent, ran
     print(f"\n{signal.Signals(sent).name} n{ranks} after {delay:.2f} s: exit {code}, "
           f"{state(out) if out.exists() else 'nothing written'}")
     if code == 0 or (out.exists() and state(out) == "complete"):
-        assert_same_run(out, reference[ranks])  # the run ended before the signal came
+        same(out, reference)  # the run ended before the signal came
         return
     if sent != signal.SIGKILL:
         lines = err.strip().splitlines()
@@ -129,11 +142,11 @@ def test_stopped_anywhere_resumes_to_the_same_run(tmp_path, reference, sent, ran
     else:
         assert state(out) == "interrupted"
     if (out / "history.h5").exists():
-        assert_whole(out)
+        whole(out)
     again = rodfem("resume", out, "--quiet", ranks=ranks)
     assert again.returncode == 0, again.stderr
     assert state(out) == "complete"
-    assert_same_run(out, reference[ranks])
+    same(out, reference)
 
 
 @serial_only

@@ -393,3 +393,59 @@ def test_python_values_for_axes_and_overrides():
     assert scene["mesh.cells"] == 20
     with pytest.raises(rodfem.SceneError, match="a list holds"):
         rodfem.api.scene_of("paper1", [5])
+
+
+# --- adaptive steps --------------------------------------------------------------------------
+
+ADAPTIVE = {"scene": "paper1", "set": {"mesh.cells": 40, "time.end": 20.0,
+                                       "time.adaptive": True},
+            "grid": {"time.tolerance": [1e-2, 1e-3, 1e-4], "model.zeta": [0.2, 1.0]}}
+
+
+def test_an_adaptive_sweep_measures_non_uniform_steps(shared_dir):
+    """A sweep of time.tolerance: each row is the run of its scene, and its measures of contact
+    are those of its times tⁿ (not n times the first step), each step weighed by its length."""
+    result = run_sweep(ADAPTIVE, shared_dir / "a", histories=True)
+    sweep = design.parse(ADAPTIVE, "a")
+    steps = []
+    for i in range(len(sweep)):
+        alone = rodfem.simulate(sweep.scene(i), comm=MPI.COMM_SELF)
+        h = result.history(i)
+        np.testing.assert_array_equal(h, alone.history)
+        for name in MEASURES:
+            if name not in TIMINGS:
+                assert result[name][i] == alone.measures[name], name
+        t, touching = h["t"], h["sigma_1"][1:] < 0.0
+        changes = np.flatnonzero(np.diff(touching.astype(int), prepend=0))
+        assert result["last_contact_change"][i] == t[1:][changes[-1]]
+        assert result["contact_intervals"][i] == np.count_nonzero(
+            np.diff(touching.astype(int), prepend=0) == 1)
+        fraction = np.sum(np.diff(t)[touching]) / t[-1]
+        assert abs(result["contact_fraction"][i] - fraction) <= 1e-14 * len(t)
+        assert result["t_final"][i] == 20.0 and result["status"][i] == "complete"
+        steps.append(len(t) - 1)
+    # the tolerance is the grid's first axis: 1e-4 takes more steps than 1e-3, for each ζ
+    assert steps[2] < steps[4] and steps[3] < steps[5], steps
+
+
+@serial_only
+def test_a_killed_adaptive_sweep_resumes_to_the_same_table(tmp_path):
+    import json
+
+    spec = tmp_path / "adaptive.toml"
+    spec.write_text('scene = "paper1"\n[set]\n"mesh.cells" = 60\n"time.end" = 30.0\n'
+                    '"time.adaptive" = true\n[grid]\n"time.tolerance" = [1e-2, 1e-3, 1e-4]\n'
+                    '"model.zeta" = {linspace = [0.2, 1.0, 4]}\n')
+    whole, out = tmp_path / "whole", tmp_path / "out"
+    subprocess.run(rodfem_command("sweep", spec, "--out", whole), env=ENV, check=True,
+                   capture_output=True, timeout=600)
+    process = subprocess.Popen(rodfem_command("sweep", spec, "--out", out), env=ENV,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    wait_for_records(out, 2, process)
+    process.kill()
+    process.communicate(timeout=120)
+    done = subprocess.run(rodfem_command("resume", out), env=ENV, capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert 0 < json.loads((out / "summary.json").read_text())["ran_this_time"] < 12
+    assert_same_table(load_sweep(out), load_sweep(whole))

@@ -99,7 +99,8 @@ def _number(value) -> bool:
 
 
 # The metadata's fields, and what each must be (the energy monitor's and the iteration counts'
-# fields are those of rodfem.output.summary's EnergyMonitor and Iterations).
+# fields are those of rodfem.output.summary's EnergyMonitor and Iterations; an adaptive run's
+# counts are checked with its controller, by _wrong_adaptive).
 META = {
     "step": _integer,
     "scene": lambda v: isinstance(v, dict) and all(isinstance(s, dict) or isinstance(s, str)
@@ -142,18 +143,24 @@ def _wrong_meta(meta: dict) -> str | None:
 
 
 # The adaptive controller's state (rodfem.solver.adaptive.stepper.AdaptiveStepper.saved): t, the
-# next step, the last error, Picard's bound and the fields' sizes; the last states and times.
+# next step, the last error, Picard's bound and the fields' sizes; the last states and times. The
+# metadata's ``adaptive`` holds the counts of rejected steps and contact events.
 ADAPTIVE = {"controller": 8, "past_t": None, "past": None}
+COUNTS = ("rejected", "events")
 
 
-def _wrong_adaptive(arrays: dict[str, np.ndarray]) -> str | None:
-    """What is wrong with the adaptive controller's arrays (all or none), or None."""
+def _wrong_adaptive(arrays: dict[str, np.ndarray], meta: dict) -> str | None:
+    """What is wrong with the adaptive controller's arrays and counts (all or none), or None."""
     present = [name for name in ADAPTIVE if name in arrays]
+    counts = meta.get("adaptive")
     if not present:
-        return None
+        return None if counts is None else "its metadata has adaptive counts, and no controller"
     if len(present) != len(ADAPTIVE):
         missing = next(name for name in ADAPTIVE if name not in arrays)
         return f"it has no {missing}"
+    if not (isinstance(counts, dict) and set(counts) == set(COUNTS)
+            and all(_integer(counts[k]) for k in COUNTS)):
+        return f"its metadata's adaptive is {json.dumps(counts)[:40]}"
     controller, times, past = (arrays[name] for name in ADAPTIVE)
     state = arrays["state"].size + 1
     if any(a.dtype != np.float64 for a in (controller, times, past)):
@@ -162,8 +169,14 @@ def _wrong_adaptive(arrays: dict[str, np.ndarray]) -> str | None:
         return f"its controller is of shape {controller.shape}, its times {times.shape}"
     if past.shape != (times.size, state):
         return f"its past states are of shape {past.shape}"
-    if not (np.isfinite(times).all() and np.isfinite(past).all() and 0.0 <= controller[0]):
+    t, h, error, cap, *sizes = (float(v) for v in controller)
+    finite = np.isfinite([t, h, error, *sizes]).all() and cap > 0.0  # the bound: inf for none
+    if not (finite and np.isfinite(times).all() and np.isfinite(past).all()):
         return "its controller's state is not finite"
+    if not (t >= 0.0 and h > 0.0 and error >= 0.0 and min(sizes) >= 0.0):
+        return "its controller's time, step, error or sizes are negative"
+    if times[-1] != t or (np.diff(times) <= 0.0).any():
+        return "its controller's past times do not end at its time"
     return None
 
 
@@ -177,7 +190,7 @@ def _wrong_arrays(arrays: dict[str, np.ndarray], meta: dict) -> str | None:
     unknown = set(arrays) - {*shapes, "step", "pressure", *ADAPTIVE}
     if unknown:
         return f"it holds {sorted(unknown)[0]}, which is not rodfem's"
-    wrong = _wrong_adaptive(arrays)
+    wrong = _wrong_adaptive(arrays, meta)
     if wrong:
         return wrong
     nodes = arrays["u_prev"].shape[0] if arrays["u_prev"].ndim == 1 else 0

@@ -8,15 +8,19 @@ import time
 
 class Progress:
     """``update(n)`` with n out of ``total``; draws at most ten times a second, and only once the
-    run has lasted ``delay`` seconds, so short runs stay quiet."""
+    run has lasted ``delay`` seconds, so short runs stay quiet. With ``of_time`` (adaptive steps,
+    whose number is not known in advance) n and ``total`` are the time reached and the end, and
+    the bar says the time and the steps taken (``update(t, steps)``)."""
 
-    def __init__(self, total: int, enabled: bool, delay: float = 2.0, stream=sys.stderr):
+    def __init__(self, total: float, enabled: bool, delay: float = 2.0, stream=sys.stderr,
+                 of_time: bool = False):
         self.total, self.enabled, self.delay, self.stream = total, enabled, delay, stream
+        self.of_time = of_time
         self.started = time.perf_counter()
         self.drawn = 0.0
         self.shown = False
 
-    def update(self, n: int) -> None:
+    def update(self, n: float, steps: int = 0) -> None:
         if not self.enabled:
             return
         now = time.perf_counter()
@@ -27,8 +31,9 @@ class Progress:
         elapsed = now - self.started
         eta = elapsed * (1 - fraction) / max(fraction, 1e-12)
         bar = "#" * int(30 * fraction)
-        self.stream.write(f"\r[{bar:<30}] {100 * fraction:5.1f}%  step {n}/{self.total}  "
-                          f"eta {eta:5.1f} s ")
+        where = (f"t {n:.6g}/{self.total:g} ({steps} steps)" if self.of_time
+                 else f"step {n}/{self.total}")
+        self.stream.write(f"\r[{bar:<30}] {100 * fraction:5.1f}%  {where}  eta {eta:5.1f} s ")
         self.stream.flush()
 
     def close(self) -> None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from rodfem.output.checkpoint import NAME, CheckpointError, check_counted, read_checkpoint
-from rodfem.output.sizes import save_every
+from rodfem.output.sizes import scheduled
 from rodfem.scene import SceneError, load, validate
 
 CHANGEABLE = ("time.end",)
@@ -95,10 +95,9 @@ def _plan(out: Path, overrides: list[str], marker: dict, ranks: int, large: bool
                        f"changed ('rodfem resume {out} --set time.end=T' extends it)")
     _check_files(out, meta)
     _check_room(scene, out, _written(out, meta), large)
-    every = save_every(scene)
     # Saves off the schedule (the last step of an interrupted or finished run) are not an
     # uninterrupted run's: they are dropped (their rows stay in their segments, unlisted).
-    meta["saves"] = [s for s in meta["saves"] if s[0] % every == 0]
+    meta["saves"] = scheduled(meta["saves"], scene)
     meta["scene"] = scene.data()
     return scene, (arrays, meta)
 
@@ -113,8 +112,8 @@ def _check_same_run(out: Path, scene, base, arrays: dict, meta: dict, ranks: int
                           f"on as many (mpirun -n {meta['mpi_ranks']}), for the same result "
                           "bit for bit")
     newton = scene["solver.method"] == "newton"  # the one method with a state of its own
-    if ("guess" in arrays) != newton or (ranks == 1 and arrays["u_prev"].size
-                                         != scene["mesh.cells"] + 1):
+    if ("guess" in arrays) != newton or ("controller" in arrays) != scene.adaptive or (
+            ranks == 1 and arrays["u_prev"].size != scene["mesh.cells"] + 1):
         raise ResumeError(f"{out / NAME} is not a checkpoint of the scene in "
                           f"{out / 'scene.toml'}; the run cannot continue from it")
 

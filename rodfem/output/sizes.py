@@ -28,16 +28,48 @@ def save_every(scene) -> int:
     return max(STRIDE, stride)
 
 
+def save_interval(scene) -> float:
+    """With adaptive steps, the time between two field saves: :func:`save_every` steps of the
+    first step's size, ``save_every × time.dt``. Fields are saved at the first step at or after
+    each multiple of it (:func:`frame`), whatever the steps the run takes: the saves of a run of
+    many small steps are as many as of one of few large ones."""
+    return save_every(scene) * scene["time.dt"]
+
+
+def frame(t: float, interval: float) -> int:
+    """The number of the save interval the time t is in: a step whose number exceeds that of the
+    last save's time is saved."""
+    return math.floor(t / interval)
+
+
+def scheduled(saves: list, scene) -> list:
+    """The saves ``[step, t, ...]`` of a run that an uninterrupted run of ``scene`` makes: those
+    off the schedule (an interrupted or finished run's last step, or steps off the stride of an
+    extended run's new end) are left out."""
+    every = save_every(scene)
+    if not scene.adaptive:
+        return [s for s in saves if s[0] % every == 0]
+    interval, kept, last = save_interval(scene), [], -1
+    for s in saves:
+        if frame(s[1], interval) > last:
+            kept.append(s)
+            last = frame(s[1], interval)
+    return kept
+
+
 class SizeError(ValueError):
     """The run would not fit on the disk or in memory (exit code 2)."""
 
 
 def estimate(scene) -> tuple[int, int]:
-    """(bytes written, bytes of memory at most) of a run of ``scene``."""
+    """(bytes written, bytes of memory at most) of a run of ``scene``. With adaptive steps the
+    fields are saved at most once per save interval (:func:`save_interval`), T/(output.every
+    Δt₀) + 2 times, whatever steps the run takes; those steps are not known before it runs, and
+    the history is estimated at T/Δt₀ rows (the steps of the first step's size)."""
     from rodfem.output.columns import for_scene, readings
 
     steps, nodes = scene.steps, scene["mesh.cells"] + 1
-    saves = steps // save_every(scene) + 2
+    saves = steps // save_every(scene) + 2  # adaptive: the save intervals in T, as many
     per_save = sum(nodes if name in ("theta", "u", "velocity") else nodes - 1
                    for name in scene["output.fields"])
     fields = saves * per_save * 8

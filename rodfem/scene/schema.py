@@ -134,7 +134,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
     "output": {
         "every": Key("integer", 0, minimum=0, maximum=MAX_STEPS,
                      help="save fields every n steps; 0: every 50 steps, or less often in a "
-                     "long run so that it saves about 200 frames at most"),
+                     "long run so that it saves about 200 frames at most; with adaptive steps, "
+                     "at the first step of each interval of n steps of time.dt"),
         "fields": Key("choices", ("theta", "u", "sigma"), choices=FIELDS,
                       help="the fields saved in fields.xdmf: theta (temperature), u "
                       "(displacement), velocity (nodes); sigma (stress), heat_flux (-theta_x, "
@@ -147,7 +148,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
                       "sigma@x"),
         "history_every": Key("integer", 1, minimum=1, maximum=MAX_STEPS,
                              help="keep the history's row of every n-th step (n = 0, n, 2n, "
-                             "...); the energy check and iteration counts still see every step"),
+                             "...; adaptive steps too, by their count); the energy check and "
+                             "iteration counts still see every step"),
         "checkpoint": Key("real", 5.0, minimum=0.0, maximum=BIG,
                           help="write a checkpoint (history, fields and the state to resume "
                           "from) at the first field save this many seconds of wall time after "

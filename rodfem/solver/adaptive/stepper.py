@@ -48,8 +48,9 @@ class AdaptiveStepper:
     """Accepted steps of ``home`` (a :class:`~rodfem.solver.methods.base.Method` of the first
     step Δt₀), one :meth:`step` at a time. ``make(h, once)`` returns (method for step h, its
     compiled loop or None), ``once`` for a size off the ladder (it takes a step or two);
-    ``loop`` is the home method's compiled loop or None; ``record(dt, event)`` is called with
-    home in each accepted state."""
+    ``loop`` is the home method's compiled loop or None; ``record(dt, event, whole)`` is called
+    with home in each accepted state, ``whole`` where the stepper's state is that of the end of
+    a :meth:`step` (a checkpoint may be written; not after the first of two halves)."""
 
     def __init__(self, home, scene, make, loop, record, width: int):
         self.home, self.make, self.loop, self.record = home, make, loop, record
@@ -188,8 +189,14 @@ class AdaptiveStepper:
         return u_1 - self.gap + (self.cell * p if self.rigid else 0.0)
 
     def _accept(self, steps, error) -> None:
-        """Record the accepted step(s); the next step's size."""
-        for h, event, state, y in steps:
+        """Record the accepted step(s), the next step's size set before the last is recorded:
+        a checkpoint written as it is recorded holds the controller of the step after it."""
+        last = steps[-1][0]
+        if error is not None:
+            following = self.controller.accepted(last, error)
+        else:
+            following = max(self.h, last)
+        for k, (h, event, state, y) in enumerate(steps):
             if state is not None:
                 self.home.restore(state)
                 self._home_at, y = state, self.y()
@@ -202,12 +209,10 @@ class AdaptiveStepper:
                 self.events += 1
             del self.past_t[:-(self.order + 1)], self.past[:-(self.order + 1)]
             self.steps += 1
-            self.record(h, event)
-        last = steps[-1][0]
-        if error is not None:
-            self.h = self.controller.accepted(last, error)
-        else:
-            self.h = max(self.h, last)
+            whole = k == len(steps) - 1
+            if whole:
+                self.h = following
+            self.record(h, event, whole)
 
     def _reject(self, h: float, start: dict, error: float) -> None:
         self.rejected += 1
@@ -298,7 +303,13 @@ class AdaptiveStepper:
                 "past_t": np.array(self.past_t, dtype=float),
                 "past": np.array(self.past, dtype=float).reshape(len(self.past), -1)}
 
-    def restore(self, saved: dict[str, np.ndarray]) -> None:
+    def restore(self, saved: dict[str, np.ndarray], counts: dict | None = None) -> None:
+        """Continue from :meth:`saved` (with the home method restored to the same step) and the
+        :meth:`counts` kept beside it. The methods of other step sizes are made again as they
+        are needed: a step's result does not depend on when its method was made."""
+        self.steps = self.home.n
+        if counts is not None:
+            self.rejected, self.events = int(counts["rejected"]), int(counts["events"])
         c = saved["controller"]
         self.t, self.h, self.controller.previous, self.cap = (float(v) for v in c[:4])
         self.norm.maxima = np.array(c[4:8], dtype=float)
