@@ -144,8 +144,11 @@ class Contact:
         ends = np.flatnonzero(at)
         starts = ends - 1
         dt = times[ends] - times[starts]
-        self.time += float(np.sum(dt))
-        self.time_touching += float(np.sum(dt[touching]))
+        # summed one step after another (np.cumsum is sequential): the totals do not depend on
+        # how the rows come in blocks, which a resumed run's do not share with the run's
+        self.time = float(np.cumsum(np.concatenate([[self.time], dt]))[-1])
+        self.time_touching = float(np.cumsum(np.concatenate([[self.time_touching],
+                                                             dt[touching]]))[-1])
         changes = _change_times(times[np.concatenate([[starts[0]], ends])],
                                 events[np.concatenate([[starts[0]], ends])], touching, self.was)
         if changes.size:
