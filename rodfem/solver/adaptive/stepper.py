@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rodfem.scene.schema import TOLERANCES
 from rodfem.solver.adaptive.control import Controller, ErrorNorm, extrapolate, milne
 from rodfem.solver.errors import NotConverged, PicardNotConverged
 
@@ -54,7 +55,7 @@ class AdaptiveStepper:
         self.home, self.make, self.loop, self.record = home, make, loop, record
         self.dt0 = home.dt
         self.end = scene["time.end"]
-        self.tolerance = scene["time.tolerance"]
+        self.tolerance = scene["time.tolerance"] or TOLERANCES[scene["time.scheme"]]
         self.order = 1 if home.time_scheme.weight == 1.0 else 2
         self.nodes = home.values.size // 3
         self.controller = Controller(self.dt0, self.order, scene["time.dt_min"],
