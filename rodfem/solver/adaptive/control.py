@@ -20,11 +20,13 @@ the two halves are kept, which gives the next step its three states.
 **The norm** is relative, per field: the root mean square over the nodes of the error in Θ, in
 the velocity and in U, each over the largest max-norm that field has had in the run so far, and
 the error in p over the largest contact force or strain (a stress) so far; the step's error is
-the largest of the four over ``time.tolerance``, and a step is accepted where it is at most 1.
+the largest of the four over ``time.tolerance`` (0, the default: 5e-5 for the paper's scheme,
+1e-3 for Crank–Nicolson's, :data:`rodfem.scene.schema.TOLERANCES`), and a step is accepted where
+it is at most 1.
 
 **The next step** follows Gustafsson's PI controller (Hairer & Wanner, IV.8; Söderlind):
 h_new = h · 0.9 · err^(−0.7/k) · err_prev^(0.4/k), k = q + 1, within [h/5, 5h]; after a rejected
-step h · 0.9 · err^(−1/k), no larger than h. Step sizes are rounded down to a ladder Δt₀ 2^(j/4)
+step h · 0.9 · err^(−1/k), no larger than 0.9 h. Step sizes are rounded down to a ladder Δt₀ 2^(j/4)
 (Δt₀ the first step): the steps repeat, and so do their factorisations.
 """
 
