@@ -19,6 +19,14 @@ by the Illinois method on the step's own results, to a bracket 1e-10 wide in tim
 at the far end of the bracket, with contact already changed, and its history row is marked. The
 error estimate then starts again from that state (its derivatives jump at an impact).
 
+**The paper's first two steps** are its start: U¹ = U⁰ + Δt₀ P u₁ keeps the initial velocity and
+solves no equation of motion, and the next step puts every node whose equation has no time
+derivative (the massless end of a redistributed mass without viscosity) where that equation
+holds, a jump of the size of the initial data's imbalance there whatever the step. Both are taken
+as the fixed-step scheme takes them, at Δt₀, with no estimate (one would not fall with the step:
+on the impact scene no step was accepted down to time.dt_min), and the estimate starts after
+them.
+
 **Failures.** A step that Picard's iteration or Newton's method does not solve is taken again at
 a quarter of its size; for Picard, whose iteration contracts only for steps short enough while in
 contact (w/ε < 1, ``rodfem stability``), the failed size bounds every later step that starts in
@@ -148,7 +156,7 @@ class AdaptiveStepper:
 
     def _attempt(self, h: float, start: dict, before: bool) -> bool:
         """Try the step h from ``start``: accepted (True), or rejected with the next size set."""
-        f0 = self.contact_of(start)
+        f0, special = self.contact_of(start), self._starting()
         self._take(h, start)
         event = (self.contact() > 0.0) != before
         if event:
@@ -158,8 +166,8 @@ class AdaptiveStepper:
             if error <= 1.0:
                 self._accept([(h, event)], error)
                 return True
-        elif event:
-            self._accept([(h, event)], None)
+        elif event or special:
+            self._accept([(h, event)], None, restart=special)
             return True
         else:
             error, halves = self._halves(h, start, self.y())
@@ -169,13 +177,19 @@ class AdaptiveStepper:
         self._reject(h, start, error)
         return False
 
+    def _starting(self) -> bool:
+        """Whether the next step is one of the paper scheme's first two (the module's
+        docstring)."""
+        return self.home.n < 2 and self.home.time_scheme.special_first_step(self.home.inertia)
+
     def contact_of(self, state: dict) -> float:
         """:meth:`contact` of a saved state."""
         u_1, p = float(state["state"][-1]), float(state["pressure"][0])
         return u_1 - self.gap + (self.cell * p if self.rigid else 0.0)
 
-    def _accept(self, steps, error) -> None:
-        """Record the accepted step(s); the next step's size."""
+    def _accept(self, steps, error, restart: bool = False) -> None:
+        """Record the accepted step(s) (``restart``: the estimate starts again after them, as
+        after an event); the next step's size."""
         for h, event, *state in steps:
             if state:
                 self.home.restore(state[0])
@@ -184,9 +198,9 @@ class AdaptiveStepper:
             self.norm.maxima = self.norm.grown(y)
             self.past_t.append(self.t)
             self.past.append(y)
-            if event:
+            if event or restart:
                 self.past_t, self.past = [self.t], [y]
-                self.events += 1
+                self.events += int(event)
             del self.past_t[:-(self.order + 1)], self.past[:-(self.order + 1)]
             self.steps += 1
             self.record(h, event)
