@@ -42,12 +42,13 @@ from __future__ import annotations
 import numpy as np
 
 from rodfem.scene.schema import TOLERANCES
-from rodfem.solver.adaptive.control import Controller, ErrorNorm, extrapolate, milne
+from rodfem.solver.adaptive.control import Controller, ErrorNorm, extrapolate, milne, rung
 from rodfem.solver.errors import NotConverged, PicardNotConverged
+from rodfem.solver.linalg import free_garbage
 
 EVENT_WIDTH = 1e-10  # the located event's bracket in time
 RETRIED = (PicardNotConverged,)
-KEPT = 64  # the step sizes whose methods are kept (the ladder's; a located step's is not)
+KEPT = 64  # the ladder's step sizes whose methods are kept (a located step's is not)
 
 
 class StepTooSmall(NotConverged):
@@ -106,13 +107,22 @@ class AdaptiveStepper:
     # -- one step of a given size ------------------------------------------------------------
 
     def _method(self, h: float):
+        """The method (and compiled loop) of step h: the home method's, one kept for a size of
+        the ladder (the most recently used KEPT of them), or one made for this step alone (a
+        located event's, the last step's), whose PETSc objects are freed at once: made again at
+        every step, unfreed, they grew a run at tolerance 1e-6 to 24 GB."""
         if h == self.dt0:
             return self.home, self.loop
-        made = self._methods.get(h)
+        made = self._methods.pop(h, None)
         if made is None:
             made = self.make(h)
-            if len(self._methods) < KEPT:
-                self._methods[h] = made
+            if rung(self.dt0, h) != h:
+                free_garbage(self.home.disc.comm)  # the one-off methods made before this one
+                return made
+            if len(self._methods) >= KEPT:
+                del self._methods[next(iter(self._methods))]  # the least recently used
+                free_garbage(self.home.disc.comm)
+        self._methods[h] = made  # the most recently used last
         return made
 
     def _take(self, h: float, start: dict) -> None:
