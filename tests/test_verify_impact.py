@@ -153,8 +153,8 @@ def test_the_impact_measures_are_the_exact_solutions():
 
 def test_work_precision_quick_impact_adaptive(shared_dir):
     """The adaptive ladders of the impact, its own mass: h and the tolerance refined together,
-    the first step h; the L¹ error of u(1, ·) falls at every rung and is the model's, each step
-    counted with its own size; picard rejected with the scene's reason."""
+    the first step h, by the direct method; the L¹ error of u(1, ·) falls at every rung and is
+    the model's, each step counted with its own size."""
     out = shared_dir / "wp"
     plan = dataclasses.replace(workprecision.default_plan(quick=True), scenes=(),
                                impact_h=(2e-2, 1e-2), impact_masses=(), tolerances=(1e-2, 1e-3))
@@ -167,12 +167,11 @@ def test_work_precision_quick_impact_adaptive(shared_dir):
         assert float(r["dt"]) == 1 / int(r["cells"]) and int(r["steps"]) > 0
         ran.setdefault((r["scheme"], r["method"]), []).append(
             (float(r["tolerance"]), float(r["u1_l1"])))
-    assert set(ran) == {(s, k) for s in schemes() for k in METHODS if k != "picard"}
+    assert set(ran) == {(s, "direct") for s in schemes()}
     for ladder in ran.values():
         assert [t for t, _ in ladder] == [1e-2, 1e-3] and ladder[1][1] < ladder[0][1], ladder
     assert ran["crank-nicolson", "direct"][-1][1] == pytest.approx(
         _exact_l1(1e-2, **{"time.adaptive": "true", "time.tolerance": 1e-3}), rel=1e-12)
-    assert {(r["scheme"], r["method"], r["adaptive"]) for r in data["rejected"]} == \
-        {(s, "picard", True) for s in schemes()}
+    assert data["rejected"] == []
     best = data["impact"]["finest"][data["impact"]["best"]]
     assert best["tolerance"] == 1e-3 and best["dt"] == 1e-2

@@ -20,8 +20,8 @@ scene's reason.
 
 Beside each fixed-step ladder, an adaptive one (``time.adaptive = true``): the tolerances 1e-2 …
 1e-6, each on a mesh fine enough for its error (:data:`ADAPTIVE_CELLS`; the impact's h), from the
-first step 1e-3 (the impact's: h), with the impact's own mass. Its times are its own, so the
-paper scenes' reference is interpolated to them.
+first step 1e-3 (the impact's: h), with the impact's own mass, by the direct method. Its times
+are its own, so the paper scenes' reference is interpolated to them.
 """
 
 from __future__ import annotations
@@ -77,9 +77,11 @@ class Plan:
     impact_end: float = 3.0
     impact_masses: tuple[str, ...] = MASSES
     impact_methods: tuple[str, ...] = METHODS
-    # the adaptive ladders (none if empty): the tolerances, and the mesh of each
+    # the adaptive ladders (none if empty): the tolerances, the mesh of each, and the methods
+    # (the direct one: the methods give the same steps, and the fixed ladders show their costs)
     tolerances: tuple[float, ...] = ()
     adaptive_cells: tuple[int, ...] = ()
+    adaptive_methods: tuple[str, ...] = ("direct",)
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -166,9 +168,9 @@ def tasks(plan: Plan) -> list[Task]:
             *(Task(IMPACT, method, scheme, mass) for mass in plan.impact_masses if plan.impact_h
               for scheme in plan.ladders for method in plan.impact_methods),
             *(Task(scene, method, scheme, adaptive=True) for scene in plan.scenes if adaptive
-              for scheme in plan.ladders for method in plan.methods),
+              for scheme in plan.ladders for method in plan.adaptive_methods),
             *(Task(IMPACT, method, scheme, IMPACT_MASS, True) for scheme in plan.ladders
-              if adaptive and plan.impact_h for method in plan.impact_methods)]
+              if adaptive and plan.impact_h for method in plan.adaptive_methods)]
 
 
 def _reference(scene: str, plan: Plan) -> tuple:
