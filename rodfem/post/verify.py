@@ -77,6 +77,13 @@ def _range(values: list[float], pad: float) -> tuple[float, float] | None:
     return float(v.min()) / pad, float(v.max()) * pad
 
 
+def _adaptive(point: dict) -> bool:
+    """Whether a work-precision point is of adaptive steps: it has a tolerance (a fixed-step
+    point's is null in the file, nan once read)."""
+    tolerance = point.get("tolerance")
+    return tolerance is not None and math.isfinite(tolerance)
+
+
 def _choices(points: list[dict]) -> list[tuple[str, str]]:
     return list(dict.fromkeys((p["method"], p["scheme"]) for p in points))
 
@@ -173,7 +180,7 @@ def work_precision_figure(data: dict, scene: str, path: Path) -> Path:
     chart = style.chart(f"{scene}, T = {data['end']:g}: error of u(1, ·) against wall time",
                         "wall time of the run (s): set-up + time loop", LABELS["u1_max"])
     style.use_font(chart.GetTitleProperties())
-    ladder = lambda p: (p["method"], p["scheme"], bool(p.get("tolerance")))  # noqa: E731
+    ladder = lambda p: (p["method"], p["scheme"], _adaptive(p))  # noqa: E731
     for i, (method, scheme, adaptive) in enumerate(dict.fromkeys(map(ladder, points))):
         mine = [p for p in points if ladder(p) == (method, scheme, adaptive)]
         _series(chart, np.array([p["seconds"] for p in mine]),
@@ -221,7 +228,7 @@ def impact_work_precision_figure(data: dict, path: Path) -> Path:
                         LABELS["u1_l1"].replace("{ref}", "{exact}"))
     style.use_font(chart.GetTitleProperties())
     masses = list(data.get("plan", {}).get("impact_masses", MASSES))
-    choice = lambda p: (p["mass"], p["scheme"], p["method"], bool(p.get("tolerance")))  # noqa: E731
+    choice = lambda p: (p["mass"], p["scheme"], p["method"], _adaptive(p))  # noqa: E731
     for mass, scheme, method, adaptive in dict.fromkeys(choice(p) for p in points):
         mine = [p for p in points if choice(p) == (mass, scheme, method, adaptive)]
         colour = len(masses) + 1 if adaptive else \
