@@ -75,7 +75,7 @@ class AdaptiveStepper:
         self.controller = Controller(self.dt0, self.order, scene["time.dt_min"],
                                      scene["time.dt_max"])
         self.norm = ErrorNorm(self.nodes, 1.0 / scene["mesh.cells"], scene["model.b"],
-                              self.dt0)
+                              self.dt0, home.disc.redistributed)
         self.rigid, self.gap = home.law.rigid, home.law.gap
         self.cell = 1.0 / scene["mesh.cells"]
         self.t, self.h = 0.0, self.dt0
