@@ -13,7 +13,7 @@ their difference gives the step's local error (Milne's device), for any step siz
   times (y − ŷ).
 
 Where there are not yet q + 1 states since the start (for the paper's scheme, the end of its
-first two steps, taken at Δt₀ without an estimate: :mod:`.stepper`) or the last contact event
+first step, taken at Δt₀ without an estimate: :mod:`.stepper`) or the last contact event
 (whose impact breaks the smoothness the extrapolation needs), the step is taken again as two half steps, and
 the local error of the halves is their difference from the whole step over 2^q − 1 (Richardson);
 the two halves are kept, which gives the next step its three states.

@@ -19,13 +19,11 @@ by the Illinois method on the step's own results, to a bracket 1e-10 wide in tim
 at the far end of the bracket, with contact already changed, and its history row is marked. The
 error estimate then starts again from that state (its derivatives jump at an impact).
 
-**The paper's first two steps** are its start: U¹ = U⁰ + Δt₀ P u₁ keeps the initial velocity and
-solves no equation of motion, and the next step puts every node whose equation has no time
-derivative (the massless end of a redistributed mass without viscosity) where that equation
-holds, a jump of the size of the initial data's imbalance there whatever the step. Both are taken
-as the fixed-step scheme takes them, at Δt₀, with no estimate (one would not fall with the step:
-on the impact scene no step was accepted down to time.dt_min), and the estimate starts after
-them.
+**The paper's first step**, U¹ = U⁰ + Δt₀ P u₁, keeps the initial velocity and solves no
+equation of motion: it is taken as the fixed-step scheme takes it, at Δt₀, with no estimate, and
+the estimate starts after it. Two halves would be that step and a step of the equations, another
+scheme, whose difference from it need not fall with the step (on the impact scene with 100 cells
+no step was accepted down to time.dt_min).
 
 **Failures.** A step that Picard's iteration or Newton's method does not solve is taken again at
 a quarter of its size; for Picard, whose iteration contracts only for steps short enough while in
@@ -166,7 +164,7 @@ class AdaptiveStepper:
 
     def _attempt(self, h: float, start: dict, before: bool) -> bool:
         """Try the step h from ``start``: accepted (True), or rejected with the next size set."""
-        f0, special = self.contact_of(start), self._starting()
+        f0, special = self.contact_of(start), self.home.first_step_special
         self._take(h, start)
         event = (self.contact() > 0.0) != before
         if event:
@@ -186,11 +184,6 @@ class AdaptiveStepper:
                 return True
         self._reject(h, start, error)
         return False
-
-    def _starting(self) -> bool:
-        """Whether the next step is one of the paper scheme's first two (the module's
-        docstring)."""
-        return self.home.n < 2 and self.home.time_scheme.special_first_step(self.home.inertia)
 
     def contact_of(self, state: dict) -> float:
         """:meth:`contact` of a saved state."""
