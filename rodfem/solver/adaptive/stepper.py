@@ -28,11 +28,12 @@ no step was accepted down to time.dt_min).
 **Failures.** A step that Picard's iteration or Newton's method does not solve is taken again at
 a quarter of its size; for Picard, whose iteration contracts only for steps short enough while in
 contact (w/ε < 1, ``rodfem stability``), the failed size bounds every later step that starts in
-contact at half of it (w grows as Δt^1.5 to Δt², so about a third of the failed contraction: the
-steps per unit time over the iterations a step needs, 1/|log(w/ε)|, are fewest near w/ε = 0.2).
+contact at half of it: w grows as Δt^1.5 to Δt², so that is about a third of the failed
+contraction, near w/ε = 0.2, where the work in contact, steps per unit time times iterations per
+step (∝ 1/|log(w/ε)|), is least.
 Out of contact the iteration contracts at any step, and the error control alone sets the step:
-bounding those steps too cost paper1 against 1/ε = 1e4 64,311 Picard iterations instead of
-48,364 (the paper's scheme), 34,954 instead of 25,226 (Crank–Nicolson's).
+bounding those steps too cost paper1 against 1/ε = 1e4 64,260 Picard iterations instead of
+48,299 (the paper's scheme), 34,954 instead of 25,226 (Crank–Nicolson's).
 """
 
 from __future__ import annotations
