@@ -182,7 +182,8 @@ def test_work_precision_quick(shared_dir, capsys):
     assert "paper5: time to reach" in printed or COMM.rank > 0
     assert "impact: smallest L¹ error of u(1,·)" in printed or COMM.rank > 0
     data = json.loads((out / "workprecision.json").read_text())
-    rows = [r for r in _csv(out / "workprecision.csv") if r["scene"] != "impact"]
+    every = [r for r in _csv(out / "workprecision.csv") if r["scene"] != "impact"]
+    rows = [r for r in every if not r["tolerance"]]  # fixed steps
     assert len(rows) == 2 * 3 * len(schemes())
     assert all(r["mass"] == "lumped" for r in rows)  # the paper scenes' own
     assert (out / "figures" / "workprecision_impact.png").stat().st_size > 20_000
@@ -192,8 +193,24 @@ def test_work_precision_quick(shared_dir, capsys):
             errors = [float(r["u1_max"]) for r in rows if (r["scene"], r["scheme"])
                       == (scene, s)]
             assert all(b < a for a, b in zip(errors, errors[1:], strict=False)), (scene, s)
+    # the adaptive ladders: each tolerance more accurate than the last, on a finer mesh
+    adaptive = [r for r in every if r["tolerance"]]
+    assert len(adaptive) == 2 * 3 * len(schemes())
+    for scene in ("paper1", "paper5"):
+        for s in schemes():
+            mine = [r for r in adaptive if (r["scene"], r["scheme"]) == (scene, s)]
+            assert [float(r["tolerance"]) for r in mine] == [1e-2, 1e-3, 1e-4]
+            assert all(r["status"] == "complete" and int(r["steps"]) > 0 for r in mine)
+            errors = [float(r["u1_max"]) for r in mine]
+            assert all(b < a for a, b in zip(errors, errors[1:], strict=False)), (scene, s)
+    # the figures tell the adaptive points from the fixed ones (whose tolerance reads as nan)
+    from rodfem.post.verify import _adaptive, read
+    points = read(out / "workprecision.json")["points"]
+    assert sum(map(_adaptive, points)) == len([r for r in _csv(out / "workprecision.csv")
+                                               if r["tolerance"]]) > 0
     reach = data["reach"]
-    assert set(reach["seconds"]) == {f"direct, {s}" for s in schemes()}
+    assert set(reach["seconds"]) == {f"direct, {s}{a}" for s in schemes()
+                                     for a in ("", ", adaptive")}
     assert reach["paper_choice"] == "picard, paper" and reach["ratio"] is None  # not run
 
 

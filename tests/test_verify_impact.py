@@ -95,7 +95,7 @@ def test_work_precision_quick_impact(shared_dir):
 
     out = shared_dir / "wp"
     plan = dataclasses.replace(workprecision.default_plan(quick=True), scenes=(),
-                               impact_h=(2e-2, 1e-2))
+                               impact_h=(2e-2, 1e-2), tolerances=())
     data = workprecision.run_work_precision(out, plan, False, False, COMM)
     rows = _csv(out / "workprecision.csv")
     assert tuple(rows[0]) == workprecision.COLUMNS
@@ -151,3 +151,29 @@ def test_the_impact_measures_are_the_exact_solutions():
     fine = np.interp(x, result.x, result.u) - impact.displacement(x, 1.5)
     assert errors["u_T"] == pytest.approx(math.sqrt(np.mean(fine**2)), rel=1e-3)
     assert 0.0 < errors["u_T"] < 0.05 and math.isnan(errors["theta_T"])
+
+
+def test_work_precision_quick_impact_adaptive(shared_dir):
+    """The adaptive ladders of the impact, its own mass: h and the tolerance refined together,
+    the first step h, by the direct method; the L¹ error of u(1, ·) falls at every rung and is
+    the model's, each step counted with its own size."""
+    out = shared_dir / "wp"
+    plan = dataclasses.replace(workprecision.default_plan(quick=True), scenes=(),
+                               impact_h=(2e-2, 1e-2), impact_masses=(), tolerances=(1e-2, 1e-3))
+    data = workprecision.run_work_precision(out, plan, False, False, COMM)
+    rows = _csv(out / "workprecision.csv")
+    assert {r["mass"] for r in rows} == {workprecision.IMPACT_MASS}
+    ran = {}
+    for r in rows:
+        assert r["status"] == "complete", r
+        assert float(r["dt"]) == 1 / int(r["cells"]) and int(r["steps"]) > 0
+        ran.setdefault((r["scheme"], r["method"]), []).append(
+            (float(r["tolerance"]), float(r["u1_l1"])))
+    assert set(ran) == {(s, "direct") for s in schemes()}
+    for ladder in ran.values():
+        assert [t for t, _ in ladder] == [1e-2, 1e-3] and ladder[1][1] < ladder[0][1], ladder
+    assert ran["crank-nicolson", "direct"][-1][1] == pytest.approx(
+        _exact_l1(1e-2, **{"time.adaptive": "true", "time.tolerance": 1e-3}), rel=1e-12)
+    assert data["rejected"] == []
+    best = data["impact"]["finest"][data["impact"]["best"]]
+    assert best["tolerance"] == 1e-3 and best["dt"] == 1e-2

@@ -77,6 +77,13 @@ def _range(values: list[float], pad: float) -> tuple[float, float] | None:
     return float(v.min()) / pad, float(v.max()) * pad
 
 
+def _adaptive(point: dict) -> bool:
+    """Whether a work-precision point is of adaptive steps: it has a tolerance (a fixed-step
+    point's is null in the file, nan once read)."""
+    tolerance = point.get("tolerance")
+    return tolerance is not None and math.isfinite(tolerance)
+
+
 def _choices(points: list[dict]) -> list[tuple[str, str]]:
     return list(dict.fromkeys((p["method"], p["scheme"]) for p in points))
 
@@ -160,7 +167,8 @@ def orders_figure(data: dict, scene: str, path: Path) -> Path:
 
 
 def work_precision_figure(data: dict, scene: str, path: Path) -> Path:
-    """Error of u(1, ·) (max over [0, T]) against wall time, a line per (method, scheme)."""
+    """Error of u(1, ·) (max over [0, T]) against wall time, a line per (method, scheme), of
+    fixed steps or adaptive ones."""
     points = [p for p in data["points"] if p["scene"] == scene and p["status"] == "complete"]
     x_range = _range([p["seconds"] for p in points], 1.4)
     y_range = _range([p["u1_max"] for p in points], 2.0)
@@ -172,10 +180,12 @@ def work_precision_figure(data: dict, scene: str, path: Path) -> Path:
     chart = style.chart(f"{scene}, T = {data['end']:g}: error of u(1, ·) against wall time",
                         "wall time of the run (s): set-up + time loop", LABELS["u1_max"])
     style.use_font(chart.GetTitleProperties())
-    for i, (method, scheme) in enumerate(_choices(points)):
-        mine = [p for p in points if (p["method"], p["scheme"]) == (method, scheme)]
+    ladder = lambda p: (p["method"], p["scheme"], _adaptive(p))  # noqa: E731
+    for i, (method, scheme, adaptive) in enumerate(dict.fromkeys(map(ladder, points))):
+        mine = [p for p in points if ladder(p) == (method, scheme, adaptive)]
         _series(chart, np.array([p["seconds"] for p in mine]),
-                np.array([p["u1_max"] for p in mine]), i, method, scheme, f"{method}, {scheme}")
+                np.array([p["u1_max"] for p in mine]), i, method, scheme,
+                f"{method}, {scheme}" + (", adaptive" if adaptive else ""))
     if target and scene in data.get("target_scenes", []):
         chart.line(list(x_range), [target, target], color="black", width=2.0, style=":",
                    label=f"error {target:g}")
@@ -201,8 +211,8 @@ MASSES = ("lumped", "consistent", "redistributed", "redistributed-lumped", "disp
 
 def impact_work_precision_figure(data: dict, path: Path) -> Path:
     """The impact's error u(1, ·) in L¹(0, T) against its exact solution, against wall time, a
-    line per (mass, scheme, method): the colour the mass, the line style the scheme, the marker
-    the method."""
+    line per (mass, scheme, method): the colour the mass (adaptive steps a colour of their own),
+    the line style the scheme, the marker the method."""
     points = [p for p in data["points"] if p["scene"] == "impact" and p["status"] == "complete"]
     x_range = _range([p["seconds"] for p in points], 1.4)
     y_range = _range([p["u1_l1"] for p in points], 2.0)
@@ -218,13 +228,14 @@ def impact_work_precision_figure(data: dict, path: Path) -> Path:
                         LABELS["u1_l1"].replace("{ref}", "{exact}"))
     style.use_font(chart.GetTitleProperties())
     masses = list(data.get("plan", {}).get("impact_masses", MASSES))
-    choice = lambda p: (p["mass"], p["scheme"], p["method"])  # noqa: E731
-    for mass, scheme, method in dict.fromkeys(choice(p) for p in points):
-        mine = [p for p in points if choice(p) == (mass, scheme, method)]
-        colour = masses.index(mass) if mass in masses else len(masses)
+    choice = lambda p: (p["mass"], p["scheme"], p["method"], _adaptive(p))  # noqa: E731
+    for mass, scheme, method, adaptive in dict.fromkeys(choice(p) for p in points):
+        mine = [p for p in points if choice(p) == (mass, scheme, method, adaptive)]
+        colour = len(masses) + 1 if adaptive else \
+            masses.index(mass) if mass in masses else len(masses)
         _series(chart, np.array([p["seconds"] for p in mine]),
                 np.array([p["u1_l1"] for p in mine]), colour, method, scheme,
-                f"{mass}, {scheme}, {method}")
+                f"{mass}, {scheme}, {method}" + (", adaptive" if adaptive else ""))
     _log_axis(chart.x_axis, *x_range)
     _log_axis(chart.y_axis, *y_range)
     chart.GetLegend().SetVerticalAlignment(chart.GetLegend().BOTTOM)

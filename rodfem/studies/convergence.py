@@ -153,11 +153,19 @@ def rate(steps: Sequence[float], errors: Sequence[float]) -> float:
     return float(np.polyfit(np.log(s[keep]), np.log(e[keep]), 1)[0])
 
 
-def errors_against(run: RunResult, reference: RunResult) -> dict[str, float]:
-    """The measures (:data:`MEASURES`) of a run against a finer reference run."""
+def errors_against(run: RunResult, reference: RunResult,
+                   interpolated: bool = False) -> dict[str, float]:
+    """The measures (:data:`MEASURES`) of a run against a finer reference run. ``interpolated``:
+    the run's times need not be the reference's (an adaptive run's): u(1, ·) of the reference is
+    interpolated linearly to them, which adds at most Δt_ref² max|u_tt(1, ·)|/8."""
     t, u_1 = INDEX["t"], INDEX["u_1"]
-    u1_max, u1_l1, u1_l2 = time_errors(run.history[:, t], run.history[:, u_1],
-                                       reference.history[:, t], reference.history[:, u_1])
+    if interpolated:
+        e = run.history[:, u_1] - np.interp(run.history[:, t], reference.history[:, t],
+                                            reference.history[:, u_1])
+        u1_max, u1_l1, u1_l2 = time_norms(run.history[:, t], e)
+    else:
+        u1_max, u1_l1, u1_l2 = time_errors(run.history[:, t], run.history[:, u_1],
+                                           reference.history[:, t], reference.history[:, u_1])
     return {"u1_max": u1_max, "u1_l1": u1_l1, "u1_l2": u1_l2,
             "u_T": l2_difference(run.x, run.u, reference.x, reference.u),
             # Θ differs from θ by θ_A r, the same function for both runs (equal k)
@@ -176,6 +184,7 @@ class Point:
     us_per_step: float
     iterations_mean: float
     message: str = ""
+    steps: int = 0
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -211,7 +220,8 @@ def point(scene: Scene, errors: Callable[[RunResult], dict[str, float]], repeats
     return Point(cells=scene["mesh.cells"], dt=scene["time.dt"], status=result.status,
                  errors=errors(result) if complete else _nan_errors(), seconds=seconds,
                  us_per_step=s["us_per_step"], iterations_mean=s["iterations_mean"],
-                 message=" ".join(str(result.error).split()) if result.error else "")
+                 message=" ".join(str(result.error).split()) if result.error else "",
+                 steps=int(s.get("steps", 0)))
 
 
 def step(refined: str, cells: int, dt: float) -> float:

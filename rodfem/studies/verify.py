@@ -84,11 +84,13 @@ def scheme_overrides(scheme: str) -> list[str]:
     return [f"time.scheme={scheme}"] if "scheme" in SCHEMA["time"] else []
 
 
-def scene_at(key: str, cells: int, dt: float, end: float, method: str, scheme: str) -> Scene:
-    """One of :data:`SCENES` at the given sizes, method and time scheme (validated)."""
+def scene_at(key: str, cells: int, dt: float, end: float, method: str, scheme: str,
+             overrides=()) -> Scene:
+    """One of :data:`SCENES` at the given sizes, method and time scheme, and ``overrides``
+    (validated)."""
     base, extra = SCENES[key]
     return load(base, [*extra, f"mesh.cells={cells}", f"time.dt={dt!r}", f"time.end={end!r}",
-                       f"solver.method={method}", *scheme_overrides(scheme)])
+                       f"solver.method={method}", *scheme_overrides(scheme), *overrides])
 
 
 @dataclasses.dataclass(frozen=True)

@@ -17,6 +17,11 @@ falls alone), and its error is GetFEM's measure, the L¹ norm of u(1, ·) − u_
 steps. The choices the scene rejects (Crank–Nicolson with the rigid obstacle needs a
 redistributed mass; picard cannot solve the rigid obstacle) are reported as such, with the
 scene's reason.
+
+Beside each fixed-step ladder, an adaptive one (``time.adaptive = true``): the tolerances 1e-2 …
+1e-6, each on a mesh fine enough for its error (:data:`ADAPTIVE_CELLS`; the impact's h), from the
+first step 1e-3 (the impact's: h), with the impact's own mass, by the direct method. Its times
+are its own, so the paper scenes' reference is interpolated to them.
 """
 
 from __future__ import annotations
@@ -42,9 +47,17 @@ FILES = ("workprecision.csv", "workprecision.json")
 TARGET, TARGET_SCENE = 1e-3, "paper5"
 PAPER_CHOICE = ("picard", "paper")
 IMPACT_MEASURE = "u1_l1"  # GetFEM's: Σₙ Δt |Uⁿ(1) − u(1, tⁿ)|
-# verify's columns and the mass matrix of the run
+# verify's columns, the mass matrix of the run, and an adaptive run's tolerance (empty for fixed
+# steps, whose dt is the step; an adaptive run's is its first) and steps
 COLUMNS = (*ERROR_COLUMNS[:ERROR_COLUMNS.index("scheme") + 1], "mass",
-           *ERROR_COLUMNS[ERROR_COLUMNS.index("scheme") + 1:])
+           *ERROR_COLUMNS[ERROR_COLUMNS.index("scheme") + 1:ERROR_COLUMNS.index("dt") + 1],
+           "tolerance", "steps", *ERROR_COLUMNS[ERROR_COLUMNS.index("dt") + 1:])
+TOLERANCES = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
+# the adaptive ladders' meshes, a tolerance each (the last for any beyond): Crank–Nicolson's h
+# for about the same error, so that the time error is not hidden under the spatial one
+ADAPTIVE_CELLS = (25, 50, 100, 200, 400)
+FIRST_STEP = 1e-3
+IMPACT_MASS = "redistributed"  # the impact's own, for its adaptive ladders
 
 
 @dataclasses.dataclass(frozen=True)
@@ -64,6 +77,11 @@ class Plan:
     impact_end: float = 3.0
     impact_masses: tuple[str, ...] = MASSES
     impact_methods: tuple[str, ...] = METHODS
+    # the adaptive ladders (none if empty): the tolerances, the mesh of each, and the methods
+    # (the direct one: the methods give the same steps, and the fixed ladders show their costs)
+    tolerances: tuple[float, ...] = ()
+    adaptive_cells: tuple[int, ...] = ()
+    adaptive_methods: tuple[str, ...] = ("direct",)
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -89,51 +107,70 @@ def default_plan(quick: bool = False) -> Plan:
                    else ((8, 10), (16, 20), (32, 40)) for s in schemes()}
         return Plan(end=1.0, scenes=("paper1", "paper5"), ladders=ladders, reference=(128, 640),
                     reference_scheme=second, methods=("direct",), repeats=1,
-                    impact_h=(2e-2, 1e-2, 5e-3))
+                    impact_h=(2e-2, 1e-2, 5e-3), tolerances=TOLERANCES[:3],
+                    adaptive_cells=(8, 16, 32))
     ladders = {s: FIRST_ORDER if s == "paper" else SECOND_ORDER for s in schemes()}
     return Plan(end=8.0, scenes=("paper1", "paper5"), ladders=ladders, reference=(3200, 25600),
-                reference_scheme=second, impact_h=(1e-2, 5e-3, 2e-3, 1e-3))
+                reference_scheme=second, impact_h=(1e-2, 5e-3, 2e-3, 1e-3),
+                tolerances=TOLERANCES, adaptive_cells=ADAPTIVE_CELLS)
 
 
 @dataclasses.dataclass(frozen=True)
 class Task:
-    """One ladder: a scene with a (method, time scheme), and for the impact a mass."""
+    """One ladder: a scene with a (method, time scheme), and for the impact a mass; of fixed steps
+    or adaptive ones."""
 
     scene: str
     method: str
     scheme: str
     mass: str | None = None  # None: the scene's own
+    adaptive: bool = False
 
     def ladder(self, plan: Plan) -> list[tuple[int, float]]:
-        """(cells, Δt) of each rung."""
+        """(cells, Δt) of each rung; adaptive, (cells, tolerance)."""
+        if self.adaptive:
+            cells = [round(1.0 / h) for h in plan.impact_h] if self.scene == IMPACT \
+                else list(plan.adaptive_cells)
+            return [(cells[min(j, len(cells) - 1)], tolerance)
+                    for j, tolerance in enumerate(plan.tolerances)]
         if self.scene == IMPACT:
             return [(round(1.0 / h), 1.0 / round(1.0 / h)) for h in plan.impact_h]
         return [(cells, 1.0 / n) for cells, n in plan.ladders[self.scheme]]
 
-    def make(self, plan: Plan, cells: int, dt: float) -> Scene:
-        """The rung's scene (validated: a SceneError for a choice the scene rejects)."""
+    def make(self, plan: Plan, cells: int, size: float) -> Scene:
+        """The rung's scene, ``size`` its Δt or tolerance (validated: a SceneError for a choice
+        the scene rejects)."""
+        adaptive = ["time.adaptive=true", f"time.tolerance={size!r}"] if self.adaptive else []
         if self.scene == IMPACT:
             return impact.scene(1.0 / cells, end=plan.impact_end, overrides=[
                 f"discretisation.mass={self.mass}", f"time.scheme={self.scheme}",
-                f"solver.method={self.method}"])
-        return scene_at(self.scene, cells, dt, plan.end, self.method, self.scheme)
+                f"solver.method={self.method}", *adaptive])
+        return scene_at(self.scene, cells, FIRST_STEP if self.adaptive else size, plan.end,
+                        self.method, self.scheme, adaptive)
 
     def cost(self, plan: Plan) -> float:
         """Its work in cell-steps (an iterative method's step about thrice the direct one's)."""
         end = plan.impact_end if self.scene == IMPACT else plan.end
-        return sum(c * end / dt for c, dt in self.ladder(plan)) \
+        rungs = self.ladder(plan)  # an adaptive run's steps guessed as those of its first step
+        return sum(c * end / (FIRST_STEP if self.adaptive else size) for c, size in rungs) \
             * (1 if self.method == "direct" else 3)
 
     def name(self) -> str:
-        return ", ".join(x for x in (self.scene, self.mass, self.method, self.scheme) if x)
+        return ", ".join(x for x in (self.scene, self.mass, self.method, self.scheme,
+                                     "adaptive" if self.adaptive else "") if x)
 
 
 def tasks(plan: Plan) -> list[Task]:
-    """The paper scenes' ladders, then the impact's, mass by mass."""
+    """The paper scenes' ladders, then the impact's, mass by mass; then the adaptive ones."""
+    adaptive = bool(plan.tolerances)
     return [*(Task(scene, method, scheme) for scene in plan.scenes for scheme in plan.ladders
               for method in plan.methods),
             *(Task(IMPACT, method, scheme, mass) for mass in plan.impact_masses if plan.impact_h
-              for scheme in plan.ladders for method in plan.impact_methods)]
+              for scheme in plan.ladders for method in plan.impact_methods),
+            *(Task(scene, method, scheme, adaptive=True) for scene in plan.scenes if adaptive
+              for scheme in plan.ladders for method in plan.adaptive_methods),
+            *(Task(IMPACT, method, scheme, IMPACT_MASS, True) for scheme in plan.ladders
+              if adaptive and plan.impact_h for method in plan.adaptive_methods)]
 
 
 def _reference(scene: str, plan: Plan) -> tuple:
@@ -155,7 +192,7 @@ def _measure(task: Task, scene: Scene, references: dict):
     if task.scene == IMPACT:
         return impact_errors(scene)
     reference = references[task.scene][0]
-    return lambda run: cv.errors_against(run, reference)
+    return lambda run: cv.errors_against(run, reference, interpolated=task.adaptive)
 
 
 def sweep(plan: Plan, comm: MPI.Comm, report=None) -> tuple[list[dict], list[dict], dict] | None:
@@ -175,17 +212,19 @@ def sweep(plan: Plan, comm: MPI.Comm, report=None) -> tuple[list[dict], list[dic
             task.make(plan, *ladder[0])
         except SceneError as err:
             rejected.append({"scene": task.scene, "method": task.method, "scheme": task.scheme,
-                             "mass": task.mass, "message": str(err)})
+                             "mass": task.mass, "adaptive": task.adaptive,
+                             "message": str(err)})
             continue
         started = time.perf_counter()
-        for cells, dt in ladder:
-            scene = task.make(plan, cells, dt)
+        for cells, size in ladder:
+            scene = task.make(plan, cells, size)
             p = cv.point(scene, _measure(task, scene, references), plan.repeats, plan.budget)
             mine.append((index, {"scene": task.scene,
                                  "refined": TOGETHER if task.scene == IMPACT else "both",
                                  "method": task.method, "scheme": task.scheme,
                                  "mass": scene["discretisation.mass"], "cells": p.cells,
-                                 "dt": p.dt, "status": p.status, **p.errors,
+                                 "dt": p.dt, "tolerance": size if task.adaptive else None,
+                                 "steps": p.steps, "status": p.status, **p.errors,
                                  "seconds": p.seconds, "us_per_step": p.us_per_step,
                                  "iterations_mean": p.iterations_mean, "message": p.message}))
             stopped = p.status == "interrupted"
@@ -201,9 +240,10 @@ def sweep(plan: Plan, comm: MPI.Comm, report=None) -> tuple[list[dict], list[dic
         return None
     records = [r for _, r in sorted((pair for _, part, _ in gathered for pair in part),
                                     key=lambda p: p[0])]
-    order = {(t.scene, t.method, t.scheme, t.mass): i for i, t in enumerate(todo)}
+    order = {(t.scene, t.method, t.scheme, t.mass, t.adaptive): i for i, t in enumerate(todo)}
     rejected = sorted((r for _, _, part in gathered for r in part),
-                      key=lambda r: order[r["scene"], r["method"], r["scheme"], r["mass"]])
+                      key=lambda r: order[r["scene"], r["method"], r["scheme"], r["mass"],
+                                          r["adaptive"]])
     info = {s: {"cells": plan.reference[0], "dt": 1.0 / plan.reference[1],
                 "scheme": plan.reference_scheme, "seconds": references[s][1],
                 "u1_max_against_half_resolution": references[s][2]}
@@ -211,16 +251,23 @@ def sweep(plan: Plan, comm: MPI.Comm, report=None) -> tuple[list[dict], list[dic
     return records, rejected, info
 
 
+def choice(record: dict, *keys: str) -> str:
+    """A ladder's name in the summaries: its ``keys``' values, and "adaptive" for adaptive steps."""
+    return ", ".join([*(record[k] for k in keys), *(["adaptive"] if record.get("tolerance")
+                                                    else [])])
+
+
 def reach(records: list[dict], scene: str = TARGET_SCENE, target: float = TARGET) -> dict:
-    """For each (method, scheme) on ``scene``: the wall time at which u(1, ·)'s max error first
-    reaches ``target``; the fastest, and its ratio to the paper's choice (picard, paper)."""
+    """For each (method, scheme), fixed or adaptive, on ``scene``: the wall time at which
+    u(1, ·)'s max error first reaches ``target``; the fastest, and its ratio to the paper's
+    choice (picard, paper, fixed steps)."""
     times = {}
-    for method, scheme in dict.fromkeys((r["method"], r["scheme"]) for r in records
-                                        if r["scene"] == scene):
-        mine = [r for r in records if (r["scene"], r["method"], r["scheme"])
-                == (scene, method, scheme) and r["status"] == "complete"]
-        times[f"{method}, {scheme}"] = cv.time_to_reach([r["seconds"] for r in mine],
-                                                        [r["u1_max"] for r in mine], target)
+    for name in dict.fromkeys(choice(r, "method", "scheme") for r in records
+                              if r["scene"] == scene):
+        mine = [r for r in records if r["scene"] == scene and r["status"] == "complete"
+                and choice(r, "method", "scheme") == name]
+        times[name] = cv.time_to_reach([r["seconds"] for r in mine],
+                                       [r["u1_max"] for r in mine], target)
     reached = {k: v for k, v in times.items() if math.isfinite(v)}
     fastest = min(reached, key=reached.get) if reached else None
     paper = times.get(", ".join(PAPER_CHOICE), math.nan)
@@ -232,17 +279,23 @@ def reach(records: list[dict], scene: str = TARGET_SCENE, target: float = TARGET
 
 
 def impact_summary(records: list[dict], rejected: list[dict]) -> dict | None:
-    """The impact's choices at their finest h = Δt: the error (:data:`IMPACT_MEASURE`) and wall
-    time of each (mass, scheme, method), the most accurate, and how many the scene rejects."""
+    """The impact's choices at their finest h = Δt (adaptive: h and tolerance): the error
+    (:data:`IMPACT_MEASURE`) and wall time of each (mass, scheme, method), fixed or adaptive, the
+    most accurate, and how many the scene rejects."""
     mine = [r for r in records if r["scene"] == IMPACT]
     if not mine:
         return None
     finest = {}
     for r in mine:
-        key = f"{r['mass']}, {r['scheme']}, {r['method']}"
+        key = choice(r, "mass", "scheme", "method")
+        fineness = (r["dt"], r.get("tolerance") or 0.0)
         if r["status"] == "complete" and math.isfinite(r[IMPACT_MEASURE]) \
-                and (key not in finest or r["dt"] < finest[key]["dt"]):
-            finest[key] = {"dt": r["dt"], "error": r[IMPACT_MEASURE], "seconds": r["seconds"]}
+                and (key not in finest or fineness < finest[key]["fineness"]):
+            finest[key] = {"dt": r["dt"], "tolerance": r.get("tolerance"),
+                           "error": r[IMPACT_MEASURE], "seconds": r["seconds"],
+                           "steps": r["steps"], "fineness": fineness}
+    for kept in finest.values():
+        del kept["fineness"]
     best = min(finest, key=lambda k: finest[k]["error"]) if finest else None
     return {"measure": IMPACT_MEASURE, "against": "exact solution (rodfem.model.impact)",
             "finest": finest, "best": best,
@@ -291,7 +344,9 @@ def summary_lines(data: dict, out: Path) -> list[str]:
     i = data.get("impact")
     if i and i["best"]:
         b = i["finest"][i["best"]]
+        at = f"h = {b['dt']:g}, tolerance {b['tolerance']:g}" if b.get("tolerance") \
+            else f"h = Δt = {b['dt']:g}"
         lines.append(f"impact: smallest L¹ error of u(1,·) against the exact solution at "
-                     f"h = Δt = {b['dt']:g}: {b['error']:.3g} ({i['best']}, {b['seconds']:.3g} s); "
+                     f"{at}: {b['error']:.3g} ({i['best']}, {b['seconds']:.3g} s); "
                      f"{i['rejected']} choices the scene rejects")
     return lines

@@ -12,8 +12,9 @@ their difference gives the step's local error (Milne's device), for any step siz
   −h(h + h₁)(h + h₁ + h₂)y'''/6, so the local error is (h³/12)/(h³/12 + h(h + h₁)(h + h₁ + h₂)/6)
   times (y − ŷ).
 
-Where there are not yet q + 1 states since the start or the last contact event (whose impact
-breaks the smoothness the extrapolation needs), the step is taken again as two half steps, and
+Where there are not yet q + 1 states since the start (for the paper's scheme, the end of its
+first step, taken at Δt₀ without an estimate: :mod:`.stepper`) or the last contact event
+(whose impact breaks the smoothness the extrapolation needs), the step is taken again as two half steps, and
 the local error of the halves is their difference from the whole step over 2^q − 1 (Richardson);
 the two halves are kept, which gives the next step its three states.
 
@@ -21,11 +22,13 @@ the two halves are kept, which gives the next step its three states.
 the velocity and in U, each over the largest max-norm that field has had in the run so far, and
 the error in p over the largest contact force or strain (a stress) so far (not for the rigid
 obstacle's multiplier at a node with mass, an impulse at an impact); the step's error is the
-largest of these over ``time.tolerance``, and a step is accepted where it is at most 1.
+largest of these over ``time.tolerance`` (0, the default: 5e-5 for the paper's scheme, 1e-3 for
+Crank–Nicolson's, :data:`rodfem.scene.schema.TOLERANCES`), and a step is accepted where it is at
+most 1.
 
 **The next step** follows Gustafsson's PI controller (Hairer & Wanner, IV.8; Söderlind):
 h_new = h · 0.9 · err^(−0.7/k) · err_prev^(0.4/k), k = q + 1, within [h/5, 5h]; after a rejected
-step h · 0.9 · err^(−1/k), no larger than h. Step sizes are rounded down to a ladder Δt₀ 2^(j/4)
+step h · 0.9 · err^(−1/k), no larger than 0.9 h. Step sizes are rounded down to a ladder Δt₀ 2^(j/4)
 (Δt₀ the first step): the steps repeat, and so do their factorisations.
 """
 
