@@ -272,7 +272,7 @@ BAD = [
      "time.dt: the first step must be <= time.dt_max = 0.0005, got 0.001"),
     (["time.adaptive=1"], "time.adaptive: must be true or false, got 1"),
     (['time.adaptive="true"'], 'time.adaptive: must be true or false, got "true"'),
-    (["time.adaptive=true", "time.tolerance=0"], "time.tolerance: must be > 0"),
+    (["time.adaptive=true", "time.tolerance=-1e-3"], "time.tolerance: must be >= 0"),
 ]
 
 
