@@ -109,7 +109,6 @@ def timed_simulate(scene):
 def instrumented(scene):
     """One adaptive run with the stepper's parts timed: the timers, the stepper's counts, the
     methods made (size, seconds, on the ladder) and the events' (evaluations, seconds)."""
-    from rodfem.run import simulate
     from rodfem.solver.adaptive import stepper as module
     from rodfem.solver.adaptive.control import rung
     from rodfem.solver.compiled.loop import CompiledLoop

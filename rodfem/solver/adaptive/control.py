@@ -12,11 +12,12 @@ their difference gives the step's local error (Milne's device), for any step siz
   −h(h + h₁)(h + h₁ + h₂)y'''/6, so the local error is (h³/12)/(h³/12 + h(h + h₁)(h + h₁ + h₂)/6)
   times (y − ŷ).
 
-Where there are not yet q + 1 states since the start (for the paper's scheme, the end of its
-first step, taken at Δt₀ without an estimate: :mod:`.stepper`) or the last contact event
-(whose impact breaks the smoothness the extrapolation needs), the step is taken again as two half steps, and
-the local error of the halves is their difference from the whole step over 2^q − 1 (Richardson);
-the two halves are kept, which gives the next step its three states.
+Where there are not yet q + 1 states since the start (for the paper's scheme with a massless
+end, the end of its first step, taken at Δt₀ without an estimate: :mod:`.stepper`) or the last
+contact event (whose impact breaks the smoothness the extrapolation needs), the step is taken
+again as two half steps, and the local error of the halves is their difference from the whole
+step over 2^q − 1 (Richardson); the two halves are kept, which gives the next step its three
+states.
 
 **The norm** is relative, per field: the root mean square over the nodes of the error in Θ, in
 the velocity and in U, each over the largest max-norm that field has had in the run so far, and
