@@ -7,6 +7,7 @@ import tempfile
 import uuid
 from pathlib import Path
 
+import numpy as np
 import pytest
 from mpi4py import MPI
 
@@ -63,3 +64,18 @@ def history_rows(out) -> "np.ndarray":  # noqa: F821 (NumPy is the reader's)
     from rodfem.output.readers import HISTORY, read_history
 
     return read_history(Path(out) / HISTORY, empty=True).rows
+
+
+def run_history(scene, **overrides):
+    """The history of a complete run of ``scene`` with ``overrides``."""
+    result = rodfem.simulate(scene, overrides)
+    assert result.status == "complete", result.summary
+    return result.history
+
+
+def dense(A) -> np.ndarray:
+    """A PETSc matrix as a NumPy array (a copy: the dense matrix's own memory goes with it)."""
+    D = A.convert("dense")
+    array = D.getDenseArray().copy()
+    D.destroy()
+    return array

@@ -26,7 +26,6 @@ import pytest
 from reference_steps import simulate_steps
 
 import rodfem.scene
-from conftest import COMM
 from rodfem.output.readers import HISTORY, read_history
 
 TOL = 1e-9
@@ -259,36 +258,3 @@ def test_manufactured_error_falls_with_the_tolerance(simulate, scheme, exponent)
         measured = np.log(values[0] / values[-1]) / np.log(tolerances[0] / tolerances[-1])
         assert abs(measured - exponent) <= 0.15, f"{field}: {values}, exponent {measured:.2f}"
 
-
-BAD = [
-    (["time.tolerance=1e-4"],
-     "time.tolerance: applies only with time.adaptive = true, not false"),
-    (["time.dt_min=1e-6"], "time.dt_min: applies only with time.adaptive = true"),
-    (["time.adaptive=true", "time.dt_min=0.01"],
-     "time.dt: the first step must be >= time.dt_min = 0.01, got 0.001"),
-    (["time.adaptive=true", "time.dt_min=0.002", "time.dt_max=0.0005"],
-     "time.dt_max: must be 0 or >= time.dt_min = 0.002, got 0.0005"),
-    (["time.adaptive=true", "time.dt_max=0.0005", "time.dt_min=0.0001"],
-     "time.dt: the first step must be <= time.dt_max = 0.0005, got 0.001"),
-    (["time.adaptive=1"], "time.adaptive: must be true or false, got 1"),
-    (['time.adaptive="true"'], 'time.adaptive: must be true or false, got "true"'),
-    (["time.adaptive=true", "time.tolerance=-1e-3"], "time.tolerance: must be >= 0"),
-]
-
-
-@pytest.mark.parametrize("overrides, message", BAD, ids=[" ".join(c[0]) for c in BAD])
-def test_bad_adaptive_settings(overrides, message, shared_dir, capsys):
-    from rodfem.cli import main
-
-    out = shared_dir / "out"
-    argv = ["run", "paper1", "--out", str(out)]
-    for item in overrides:
-        argv += ["--set", item]
-    code = main(argv)
-    err = capsys.readouterr().err
-    assert code == 2
-    if COMM.rank == 0:
-        assert message in err, err
-        assert err.count("\n") == 1 and err.startswith("rodfem: error: ")
-        assert "Traceback" not in err
-    assert not out.exists()

@@ -11,6 +11,7 @@ import ufl
 
 import forms.copetti as copetti
 import rodfem
+from conftest import dense, run_history
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.model import impact
 from rodfem.scene import SceneError
@@ -23,19 +24,6 @@ MASS = {"discretisation.mass": "dispersion-free", "time.scheme": "crank-nicolson
 # the trapezoidal one, so the comparison is on the safe side.
 GETFEM_SINGULAR = {1.0: {1e-2: 3.71e-3, 2e-3: 1.57e-3, 1e-3: 1.07e-3, 5e-4: 7.15e-4},
                    0.5: {1e-2: 3.56e-3, 2e-3: 1.08e-3, 1e-3: 7.66e-4, 5e-4: 5.25e-4}}
-
-
-def run(scene, **overrides):
-    result = rodfem.simulate(scene, overrides)
-    assert result.status == "complete", result.summary
-    return result.history
-
-
-def dense(A) -> np.ndarray:
-    D = A.convert("dense")
-    array = D.getDenseArray().copy()
-    D.destroy()
-    return array
 
 
 def inertia(cells: int, dt: float) -> np.ndarray:
@@ -104,7 +92,7 @@ def test_impact_beats_getfems_singular_mass(h, ratio):
     the redistributed mass's energy ((1 − h)/8, the end's cell unstrained from the start) and its
     contact stress (−1/2 within 1e-4 in the contact window, no flicker)."""
     cells = round(1.0 / h)
-    history = run("impact", **MASS, **{"mesh.cells": cells, "time.dt": ratio / cells})
+    history = run_history("impact", **MASS, **{"mesh.cells": cells, "time.dt": ratio / cells})
     errors = impact.errors(history)
     assert errors["u1_l1"] < GETFEM_SINGULAR[ratio][h]
     assert abs(history["energy"][-1] - (1.0 - h) / 8) <= 3 * (3 * cells) * EPS
@@ -118,7 +106,7 @@ def test_crank_nicolson_conserves_the_energy(obstacle, ratio):
     bound of tests/test_redistributed.py: ~3n terms of the energy's size, each rounded), the end
     never past the rigid wall."""
     cells = 100
-    history = run("impact", **MASS, **obstacle, **{"mesh.cells": cells,
+    history = run_history("impact", **MASS, **obstacle, **{"mesh.cells": cells,
                                                    "time.dt": ratio / cells})
     energy = np.asarray(history["energy"])
     assert np.max(np.abs(np.diff(energy))) <= 3 * (3 * cells) * EPS * energy[0]
@@ -141,7 +129,8 @@ def test_the_methods_agree(case):
     rigid = scene == "impact" and "obstacle.kind" not in overrides
     methods = ("direct", "newton") if rigid else ("direct", "newton", "picard")
     names = ("u_1", "u_half", "ut_1", "sigma_1", "energy")
-    histories = {m: run(scene, **MASS, **overrides, **{"solver.method": m}) for m in methods}
+    histories = {m: run_history(scene, **MASS, **overrides, **{"solver.method": m})
+                 for m in methods}
     for method in methods[1:]:
         for name in names:
             reference = np.asarray(histories["direct"][name])

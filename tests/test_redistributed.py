@@ -15,7 +15,7 @@ import ufl
 
 import forms.copetti as copetti
 import rodfem
-from conftest import serial_only
+from conftest import dense, run_history, serial_only
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.model import impact
 
@@ -25,20 +25,6 @@ CN = {"time.scheme": "crank-nicolson"}
 # redistributed mass), L1-in-time error of u(1, ·) at h = Δt, measured with GetFEM: the figures
 # to be at least as accurate as.
 GETFEM_REDISTRIBUTED = {1e-2: 9.3e-3, 1e-3: 1.7e-3, 5e-4: 1.0e-3}
-
-
-def run(scene, **overrides):
-    result = rodfem.simulate(scene, overrides)
-    assert result.status == "complete", result.summary
-    return result.history
-
-
-def dense(A) -> np.ndarray:
-    """A PETSc matrix as a NumPy array (a copy: the dense matrix's own memory goes with it)."""
-    D = A.convert("dense")
-    array = D.getDenseArray().copy()
-    D.destroy()
-    return array
 
 
 def columns(history, names=("u_1", "u_half", "ut_1", "sigma_1", "energy")):
@@ -92,7 +78,7 @@ def test_crank_nicolson_conserves_the_energy_of_an_impact(mass, obstacle):
     the end never past the wall. The energy is a sum of ~3n terms of its size, each rounded: its
     evaluation alone moves it by up to about 3n ε E; the step's own rounding is of that order."""
     cells = 100
-    history = run("impact", **{"mesh.cells": cells, "time.dt": 1.0 / cells,
+    history = run_history("impact", **{"mesh.cells": cells, "time.dt": 1.0 / cells,
                                "discretisation.mass": mass, **obstacle})
     energy = np.asarray(history["energy"])
     assert np.max(np.abs(np.diff(energy))) <= 3 * (3 * cells) * EPS * energy[0]
@@ -112,7 +98,7 @@ def test_with_viscosity_or_heat_the_energy_never_grows(scheme, dissipation):
     heat equation coupled too: Eⁿ ≤ Eⁿ⁻¹ up to the round-off above, both schemes (the paper's
     from n = 2, Remark 4.4)."""
     cells = 100
-    history = run("impact", **{"mesh.cells": cells, "time.dt": 1.0 / cells,
+    history = run_history("impact", **{"mesh.cells": cells, "time.dt": 1.0 / cells,
                                "time.scheme": scheme, **dissipation})
     energy = np.asarray(history["energy"])
     assert np.max(np.diff(energy[1:])) <= 3 * (3 * cells) * EPS * energy[0]
@@ -127,7 +113,7 @@ def test_the_methods_agree(scene, scheme, mass):
     column's size (Picard's tolerance is 1e-10), with both schemes and the end eliminated or
     not."""
     overrides = {"time.end": 2.0, "discretisation.mass": mass, **scheme}
-    histories = {m: columns(run(scene, **overrides, **{"solver.method": m}))
+    histories = {m: columns(run_history(scene, **overrides, **{"solver.method": m}))
                  for m in ("direct", "newton", "picard")}
     for method in ("newton", "picard"):
         for name, reference in histories["direct"].items():
@@ -141,8 +127,8 @@ def test_newton_solves_the_eliminated_end(obstacle):
     """The impact with Newton (the rigid obstacle in series with the last cell is an elastic
     law there: no variational inequality) as the direct method does."""
     overrides = {"mesh.cells": 100, "time.dt": 0.01, **obstacle}
-    direct = columns(run("impact", **overrides))
-    newton = columns(run("impact", **overrides, **{"solver.method": "newton"}))
+    direct = columns(run_history("impact", **overrides))
+    newton = columns(run_history("impact", **overrides, **{"solver.method": "newton"}))
     for name, reference in direct.items():
         assert np.max(np.abs(newton[name] - reference)) <= 1e-11 * np.max(np.abs(reference))
 
@@ -151,7 +137,7 @@ def test_impact_beats_getfem_at_h_1e_3():
     """h = Δt = 1e-3, the built-in scene as it is (Crank–Nicolson, redistributed mass, rigid):
     the L1 error of u(1, ·) below GetFEM's redistributed Newmark, the energy within 1e-3 of 1/8,
     the contact stress −1/2 to 1e-3 at every step of the window and without flicker."""
-    errors = impact.errors(run("impact"))
+    errors = impact.errors(run_history("impact"))
     assert errors["u1_l1"] < GETFEM_REDISTRIBUTED[1e-3]
     assert errors["energy_T"] < 1e-3
     assert errors["stress"] < 1e-3
@@ -162,7 +148,7 @@ def test_impact_order_in_h_equal_dt():
     """The observed order of the L1 error as the least-squares slope over h = Δt: below GetFEM's
     error at every h, and an order above the paper scheme's 0.53 (measured 0.69)."""
     h = np.array([1e-2, 2e-3, 1e-3, 5e-4])
-    errors = np.array([impact.errors(run(impact.scene(s)))["u1_l1"] for s in h])
+    errors = np.array([impact.errors(run_history(impact.scene(s)))["u1_l1"] for s in h])
     order = np.polyfit(np.log(h), np.log(errors), 1)[0]
     assert 0.6 < order < 1.0
     for s, e in zip(h, errors, strict=True):
@@ -175,8 +161,8 @@ def test_a_stiff_obstacle_tends_to_the_rigid_one(scheme):
     """ε = 1e-8 with the redistributed mass: within 1e-5 of the rigid obstacle's history (the
     end's place differs by ε σ, the step's force by O(ε))."""
     overrides = {"mesh.cells": 200, "time.dt": 0.005, "time.scheme": scheme}
-    rigid = columns(run("impact", **overrides), ("u_1", "u_half", "sigma_1", "energy"))
-    stiff = columns(run("impact", **overrides, **{"obstacle.kind": "elastic",
+    rigid = columns(run_history("impact", **overrides), ("u_1", "u_half", "sigma_1", "energy"))
+    stiff = columns(run_history("impact", **overrides, **{"obstacle.kind": "elastic",
                                                    "obstacle.epsilon": 1e-8}),
                     ("u_1", "u_half", "sigma_1", "energy"))
     for name, reference in rigid.items():
