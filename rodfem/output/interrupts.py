@@ -22,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import sys
 import threading
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGUSR1)
@@ -53,6 +54,19 @@ def _main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
 
 
+def _unraisable(unraisable) -> None:
+    """A stop signal whose :class:`Interrupted` was raised where Python cannot pass it on (a
+    destructor or a finaliser, a library's logging in one, during start-up) is not printed as an
+    ignored exception: it is noted (:func:`signal_received`), and the command stops at its next
+    check, the time loop's first step at the latest."""
+    if isinstance(unraisable.exc_value, Interrupted):
+        return
+    _printed(unraisable)
+
+
+_printed = sys.unraisablehook
+
+
 def install() -> None:
     """Route the stop signals to rodfem for the rest of the process. PETSc installs handlers of
     its own (SIGHUP and SIGTERM call MPI_Abort) unless told not to: this tells it, so call it
@@ -60,6 +74,7 @@ def install() -> None:
     options = os.environ.get("PETSC_OPTIONS", "")
     if "-no_signal_handler" not in options.split():
         os.environ["PETSC_OPTIONS"] = f"{options} -no_signal_handler".strip()
+    sys.unraisablehook = _unraisable
     if _main_thread():
         for s in SIGNALS:
             if signal.getsignal(s) is not signal.SIG_IGN:  # nohup, or a shell's & job: kept
