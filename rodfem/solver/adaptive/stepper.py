@@ -100,10 +100,16 @@ class AdaptiveStepper:
         return np.append(self.home.values, self.home.pressure)
 
     def contact(self) -> float:
-        """> 0 while the obstacle pushes (the module's docstring)."""
-        u_1 = float(self.home.values[-1])
+        """> 0 while the obstacle pushes (the module's docstring): of the home state."""
+        return self._contact(float(self.home.values[-1]), self.home.pressure)
+
+    def contact_of(self, state: dict) -> float:
+        """:meth:`contact` of a saved state."""
+        return self._contact(float(state["state"][-1]), float(state["pressure"][0]))
+
+    def _contact(self, u_1: float, p: float) -> float:
         if self.rigid:
-            return u_1 - self.gap + self.cell * self.home.pressure
+            return u_1 - self.gap + self.cell * p
         return u_1 - self.gap
 
     def start(self) -> None:
@@ -204,11 +210,6 @@ class AdaptiveStepper:
                 return True
         self._reject(h, start, error)
         return False
-
-    def contact_of(self, state: dict) -> float:
-        """:meth:`contact` of a saved state."""
-        u_1, p = float(state["state"][-1]), float(state["pressure"][0])
-        return u_1 - self.gap + (self.cell * p if self.rigid else 0.0)
 
     def _accept(self, steps, error, restart: bool = False) -> None:
         """Record the accepted step(s) (``restart``: the estimate starts again after them, as
