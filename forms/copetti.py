@@ -3,8 +3,10 @@
 The rod is I = (0, 1) with P1 elements; S_E holds the P1 functions that vanish at x = 0. The
 unknowns are the shifted temperature Θ = θ + θ_A r, r(x) = c x − 1, c = k/(k + 1) (Remark 2.2),
 and the displacement U. With the obstacle at a temperature θ_O the shift is the whole lifting
-L = −θ_A r + θ_O s, s(x) = c x, the constant law's steady temperature: Θ = θ − L. Every function below takes UFL arguments, coefficients and constants and
-returns a UFL form or expression; nothing but ufl is imported, so the same functions feed dolfinx's
+L = −θ_A r + θ_O s, s(x) = c x, the constant law's steady temperature: Θ = θ − L.
+
+Every function below takes UFL arguments, coefficients and constants and returns a UFL form or
+expression; nothing but ufl is imported, so the same functions feed dolfinx's
 JIT at run time and ``ffcx`` ahead of time.
 
 Measures are passed in, because the scheme's L2 products (·,·) and the point x = 1 are choices of

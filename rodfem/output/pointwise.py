@@ -177,11 +177,12 @@ class Probe:
         return θ, cells
 
     def maps(self) -> dict[str, np.ndarray]:
-        """The coefficients of θ and the cell fields, read off their expressions: with θ_A = θ_O
-        = 0 they are linear in (Θ, D, U), so setting one part to 1 on every third node (no cell sees
-        two of them) gives, cell by cell, the coefficient of its left or right node; θ₀, σ₀ and
-        q₀ are the fields of s = 0 with the scene's θ_A and θ_O. Each cell field's linear part is a table
-        of a row per cell: the weights of its two nodes in each part (:class:`CellMap`)."""
+        """The coefficients of θ and the cell fields, read off their expressions: with
+        θ_A = θ_O = 0 they are linear in (Θ, D, U), so setting one part to 1 on every third node
+        (no cell sees two of them) gives, cell by cell, the coefficient of its left or right
+        node; θ₀, σ₀ and q₀ are the fields of s = 0 with the scene's θ_A and θ_O. Each cell
+        field's linear part is a table of a row per cell: the weights of its two nodes in each
+        part (:class:`CellMap`)."""
         n = self.n
         zero = [np.zeros(n) for _ in PARTS]
         theta0, cell0 = self.evaluate(zero)
