@@ -39,6 +39,20 @@ CASES = [
     (["initial.u1=x # c"], "contains '#'"),
     (["time.dt=10"], "time.dt: must be <= time.end"),
     (["time.end=1.0005"], "time.end: must be a whole number of steps"),
+    (["heat_exchange.k1=2"], 'heat_exchange.k1: applies only with heat_exchange.law = '
+     '"pressure" or "gap", not "constant"'),
+    (["heat_exchange.law=gap", "heat_exchange.exponent=2"], "heat_exchange.exponent: applies "
+     'only with heat_exchange.law = "pressure", not "gap"'),
+    (["heat_exchange.law=pressure", "heat_exchange.length=2"], "heat_exchange.length: applies "
+     'only with heat_exchange.law = "gap", not "pressure"'),
+    (["heat_exchange.law=pressure", "heat_exchange.k1=-1"], "heat_exchange.k1: must be >= 0"),
+    (["heat_exchange.law=pressure", "heat_exchange.exponent=0"],
+     "heat_exchange.exponent: must be > 0"),
+    (["heat_exchange.law=gap", "heat_exchange.length=-0.1"], "heat_exchange.length: must be > 0"),
+    (["heat_exchange.law=gap", "heat_exchange.k1=inf"], "heat_exchange.k1: must be finite"),
+    (["obstacle.temperature=nan"], "obstacle.temperature: must be finite"),
+    (["heat_exchange.law=radiation"], 'heat_exchange.law: must be one of "constant" | '
+     '"pressure" | "gap"'),
     (["model.zetta=1"], "unknown key 'model.zetta': did you mean 'zeta'?"),
     (["obstacle.gapp=1"], "did you mean 'gap'?"),
     (["modle.zeta=1"], "unknown section 'modle': did you mean 'model'?"),
