@@ -91,6 +91,18 @@ class ErrorNorm:
     force: bool = True  # whether p is measured (not an impulse: see AdaptiveStepper)
     _last: tuple | None = dataclasses.field(default=None, repr=False)  # (y, maxima, grown)
 
+    def seed(self, y: np.ndarray, thermal_stress: float) -> None:
+        """Count the initial state y; for a rod at rest (U = D = 0), whose displacement and
+        velocity grow from nothing (any relative error of their first step is of order one),
+        count also the displacement and the speed that a stress S = ``thermal_stress`` (a θ
+        over the temperatures the rod starts at and is held at) makes: S over the rod's unit
+        length, and S/√b."""
+        self.maxima = self.grown(y)
+        n = self.nodes
+        if thermal_stress > 0.0 and not np.any(y[n:3 * n]):
+            self.maxima[2] = max(self.maxima[2], thermal_stress)
+            self.maxima[3] = max(self.maxima[3], thermal_stress)
+
     def sizes(self, y: np.ndarray) -> np.ndarray:
         n = self.nodes
         y = self._without_end(y)

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rodfem.model.robin import temperature
 from rodfem.scene.schema import TOLERANCES
 from rodfem.solver.adaptive.control import Controller, ErrorNorm, extrapolate, milne, rung
 from rodfem.solver.errors import NotConverged, PicardNotConverged
@@ -115,7 +116,16 @@ class AdaptiveStepper:
     def start(self) -> None:
         """Count the initial state (call once, at n = 0, before the first step)."""
         self.past_t, self.past = [self.t], [self.y()]
-        self.norm.maxima = self.norm.grown(self.past[0])
+        self.norm.seed(self.past[0], self._thermal_stress())
+
+    def _thermal_stress(self) -> float:
+        """a max |θ| over the initial temperature, θ_A and the obstacle's θ_O: the stress the
+        temperature can put in a rod at rest (ErrorNorm.seed)."""
+        scene, home = self.home.disc.scene, self.home
+        x = home.disc.nodes.x
+        theta = temperature(home.values[:self.nodes], x, scene)
+        return scene["model.a"] * float(max(np.abs(theta).max(), abs(scene["model.theta_A"]),
+                                            abs(scene["obstacle.temperature"])))
 
     # -- one step of a given size ------------------------------------------------------------
 
