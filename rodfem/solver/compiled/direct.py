@@ -14,7 +14,8 @@ the operators off a method and its history once and runs ``steps`` steps in ``di
 
 with a heat exchange that depends on the contact (``method.exchange_step``) p and the flux φ
 from exchange.h's scalar equation and [ΔΘⁿ; ΔUⁿ] = z + p q + φ q_h (q_h =
-``method.heat_response``), and for each new state the raw row of :data:`rodfem.solver.record.RAW` (record.h), which
+``method.heat_response``), and for each new state the raw row of
+:data:`rodfem.solver.record.RAW` (record.h), which
 :meth:`rodfem.output.history.History.take` turns into rows of ``history.h5`` as it does the
 PETSc loop's.
 
@@ -47,8 +48,8 @@ test in the two.
 **What it does not do.** The paper scheme's first step with inertia (n = 0 → 1,
 :meth:`Method._first_step`) is left to ``method.advance()``; sources are refused at
 construction. A step whose exchange equation is not shown to have one root stops the loop at the
-step before it, with :class:`~rodfem.solver.errors.NoUniqueStep`. The loop is rank-local, as the state is (every rank holds all of it and computes
-the same rows).
+step before it, with :class:`~rodfem.solver.errors.NoUniqueStep`. The loop is rank-local, as the
+state is (every rank holds all of it and computes the same rows).
 
 **Building.** direct.c is compiled with cffi on first use and cached (:mod:`.build`);
 :func:`available` says whether it could be built and loaded (else the caller keeps the PETSc
