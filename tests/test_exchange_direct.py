@@ -243,6 +243,11 @@ def test_eliminated_end_takes_the_heat_through_its_settled_place():
         zero.advance()
         constant.advance()
     np.testing.assert_array_equal(zero.values, constant.values)
+    zero, constant = (rodfem.simulate(rodfem.scene.load("paper1", [
+        "solver.method=direct", "time.end=1", "time.scheme=crank-nicolson", *HOT, *ELIMINATED,
+        'output.history=["theta_1", "heat_flux_1"]', *extra])).history
+        for extra in (("heat_exchange.law=pressure", "heat_exchange.k1=0"), ()))
+    np.testing.assert_array_equal(zero, constant)  # the compiled loop's eliminated end too
 
 
 def test_heat_flux_column_is_the_steps_flux(monkeypatch):
