@@ -19,6 +19,7 @@ import weakref
 import numpy as np
 
 from rodfem.model.contact import LinearLaw, PowerLaw, RigidObstacle
+from rodfem.model.exchange import ConstantLaw, GapLaw, PressureLaw
 from rodfem.solver.record import RAW
 
 # What a loop reads off a history's energy, by the history's Energy: the same for every loop of
@@ -47,10 +48,13 @@ def end_supported(method) -> bool:
 def check_library(lib) -> None:
     """The C side agrees with the Python tables: the raw row's slots (record.h against
     rodfem.solver.record.RAW) and the contact laws' codes (contact.h against
-    rodfem.model.contact). RuntimeError otherwise."""
+    rodfem.model.contact, and exchange.h against rodfem.model.exchange). RuntimeError otherwise."""
     expected = {f"RAW_{slot.name.upper()}": i for i, slot in enumerate(RAW)}
     expected["RAW_SLOTS"] = len(RAW)
     expected.update(RC_LINEAR=LinearLaw.code, RC_POWER=PowerLaw.code, RC_RIGID=RigidObstacle.code)
+    if hasattr(lib, "RX_CONSTANT"):  # the loops with the heat exchange (exchange.h)
+        expected.update(RX_CONSTANT=ConstantLaw.code, RX_PRESSURE=PressureLaw.code,
+                        RX_GAP=GapLaw.code)
     wrong = {name: (getattr(lib, name, None), value) for name, value in expected.items()
              if getattr(lib, name, None) != value}
     if wrong:
