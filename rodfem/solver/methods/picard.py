@@ -68,9 +68,10 @@ class PicardMethod(Method):
             1.0 + w * q * v.getValue(self.last))
         dtheta.axpy(-flux, v)
 
-    def _end_displacement(self, y: float, pressure: float) -> float:
+    def _end_displacement(self, y: float) -> float:
         """U(1) of an iterate whose end (its free position, if eliminated) is at y."""
-        return y if self.massless is None else self.massless.displacement(y, pressure)
+        end = self.massless
+        return y if end is None else end.displacement(y, end.law.force(y))
 
     def _step(self) -> None:
         h_step, m_step, rhs = self._heat_step, self._momentum_step, self._rhs
@@ -108,7 +109,7 @@ class PicardMethod(Method):
             deepest = max(deepest, y)
             pressure = self.time_scheme.contact_force(law, y, u_last)
             if variable:
-                q = self.exchange_extra(self._end_displacement(y, pressure), c_end, pressure)
+                q = self.exchange_extra(self._end_displacement(y), c_end, pressure)
             if not coupled and pressure == last_pressure and q == q_used:
                 # The same loads as the last iteration: this iterate would equal the last one.
                 iteration, increment = iteration - 1, 0.0
