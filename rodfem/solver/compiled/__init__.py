@@ -2,8 +2,8 @@
 the same algebra as the PETSc loops to round-off (Picard: the same iterations at every step).
 
 ``direct.py`` + ``direct.c`` and ``picard.py`` + ``picard.c`` are the two loops, on the base
-class of ``loop.py``; ``contact.h`` (the contact laws) and ``record.h`` (the raw history row)
-are shared by both; ``build.py`` compiles and caches them. :func:`compiled_loop` picks the loop a
+class of ``loop.py``; ``contact.h`` (the contact laws), ``exchange.h`` (the heat-exchange laws)
+and ``record.h`` (the raw history row) are shared by both; ``build.py`` compiles and caches them. :func:`compiled_loop` picks the loop a
 run can use.
 """
 
@@ -34,8 +34,7 @@ def compiled_loop(method, history, compress: bool = True):
         return None
     if method.name == "direct":
         from rodfem.solver.compiled import direct as module
-    elif (method.name == "picard" and method.coupled and not method.law.rigid
-          and not method.exchange.variable):
+    elif method.name == "picard" and method.coupled and not method.law.rigid:
         from rodfem.solver.compiled import picard as module
     else:
         return None

@@ -1,5 +1,6 @@
 """What both compiled time loops share: the base class that a method's loop derives from, the
-checks of the C side against the Python tables, and the tables of distinct coefficient rows.
+checks of the C side against the Python tables (the contact laws, the heat-exchange laws, the raw
+row), and the tables of distinct coefficient rows.
 
 A loop is built on a :class:`~rodfem.solver.methods.base.Method` and the run's
 :class:`~rodfem.output.history.History`, reading only their public attributes: the state
@@ -20,6 +21,9 @@ import numpy as np
 
 from rodfem.model.contact import LinearLaw, PowerLaw, RigidObstacle
 from rodfem.solver.record import RAW
+
+# The heat-exchange laws' codes in exchange.h (rodfem.model.exchange, by name)
+EXCHANGE_CODES = {"constant": 0, "pressure": 1, "gap": 2}
 
 # What a loop reads off a history's energy, by the history's Energy: the same for every loop of
 # a run (an adaptive run makes one for each step size; its energy rows are the home step's).
@@ -51,6 +55,8 @@ def check_library(lib) -> None:
     expected = {f"RAW_{slot.name.upper()}": i for i, slot in enumerate(RAW)}
     expected["RAW_SLOTS"] = len(RAW)
     expected.update(RC_LINEAR=LinearLaw.code, RC_POWER=PowerLaw.code, RC_RIGID=RigidObstacle.code)
+    if hasattr(lib, "RX_CONSTANT"):  # a loop with exchange.h
+        expected.update({f"RX_{name.upper()}": code for name, code in EXCHANGE_CODES.items()})
     wrong = {name: (getattr(lib, name, None), value) for name, value in expected.items()
              if getattr(lib, name, None) != value}
     if wrong:
@@ -110,6 +116,17 @@ class CompiledLoop:
         target.law = law.code
         target.gradient = int(method.time_scheme.gradient_contact and not law.rigid)
         target.gap, target.epsilon, target.exponent = law.gap, law.epsilon, law.exponent
+
+    @staticmethod
+    def set_exchange(target, method) -> None:
+        """Fill exchange.h's rx_exchange from the method's heat-exchange law, time scheme and
+        offset."""
+        law = method.exchange
+        target.law = EXCHANGE_CODES[law.name]
+        target.k1 = law.k1
+        target.exponent = getattr(law, "exponent", 1.0)
+        target.gap, target.length = getattr(law, "gap", 0.0), getattr(law, "length", 1.0)
+        target.weight, target.offset = method.time_scheme.weight, method.offset
 
     def set_end(self, target, lib) -> None:
         """Fill contact.h's rc_end: the end with its mass, without it (a redistributed mass), or

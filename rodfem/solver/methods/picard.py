@@ -60,13 +60,17 @@ class PicardMethod(Method):
     def _exchanged(self, dtheta: PETSc.Vec, q: float, theta_end: float) -> None:
         """ΔΘ = z − φ v in place of z (the module's docstring): the heat step with the exchange
         w q^{l−1} (Θ(1) + offset) at x = 1, Θⁿ⁻¹(1) + offset = ``theta_end``."""
-        if self._unit_response is None:
-            self._unit_response = self.heat.A.createVecRight()
-            self.solve_heat(self.contact_load, self._unit_response)
-        v, w = self._unit_response, self.time_scheme.weight
+        v, w = self.unit_response(), self.time_scheme.weight
         flux = q * (theta_end + w * dtheta.getValue(self.last)) / (
             1.0 + w * q * v.getValue(self.last))
         dtheta.axpy(-flux, v)
+
+    def unit_response(self) -> PETSc.Vec:
+        """v = A_h⁻¹ e: the heat step's response to a unit flux at x = 1 (made on first use)."""
+        if self._unit_response is None:
+            self._unit_response = self.heat.A.createVecRight()
+            self.solve_heat(self.contact_load, self._unit_response)
+        return self._unit_response
 
     def _end_displacement(self, y: float) -> float:
         """U(1) of an iterate whose end (its free position, if eliminated) is at y."""
