@@ -20,10 +20,8 @@ import weakref
 import numpy as np
 
 from rodfem.model.contact import LinearLaw, PowerLaw, RigidObstacle
+from rodfem.model.exchange import ConstantLaw, GapLaw, PressureLaw
 from rodfem.solver.record import RAW
-
-# The heat-exchange laws' codes in exchange.h (rodfem.model.exchange, by name)
-EXCHANGE_CODES = {"constant": 0, "pressure": 1, "gap": 2}
 
 # What a loop reads off a history's energy, by the history's Energy: the same for every loop of
 # a run (an adaptive run makes one for each step size; its energy rows are the home step's).
@@ -43,20 +41,22 @@ def end_supported(method) -> bool:
     """Whether the compiled loops do the method's end x = 1: with its mass, without it, or
     eliminated (:mod:`rodfem.solver.methods.massless`) with the linear law or the rigid obstacle,
     whose series with the last cell is the linear law and whose settled end is in closed form
-    (contact.h's rc_end_settle). The power law in series (``InSeries``) is not."""
+    (contact.h's rc_end_settle). The power law in series (``InSeries``) is not, nor an eliminated
+    end with a heat exchange that depends on the contact (its flux waits for the settled end)."""
     end = method.massless
-    return end is None or isinstance(end.law, LinearLaw)
+    return end is None or (isinstance(end.law, LinearLaw) and not method.exchange.variable)
 
 
 def check_library(lib) -> None:
     """The C side agrees with the Python tables: the raw row's slots (record.h against
     rodfem.solver.record.RAW) and the contact laws' codes (contact.h against
-    rodfem.model.contact). RuntimeError otherwise."""
+    rodfem.model.contact, and exchange.h against rodfem.model.exchange). RuntimeError otherwise."""
     expected = {f"RAW_{slot.name.upper()}": i for i, slot in enumerate(RAW)}
     expected["RAW_SLOTS"] = len(RAW)
     expected.update(RC_LINEAR=LinearLaw.code, RC_POWER=PowerLaw.code, RC_RIGID=RigidObstacle.code)
-    if hasattr(lib, "RX_CONSTANT"):  # a loop with exchange.h
-        expected.update({f"RX_{name.upper()}": code for name, code in EXCHANGE_CODES.items()})
+    if hasattr(lib, "RX_CONSTANT"):  # the loops with the heat exchange (exchange.h)
+        expected.update(RX_CONSTANT=ConstantLaw.code, RX_PRESSURE=PressureLaw.code,
+                        RX_GAP=GapLaw.code)
     wrong = {name: (getattr(lib, name, None), value) for name, value in expected.items()
              if getattr(lib, name, None) != value}
     if wrong:
@@ -122,7 +122,7 @@ class CompiledLoop:
         """Fill exchange.h's rx_exchange from the method's heat-exchange law, time scheme and
         offset."""
         law = method.exchange
-        target.law = EXCHANGE_CODES[law.name]
+        target.law = law.code
         target.k1 = law.k1
         target.exponent = getattr(law, "exponent", 1.0)
         target.gap, target.length = getattr(law, "gap", 0.0), getattr(law, "length", 1.0)

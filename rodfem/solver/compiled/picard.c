@@ -229,7 +229,8 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
             /* the exchange's flux phi of the heat step without it, z; T' = z - phi v */
             double z1 = gH[n - 1], phi = 0.0;
             if (variable) {
-                const double qx = rx_step_extra(&P->exchange, c + V[n - 1], c, force);
+                const double qx = rx_extra(&P->exchange, rx_place(&P->exchange, c + V[n - 1], c),
+                                           force);
                 if (qx != 0.0)
                     phi = qx * (theta_end + weight * z1) / (1.0 + weight * qx * v[n - 1]);
             }
