@@ -28,6 +28,7 @@ from conftest import COMM, history_rows
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.model.exchange import GapLaw, PressureLaw
 from rodfem.output.history import History
+from rodfem.solver.compiled import compiled_loop as compiled_loop_of
 from rodfem.solver.compiled import loop as compiled_loop
 from rodfem.solver.compiled import picard as picard_kernel
 from rodfem.solver.methods.newton import NewtonMethod
@@ -224,18 +225,21 @@ def test_compiled_picard_loop_as_petsc_loop(law, scheme, mass):
     assert np.abs(compiled.values - petsc.values).max() <= tol * np.abs(petsc.values).max()
 
 
-def test_compiled_loop_takes_a_variable_exchange():
-    values = overrides("gap", "picard", "paper")
+@pytest.mark.parametrize("law", LAWS)
+def test_compiled_loop_takes_a_variable_exchange(monkeypatch, law):
+    """A run picks the compiled Picard loop with a variable exchange: the PETSc loop's
+    iterations at every step, its history to round-off."""
+    values = overrides(law, "picard", "crank-nicolson")
     scene = rodfem.scene.load("paper1", [f"{k}={v}" for k, v in values.items()
                                          if not k.startswith("output.")])
     disc = Discretisation(scene, COMM)
-    method = PicardMethod(disc)
-    import os
-
-    os.environ["RODFEM_KERNEL"] = "1"  # restored by the fixture's monkeypatch
-    from rodfem.solver.compiled import compiled_loop as choose
-
-    assert isinstance(choose(method, History(disc)), picard_kernel.PicardKernel)
+    petsc = history(values)
+    monkeypatch.setenv("RODFEM_KERNEL", "1")
+    assert isinstance(compiled_loop_of(PicardMethod(disc), History(disc)),
+                      picard_kernel.PicardKernel)
+    compiled = history(values)
+    np.testing.assert_array_equal(compiled[:, 6], petsc[:, 6])
+    assert relative(compiled, petsc).max() <= 64 * EPS * scene.steps
 
 
 @pytest.mark.parametrize("law", LAWS)
