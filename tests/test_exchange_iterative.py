@@ -264,8 +264,11 @@ def test_newton_converges_quadratically(law):
 
 
 @pytest.mark.skipif(COMM.size == 1, reason="compares the ranks' run with one rank's")
-@pytest.mark.parametrize("method", ["picard", "newton"])
+@pytest.mark.parametrize("method", ["picard", "newton", "compiled"])
 @pytest.mark.parametrize("law", LAWS)
-def test_ranks_as_serial(law, method):
+def test_ranks_as_serial(monkeypatch, law, method):
+    if method == "compiled":
+        monkeypatch.setenv("RODFEM_KERNEL", "1")
+        method = "picard"
     values = overrides(law, method, "crank-nicolson", **{"time.end": 0.5})
     np.testing.assert_array_equal(history(values, COMM), history(values, MPI.COMM_SELF))
