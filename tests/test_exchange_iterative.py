@@ -15,16 +15,23 @@ The scene: paper1 for t ≤ 1 (690 steps in contact) with the rod at θ_A = 0 an
 * Newton's Jacobian has the exchange's derivatives: from a zero first guess in contact a step
   takes at most three iterations, the first reducing ‖F‖ by 1e5 and more (1e6 measured; 1e3
   without the derivative in U(1), which then takes an iteration more).
+* A stopped run resumes to the uninterrupted run, bit for bit.
 * Under ``mpirun -n 2`` the runs on the world's ranks are those on one rank's, bit for bit.
 """
+
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 from mpi4py import MPI
+from test_resume import assert_same_run
 
 import rodfem
 import rodfem.scene
-from conftest import COMM, history_rows
+from conftest import COMM, history_rows, serial_only
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.model.exchange import GapLaw, PressureLaw
 from rodfem.output.history import History
@@ -272,3 +279,26 @@ def test_ranks_as_serial(monkeypatch, law, method):
         method = "picard"
     values = overrides(law, method, "crank-nicolson", **{"time.end": 0.5})
     np.testing.assert_array_equal(history(values, COMM), history(values, MPI.COMM_SELF))
+
+
+@serial_only
+@pytest.mark.parametrize("method", ["picard", "newton", "compiled"])
+def test_resumes_to_the_same_run(tmp_path, method):
+    """A run to t = 0.5 resumed to t = 1 is the run to t = 1 (history, fields, summary)."""
+    env = {**os.environ, "RODFEM_KERNEL": "1" if method == "compiled" else "0"}
+    method = "picard" if method == "compiled" else method
+    scene = ["paper1", "--quiet", "--set", "output.every=50", "--set", "output.checkpoint=0",
+             *(f"--set={k}={v}" for k, v in overrides("pressure", method, "paper").items()
+               if not k.startswith(("output.", "time.end")))]
+    command = [str(Path(sys.executable).with_name("rodfem"))]
+
+    def rodfem(*args):
+        done = subprocess.run([*command, *map(str, args)], env=env, capture_output=True,
+                              text=True, timeout=600)
+        assert done.returncode == 0, done.stderr
+
+    short, long = tmp_path / "short", tmp_path / "long"
+    rodfem("run", *scene, "--set", "time.end=0.5", "--out", short)
+    rodfem("resume", short, "--set", "time.end=1", "--quiet")
+    rodfem("run", *scene, "--set", "time.end=1", "--out", long)
+    assert_same_run(short, long)
