@@ -56,6 +56,7 @@ class PicardMethod(Method):
         self._fixed, (self._heat_step, self._momentum_step) = stacked(2, disc.nodes.size)
         self._rhs = new()
         self._unit_response = None  # v = A_h⁻¹ e, for a variable exchange (on first use)
+        self._heat_free = new()  # with a = 0 and a variable exchange, ΔΘⁿ without it
 
     def _exchanged(self, dtheta: PETSc.Vec, q: float, theta_end: float) -> None:
         """ΔΘ = z − φ v in place of z (the module's docstring): the heat step with the exchange
@@ -103,7 +104,8 @@ class PicardMethod(Method):
             N_theta.multAdd(dtheta_it, m_step, m_step)
             dtheta_new.zeroEntries()
             if variable:  # ΔΘⁿ without the exchange, z, from which each new q's is made
-                heat_free = dtheta_it.copy()
+                heat_free = self._heat_free
+                dtheta_it.copy(heat_free)
         increment, pressure = np.inf, np.nan
         deepest = u_last  # the largest U(1) of the iterates, for the failure's message
         for iteration in range(1, self.max_iterations + 1):  # noqa: B007 (used after the loop)
