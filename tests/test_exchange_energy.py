@@ -1,0 +1,91 @@
+"""The energy of the model with the obstacle at a temperature θ_O and heat exchanged through the
+contact (docs/model.md, "The energy"), and where the constant law settles.
+
+With the lifting L = −θ_A r + θ_O s, Ê = ½(‖Θ‖² + b‖δ‖² + ‖U_x‖²) + φ(U(1)) − a (L, U_x) obeys,
+step by step (n ≥ 2 in the paper's scheme, n ≥ 1 in Crank–Nicolson's),
+
+    Êⁿ − Êⁿ⁻¹ ≤ Δt qⁿ² offset²/(4 (1 + k + qⁿ)) ≤ Δt qⁿ offset²/4,
+
+offset = (θ_A − θ_O)/(k + 1), qⁿ ≥ 0 the exchange the contact adds to k at the step: so Ê never
+rises under the constant law (q = 0), whatever θ_O.
+
+Round-off: the history's Êⁿ is one dot product of 3n ≈ 750 terms (rodfem.output.history.Energy),
+each at most the size of the largest part of Ê; rounding errors of such a sum add up like a
+random walk, √(3n) ≈ 27 ulps, so the difference of two consecutive values is below 64 ulps of
+max |Ê| (the bound tests/test_energy.py takes for the paper's scenes).
+"""
+
+import numpy as np
+import pytest
+
+import rodfem
+
+EPS = np.finfo(float).eps
+SCHEMES = ("paper", "crank-nicolson")
+
+
+def _increments(history, scheme: str) -> np.ndarray:
+    """Êⁿ − Êⁿ⁻¹ over the steps where the estimate holds: n ≥ 2 in the paper's scheme (its first
+    step is U¹ = U⁰ + Δt P u₁, not (3.2)), every step in Crank–Nicolson's."""
+    increase = np.diff(history["energy"])
+    return increase[1:] if scheme == "paper" else increase
+
+
+@pytest.mark.parametrize("theta_O", [25.0, -10.0], ids=["hot", "cold"])
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_energy_never_rises_under_the_constant_law_at_any_obstacle_temperature(scheme, theta_O):
+    """paper1 (contact and separation) with a hot obstacle, which pushes the rod into contact,
+    and a cold one, which pulls it away."""
+    result = rodfem.simulate("paper1", {"obstacle.temperature": theta_O, "time.scheme": scheme})
+    assert result.status == "complete"
+    energy = result.history["energy"]
+    increase = _increments(result.history, scheme)
+    assert increase.max() <= 64 * EPS * np.abs(energy).max()
+    assert result.summary["energy_non_increasing"]
+    # The estimate is not met by accident: θ_O changes the energy (its −a θ_O (s, U_x)) and the
+    # motion (in contact with the hot obstacle at the end, not with the cold one).
+    plain = rodfem.simulate("paper1", {"time.scheme": scheme, "time.end": 0.5})
+    assert abs(energy[500] - plain.history["energy"][500]) > 1e-3
+    assert (result.history["u_1"][-1] > 0.1) == (theta_O > 0)
+
+
+def _steady(x, a, theta_A, theta_O, k, epsilon, gap):
+    """θ and u at the points x, and σ, of the constant law's steady state.
+
+    At rest θ_xx = 0 with θ(0) = θ_A and −θ_x(1) = k (θ(1) − θ_O): θ is the lifting
+    L = θ_A (1 − c x) + θ_O c x, c = k/(k + 1) (Θ = 0), so θ(1) = (θ_A + k θ_O)/(1 + k).
+    σ_x = 0: σ = u_x − a θ is a constant, and with u(0) = 0, u = σ x + a ∫₀ˣ L,
+    u(1) = σ + U*, U* = a (θ_A (1 − c/2) + θ_O c/2). Apart (U* ≤ g) σ = 0; in contact
+    σ = −(u(1) − g)/ε, so σ = (g − U*)/(1 + ε)."""
+    c = k / (k + 1.0)
+    free = a * (theta_A * (1.0 - c / 2.0) + theta_O * c / 2.0)
+    sigma = (gap - free) / (1.0 + epsilon) if free > gap else 0.0
+    theta = theta_A * (1.0 - c * x) + theta_O * c * x
+    u = sigma * x + a * (theta_A * (x - c * x**2 / 2.0) + theta_O * c * x**2 / 2.0)
+    return theta, u, sigma
+
+
+@pytest.mark.parametrize("theta_O, in_contact", [(25.0, True), (-10.0, False)],
+                         ids=["hot", "cold"])
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_constant_law_settles_at_its_steady_state(scheme, theta_O, in_contact):
+    """paper2 (ζ = 1) settles within 1e-6 by T = 25, as with the obstacle at 0
+    (tests/test_stationary.py). P1 is exact at the nodes for this 1D problem, so the scheme's
+    steady state is the model's at the nodes."""
+    result = rodfem.simulate("paper2", {
+        "obstacle.temperature": theta_O, "mesh.cells": 50, "time.dt": 0.005, "time.end": 25,
+        "time.scheme": scheme, "time.adaptive": False, "output.every": 5000,
+        "output.history": ["theta_1", "heat_flux_1"]})
+    assert result.status == "complete"
+    fields = result.fields
+    theta, u, sigma = _steady(fields.x, 0.017, 10.0, theta_O, 1.0, 0.01, 0.1)
+    assert (sigma < 0) == in_contact
+    assert fields.t[-1] == 25.0
+    assert np.max(np.abs(fields.theta[-1] - theta)) < 1e-6
+    assert np.max(np.abs(fields.u[-1] - u)) < 1e-6
+    last = result.history[-1]
+    assert abs(last["theta_1"] - theta[-1]) < 1e-6
+    assert abs(last["u_1"] - u[-1]) < 1e-6
+    assert abs(last["sigma_1"] - sigma) < 1e-6
+    # the heat the rod gives the obstacle, k (θ(1) − θ_O), is what crosses the rod, θ_A − θ(1)
+    assert abs(last["heat_flux_1"] - (10.0 - theta[-1])) < 1e-6
