@@ -191,21 +191,58 @@ def test_zero_k1_is_the_constant_law_bit_for_bit(simulate, monkeypatch, law, sch
         np.testing.assert_array_equal(a[key], b[key], err_msg=str(key))
 
 
-@pytest.mark.parametrize("scheme", SCHEMES)
-@pytest.mark.parametrize("law", LAWS)
-def test_compiled_loop_takes_the_petsc_loops_steps(law, scheme):
+# The end x = 1 without mass, eliminated (Crank–Nicolson, ζ = 0, a = 0: the exchange does not
+# move the rod), and the rigid obstacle
+ELIMINATED = ("discretisation.mass=redistributed", "model.zeta=0", "model.a=0")
+RIGID = ("obstacle.kind=rigid",)
+KERNEL_CASES = [(law, scheme, ()) for law in LAWS for scheme in SCHEMES]
+KERNEL_CASES += [(law, "crank-nicolson", ELIMINATED) for law in LAWS]
+KERNEL_CASES += [(law, "paper", RIGID) for law in LAWS]
+
+
+@pytest.mark.parametrize("law,scheme,overrides", KERNEL_CASES,
+                         ids=lambda v: " ".join(v) or "-" if isinstance(v, tuple) else v)
+def test_compiled_loop_takes_the_petsc_loops_steps(law, scheme, overrides):
     """The compiled loop with the exchange against the PETSc loop: tests/test_kernel.py's bound,
     64 eps per step relative to each column's scale; and the exchange changed the run."""
     from test_kernel import PER_STEP, column_scales, relative, run_both
 
-    overrides = (*LAWS[law], *HOT)
-    steps, petsc, rows, compiled, rows_k, _ = run_both("paper1", scheme, overrides)
+    steps, petsc, rows, compiled, rows_k, _ = run_both("paper1", scheme,
+                                                       (*LAWS[law], *HOT, *overrides))
+    assert petsc.exchange_step is not None
     tol = PER_STEP * steps
     assert np.all(relative(rows_k, rows, column_scales(rows, petsc)) <= tol)
     scale = np.abs(petsc.values).max()
     assert np.abs(compiled.values - petsc.values).max() <= tol * scale
-    constant = run_both("paper1", scheme, HOT)[2]
-    assert np.abs(constant[:, 1] - rows[:, 1]).max() > 1e-6  # u(1) moved by the exchange
+    constant = run_both("paper1", scheme, (*HOT, *overrides))[3]
+    n = petsc.disc.nodes.size
+    assert np.abs(constant.values[:n] - petsc.values[:n]).max() > 1e-6  # the exchange heated
+
+
+def test_eliminated_end_takes_the_heat_through_its_settled_place():
+    """The eliminated end (a = 0): the heat rows of each step hold with the gap law's q at the
+    settled Uⁿ(1) (Crank–Nicolson's midpoint with Uⁿ⁻¹(1)); and k₁ = 0 is the constant law."""
+    method = method_of("paper1", "time.end=0.6", "time.scheme=crank-nicolson", *LAWS["gap"],
+                       *HOT, *ELIMINATED)
+    assert method.massless is not None
+    n, checked = method.disc.nodes.size, 0
+    for step in range(600):
+        old, c = method.values.copy(), method.values[-1]
+        method.advance()
+        if step % 60 == 0:
+            method._x_values[:n] = method.values[:n] - old[:n]  # the heat increment taken
+            residual, scale, q, _, _ = step_residuals(method, old, c)
+            scale[:n] += _abs_product(method.heat.A, np.abs(method.values[:n]) + np.abs(old[:n]))
+            assert q > 0.0 and np.all(np.abs(residual[:n]) <= 64 * EPS * scale[:n])
+            checked += 1
+    assert checked == 10
+    zero, constant = (method_of("paper1", "time.end=0.2", "time.scheme=crank-nicolson", *HOT,
+                                *ELIMINATED, *extra)
+                      for extra in (("heat_exchange.law=gap", "heat_exchange.k1=0"), ()))
+    for _ in range(200):
+        zero.advance()
+        constant.advance()
+    np.testing.assert_array_equal(zero.values, constant.values)
 
 
 def test_heat_flux_column_is_the_steps_flux(monkeypatch):
