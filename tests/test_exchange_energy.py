@@ -1,5 +1,6 @@
 """The energy of the model with the obstacle at a temperature θ_O and heat exchanged through the
-contact (docs/model.md, "The energy"), and where the constant law settles.
+contact (docs/model.md, "The energy with a warm obstacle and heat exchanged through the
+contact"), and where the constant law settles.
 
 With the lifting L = −θ_A r + θ_O s, Ê = ½(‖Θ‖² + b‖δ‖² + ‖U_x‖²) + φ(U(1)) − a (L, U_x) obeys,
 step by step (n ≥ 2 in the paper's scheme, n ≥ 1 in Crank–Nicolson's),
@@ -7,7 +8,8 @@ step by step (n ≥ 2 in the paper's scheme, n ≥ 1 in Crank–Nicolson's),
     Êⁿ − Êⁿ⁻¹ ≤ Δt qⁿ² offset²/(4 (1 + k + qⁿ)) ≤ Δt qⁿ offset²/4,
 
 offset = (θ_A − θ_O)/(k + 1), qⁿ ≥ 0 the exchange the contact adds to k at the step: so Ê never
-rises under the constant law (q = 0), whatever θ_O.
+rises under the constant law (q = 0), whatever θ_O, and under the others only where θ(1) lies
+between L(1) and θ_O, with heat entering the rod or leaving it.
 
 Round-off: the history's Êⁿ is one dot product of 3n ≈ 750 terms (rodfem.output.history.Energy),
 each at most the size of the largest part of Ê; rounding errors of such a sum add up like a
