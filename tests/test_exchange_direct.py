@@ -361,3 +361,45 @@ def test_two_ranks_write_the_serial_history(tmp_path, law, scheme):
     parallel = rodfem_run(tmp_path, 2, *args)
     assert serial.shape[0] == 1001
     np.testing.assert_array_equal(parallel, serial)
+
+
+# Heat from a hot obstacle that the contact conducts the better the harder it is pressed, and a
+# rod that expands much with it (a = 0.1): at Δt = 1e-3 the step's equation decreases in u(1)
+# once in contact (w + α N k₁ < 0 against 1 + w/ε), and a root is not unique
+UNSTABLE = ("obstacle.temperature=100", "heat_exchange.law=pressure", "heat_exchange.k1=1000",
+            "model.a=0.1", "solver.method=direct", "time.end=0.3")
+
+
+@pytest.mark.parametrize("kernel", ["1", "0"], ids=["compiled", "petsc"])
+def test_a_step_without_a_unique_root_fails_clearly(monkeypatch, kernel):
+    """The run stops at that step with a message that says why and what helps, both loops at the
+    same step; a quarter of the step takes it, and adaptive steps retry it smaller."""
+    monkeypatch.setenv("RODFEM_KERNEL", kernel)
+    failed = rodfem.simulate(rodfem.scene.load("paper1", list(UNSTABLE)))
+    assert failed.status == "failed"
+    error = failed.summary["error"]
+    assert error.startswith("step 127 (t = 0.127) cannot be taken")
+    assert "may have several roots" in error and "smaller time.dt" in error
+    assert len(failed.history) == 127  # steps 0 .. 126: the state stays at the last step solved
+    smaller = rodfem.simulate(rodfem.scene.load("paper1", [*UNSTABLE, "time.dt=2.5e-4"]))
+    assert smaller.status == "complete"
+    adaptive = rodfem.simulate(rodfem.scene.load("paper1", [*UNSTABLE, "time.adaptive=true"]))
+    assert adaptive.status == "complete"
+    assert np.diff(adaptive.history["t"]).min() < 1e-3 / 4
+
+
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_adaptive_steps_with_the_exchange(scheme):
+    """Adaptive steps: k₁ = 0 is the constant law bit for bit (the same steps), and the gap law's
+    run ends near a fixed fine step's (the tolerance's accuracy)."""
+    common = ["solver.method=direct", "time.adaptive=true", f"time.scheme={scheme}",
+              "time.end=1", *HOT, 'output.history=["theta_1", "heat_flux_1"]']
+    constant, zero = (rodfem.simulate(rodfem.scene.load("paper1", [*common, *extra])).history
+                      for extra in ((), ("heat_exchange.law=gap", "heat_exchange.k1=0")))
+    np.testing.assert_array_equal(zero, constant)
+    gap = rodfem.simulate(rodfem.scene.load("paper1", [*common, *LAWS["gap"]])).history
+    fine = rodfem.simulate(rodfem.scene.load("paper1", [*common[:1], *common[2:], *LAWS["gap"],
+                                                        "time.dt=1e-4"])).history
+    assert abs(gap["theta_1"][-1] - constant["theta_1"][-1]) > 1e-3  # the exchange heated
+    assert abs(gap["theta_1"][-1] - fine["theta_1"][-1]) < 1e-2 * abs(fine["theta_1"][-1])
+    assert abs(gap["u_1"][-1] - fine["u_1"][-1]) < 1e-2 * np.abs(fine["u_1"]).max()
