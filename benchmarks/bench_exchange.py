@@ -78,9 +78,9 @@ def main() -> None:
     for scheme in ("paper", "crank-nicolson"):
         base = None
         for law, overrides in LAWS.items():
-            scene = rodfem.scene.load("paper1", ["solver.method=direct", "time.end=2",
-                                                 f"time.scheme={scheme}", f"mesh.cells={args.cells}",
-                                                 "obstacle.temperature=10", *overrides])
+            scene = rodfem.scene.load("paper1", [
+                "solver.method=direct", "time.end=2", f"time.scheme={scheme}",
+                f"mesh.cells={args.cells}", "obstacle.temperature=10", *overrides])
             petsc, compiled = timed(scene, args.repeats)
             base = base or (petsc, compiled)
             print(f"{scheme:16} {law:9} {petsc:14.2f} {petsc / base[0]:10.2f} "

@@ -34,6 +34,12 @@ MAX_ITERATIONS = 4000  # as rodfem.model.contact.law's monotone_root
 MAX_DOUBLINGS = 2100  # enough to reach a double's range from any start
 
 
+# What a step says where it is not shown to have one root (the compiled loop says the same)
+NOT_UNIQUE = ("the step's equation for u(1) with the heat exchange may have several roots (heat "
+              "that enters through the contact can push the end on as much as its motion holds "
+              "it back); a smaller time.dt makes its root unique")
+
+
 class NoUniqueRoot(ValueError):
     """The step's equation G(t) = 0 has no root shown to be unique: the detail says why."""
 
@@ -163,10 +169,7 @@ class ExchangeStep:
         if not self.w - c_p > 0.0:
             margin += (self.w - c_p) * self.force_slope(y_hi, c)
         if not margin > 0.0:
-            raise NoUniqueRoot(
-                f"the step's equation for u(1) in [{y_lo:.6g}, {y_hi:.6g}] may have several "
-                "roots (the heat the contact exchanges moves the end against its motion by as "
-                "much as the motion itself; a smaller time.dt makes the step's root unique)")
+            raise NoUniqueRoot(NOT_UNIQUE)
 
     def force_slope(self, y_hi: float, c: float) -> float:
         """A bound of the step's contact force's slope in y = Uⁿ(1) up to y_hi: φ''(y_hi), and
