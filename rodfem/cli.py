@@ -214,7 +214,7 @@ def _verify(sub) -> None:
         "verify",
         help="observed orders of convergence in h and Δt",
         description="Run ladders of refinements in h and in Δt of paper1, paper5 and a scene "
-        "without contact (and the manufactured solution), for every method and time scheme, "
+        "without contact (and the manufactured solutions), for every method and time scheme, "
         "against finer reference runs, and a ladder refining h = Δt together of the impact "
         "benchmark against its exact solution, and write orders.csv, orders.md, orders.json, "
         "errors.csv and figures/orders_<scene>.png (log-log, with reference slopes). Ladders are "
@@ -241,7 +241,8 @@ def _verify(sub) -> None:
                              help=f"small ladders, {methods} (seconds)")
         _progress(command, "a line per ladder even when output is not a terminal")
     verify.add_argument("--scenes", help="scenes to verify (default: paper1, paper5, no-contact, "
-                        "manufactured where rodfem.model.manufactured exists, and impact)")
+                        "manufactured and manufactured-gap where rodfem.model.manufactured exists, "
+                        "and impact)")
 
 
 COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.resume,

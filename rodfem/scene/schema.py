@@ -193,7 +193,8 @@ TOP_LEVEL = {"description": ""}
 MODEL_NAMES = tuple(SCHEMA["model"])
 SOURCE_NAMES = (*MODEL_NAMES, "t")
 BUILTIN = tuple(f"paper{i}" for i in range(1, 6))  # the paper's experiments
-# Other built-in scenes: a manufactured solution without contact, with sources
-# (rodfem.model.manufactured), an impact on a rigid wall with an exact solution
-# (rodfem.model.impact), and paper1 against a stiff obstacle, for its peak contact stress
-EXTRA = ("manufactured", "impact", "stiff")
+# Other built-in scenes: manufactured solutions without contact, with sources
+# (rodfem.model.manufactured; one with a gap-dependent heat exchange), an impact on a rigid wall
+# with an exact solution (rodfem.model.impact), and paper1 against a stiff obstacle, for its peak
+# contact stress
+EXTRA = ("manufactured", "manufactured-gap", "impact", "stiff")

@@ -113,10 +113,11 @@ def summary_lines(data: dict, out: Path) -> list[str]:
     choice (those against an exact solution marked so)."""
     lines = [f"verify: {len(data['points'])} runs in {data['seconds']:.0f} s -> {out}"]
     exact = _exact(data)
+    width = max([12, *(len(r["scene"]) for r in data["orders"])])
     for r in data["orders"]:
         rates = ", ".join(f"{m} {_g(r[f'rate_{m}'], 3)}" for m in cv.MEASURES
                           if math.isfinite(r[f"rate_{m}"]))
         against = " (exact solution)" if r["scene"] in exact else ""
-        lines.append(f"{r['scene']:<12} {SHORT[r['refined']]:<4} {r['method']:<6} "
+        lines.append(f"{r['scene']:<{width}} {SHORT[r['refined']]:<4} {r['method']:<6} "
                      f"{r['scheme']:<14} orders{against}: {rates}")
     return lines
