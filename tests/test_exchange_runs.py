@@ -7,10 +7,10 @@ import shutil
 
 import numpy as np
 import pytest
+from test_exchange_direct import HOT, LAWS, SCHEMES
 
 import rodfem.scene
 from conftest import serial_only
-from test_exchange_direct import HOT, LAWS, SCHEMES
 
 # Smooth enough in time for the schemes' orders: the gap law's q' jumps at u(1) = g, a kink that
 # a short length ℓ puts in the solution's derivative

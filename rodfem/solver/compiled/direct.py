@@ -63,9 +63,9 @@ from pathlib import Path
 import numpy as np
 
 from rodfem.solver.compiled.build import CompiledSource
+from rodfem.solver.compiled.loop import CompiledLoop, check_library, classes, energy_tables
 from rodfem.solver.errors import NoUniqueStep
 from rodfem.solver.methods.exchange_step import NOT_UNIQUE
-from rodfem.solver.compiled.loop import CompiledLoop, check_library, classes, energy_tables
 
 SOURCE = Path(__file__).with_name("direct.c")
 KMAX = 8  # the widest band of the blocked substitutions (direct.c)

@@ -152,7 +152,7 @@ class ExchangeStep:
         derivatives there; so ΔG ≥ (1 − c_y) Δy + (w − c_p) Δp, and with Δp ≤ S Δy, S a bound
         of the contact force's slope (:meth:`force_slope`), G increases if 1 − c_y > 0 and
         w − c_p > 0, or 1 − c_y + (w − c_p) S > 0."""
-        (p_lo, y_lo, q_lo, _), (p_hi, y_hi, q_hi, _) = lo, hi
+        (p_lo, y_lo, _, _), (p_hi, y_hi, q_hi, _) = lo, hi
         alpha, beta, weight = self.alpha, self.beta, self.weight
         N_lo, N_hi = T0 + weight * beta * p_lo, T0 + weight * beta * p_hi
         if N_lo >= 0.0 and N_hi >= 0.0 and alpha <= 0.0 and beta >= 0.0:
