@@ -2,7 +2,8 @@
 
 The rod is I = (0, 1) with P1 elements; S_E holds the P1 functions that vanish at x = 0. The
 unknowns are the shifted temperature Θ = θ + θ_A r, r(x) = c x − 1, c = k/(k + 1) (Remark 2.2),
-and the displacement U. Every function below takes UFL arguments, coefficients and constants and
+and the displacement U. With the obstacle at a temperature θ_O the shift is the whole lifting
+L = −θ_A r + θ_O s, s(x) = c x, the constant law's steady temperature: Θ = θ − L. Every function below takes UFL arguments, coefficients and constants and
 returns a UFL form or expression; nothing but ufl is imported, so the same functions feed dolfinx's
 JIT at run time and ``ffcx`` ahead of time.
 
@@ -32,6 +33,19 @@ def robin_shift(x, k):
     return c * x[0] - 1.0
 
 
+def obstacle_shift(x, k):
+    """s(x) = c x: the steady temperature of the constant law for θ_A = 0 and the obstacle at
+    θ_O = 1, so that L = −θ_A r + θ_O s meets θ(0) = θ_A and −L_x(1) = k (L(1) − θ_O)."""
+    c = k / (k + 1.0)
+    return c * x[0]
+
+
+def lifting(r, s, theta_A, theta_O):
+    """L = −θ_A r + θ_O s: the temperature θ = Θ + L of the shifted one. θ_O = 0 gives the
+    paper's θ = Θ − θ_A r."""
+    return theta_O * s - theta_A * r
+
+
 def inertia(f, v, dx_b):
     """(f, v) in the inertia's inner product: ``f * v * dx_b`` for a measure, or for a mass
     redistributed away from the contact node (Khenous, Laborde & Renard) a sum of weighted
@@ -55,17 +69,27 @@ def heat(Θ, Θ_prev, U, U_prev, w, dt, a, k, dx_m, dx, ds_1):
     )
 
 
-def momentum(U, U_prev, U_prev2, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx, dx_b=None):
+def momentum(U, U_prev, U_prev2, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx, dx_b=None,
+             theta_O=None, s=None):
     """Residual of (3.2) without its contact term, tested with v:
 
-        b (Uⁿ − 2Uⁿ⁻¹ + Uⁿ⁻², v)/Δt² + (Uⁿ_x − aΘⁿ + aθ_A r, v_x) + ζ (Uⁿ_x − Uⁿ⁻¹_x, v_x)/Δt.
+        b (Uⁿ − 2Uⁿ⁻¹ + Uⁿ⁻², v)/Δt² + (Uⁿ_x − aΘⁿ + aθ_A r, v_x) + ζ (Uⁿ_x − Uⁿ⁻¹_x, v_x)/Δt
 
-    With Θ = Θ^{n,l} and U = U^{n,l} this is (3.4) less its contact term."""
+    and with an obstacle at θ_O (``theta_O`` and ``s`` given) − aθ_O (s, v_x): together
+    (Uⁿ_x − aθⁿ, v_x) for the temperature θ = Θ + L (:func:`lifting`), the paper's terms kept
+    as they are. With Θ = Θ^{n,l} and U = U^{n,l} this is (3.4) less its contact term."""
     return (
         inertia(b * (U - 2.0 * U_prev + U_prev2) / dt**2, v, dx_m if dx_b is None else dx_b)
         + (U.dx(0) - a * Θ + a * theta_A * r) * v.dx(0) * dx
         + zeta / dt * (U.dx(0) - U_prev.dx(0)) * v.dx(0) * dx
+        + obstacle_temperature(a, theta_O, s, v, dx)
     )
+
+
+def obstacle_temperature(a, theta_O, s, v, dx):
+    """−aθ_O (s, v_x): the thermal stress of the lifting's θ_O part, an integral of its own
+    (none without ``theta_O``)."""
+    return 0 if theta_O is None else -a * theta_O * s * v.dx(0) * dx
 
 
 # The same two equations written for the increments ΔΘⁿ = Θⁿ − Θⁿ⁻¹ and ΔUⁿ = Uⁿ − Uⁿ⁻¹, as the
@@ -95,17 +119,20 @@ def heat_increment(ΔΘ, Θ_prev, ΔU, w, dt, a, k, dx_m, dx, ds_1, weight=1.0):
 
 
 def momentum_increment(ΔU, D_prev, U_prev, Θ, v, dt, b, zeta, a, theta_A, r, dx_m, dx,
-                       weight=1.0, dx_b=None):
+                       weight=1.0, dx_b=None, theta_O=None, s=None):
     """(3.2) at tⁿ⁻¹ + weight·Δt without its contact term, with U = Uⁿ⁻¹ + weight·ΔUⁿ, Θ the
     temperature there and Dⁿ⁻¹ the velocity's displacement over the last step (Uⁿ⁻¹ − Uⁿ⁻² in
     the paper's scheme):
 
-        b (ΔUⁿ − Dⁿ⁻¹, v)/(weight Δt²) + (U_x − aΘ + aθ_A r, v_x) + ζ (ΔUⁿ_x, v_x)/Δt."""
+        b (ΔUⁿ − Dⁿ⁻¹, v)/(weight Δt²) + (U_x − aΘ + aθ_A r, v_x) + ζ (ΔUⁿ_x, v_x)/Δt,
+
+    and − aθ_O (s, v_x) for an obstacle at θ_O (as :func:`momentum`)."""
     U = U_prev + weight * ΔU
     return (
         inertia(b / weight * (ΔU - D_prev) / dt**2, v, dx_m if dx_b is None else dx_b)
         + (U.dx(0) - a * Θ + a * theta_A * r) * v.dx(0) * dx
         + zeta / dt * ΔU.dx(0) * v.dx(0) * dx
+        + obstacle_temperature(a, theta_O, s, v, dx)
     )
 
 
@@ -128,24 +155,26 @@ def contact(p, v, ds_1):
 
 
 def energy(Θ, U, U_prev, dt, b, a, theta_A, r, epsilon, gap, dx_m, dx, ds_1, exponent=1.0,
-           dx_b=None):
+           dx_b=None, theta_O=None, s=None):
     """Êⁿ of Remark 4.4, with δⁿ = (Uⁿ − Uⁿ⁻¹)/Δt and the norms of the scheme's inner product:
 
         ½ (‖Θⁿ‖² + b‖δⁿ‖² + ‖Uⁿ_x‖²) + [Uⁿ(1) − g]_+^{m+1}/((m + 1)ε) + a θ_A (r, Uⁿ_x),
 
-    the contact term (1/2ε)[Uⁿ(1) − g]_+² of the paper for m = 1."""
+    the contact term (1/2ε)[Uⁿ(1) − g]_+² of the paper for m = 1; and − aθ_O (s, Uⁿ_x) for an
+    obstacle at θ_O: the last two are −a (L, Uⁿ_x) (docs/model.md)."""
     δ = (U - U_prev) / dt
     m1 = exponent + 1.0
     return 0.5 * (
         Θ**2 * dx_m
         + (b * δ**2 * dx_m if dx_b is None else inertia(b * δ, δ, dx_b))
         + U.dx(0) ** 2 * dx
-    ) + positive_part(U - gap) ** m1 / (m1 * epsilon) * ds_1 + a * theta_A * r * U.dx(0) * dx
+    ) + positive_part(U - gap) ** m1 / (m1 * epsilon) * ds_1 + a * theta_A * r * U.dx(0) * dx \
+        + (0 if theta_O is None else -a * theta_O * s * U.dx(0) * dx)
 
 
-def temperature(Θ, theta_A, r):
-    """The physical temperature θ = Θ − θ_A r."""
-    return Θ - theta_A * r
+def temperature(Θ, L):
+    """The physical temperature θ = Θ + L (Θ − θ_A r for the obstacle at θ_O = 0)."""
+    return Θ + L
 
 
 def stress(U, U_prev, θ, dt, zeta, a):
@@ -155,8 +184,17 @@ def stress(U, U_prev, θ, dt, zeta, a):
 
 def heat_flux(θ):
     """The heat flux q = −θ_x (Fourier's law; the model's conductivity is 1): at x = 1 it is
-    k θ(1), the heat given to the obstacle."""
+    h (θ(1) − θ_O), the heat given to the obstacle."""
     return -θ.dx(0)
+
+
+def exchange(q, θ, theta_O, w, ds_1):
+    """The heat the contact adds to the paper's k θ̂(1) w(1) at x = 1: q (θ(1) − θ_O) w(1), with
+    h = k + q the exchange law's coefficient (rodfem.model.exchange). The paper's term k Θ(1)
+    w(1) in (3.1) is the exchange k (θ(1) − θ_O) of the constant law, Θ's lifting L carrying
+    the rest of it; q depends on the step (the contact pressure or the gap), so the methods
+    take this term as a load on the one node x = 1: its value there is q (θ(1) − θ_O)."""
+    return q * (θ - theta_O) * w * ds_1
 
 
 # The matrices of Section 3 that the discrete energy needs: M_ij = (η_i, η_j), K_ij = (η_i', η_j')
@@ -174,7 +212,7 @@ def stiffness(u, v, dx):
 
 
 def thermal_load(r, v, dx):
-    """(r, v_x): z."""
+    """(r, v_x): z (and (L, v_x) for the lifting L)."""
     return r * v.dx(0) * dx
 
 

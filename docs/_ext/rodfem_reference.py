@@ -67,7 +67,8 @@ def allowed(name: str, key: Key) -> str:
             text = "each value: " + text
     if key.only_with is not None:
         other, value = key.only_with
-        text += f"; only with `{other} = {toml(value)}`"
+        values = value if isinstance(value, tuple) else (value,)
+        text += f"; only with `{other}` = " + " or ".join(f"`{toml(v)}`" for v in values)
     return text
 
 

@@ -40,7 +40,8 @@ from rodfem.scene.schema import REDISTRIBUTED
 OBSTACLE = 1  # facet tag of the point x = 1
 PARAMETERS = ("a", "b", "zeta", "k", "theta_A")  # the model's, constants of the forms
 # What dolfinx makes (:meth:`Discretisation._finite_elements`), on first use.
-FINITE_ELEMENTS = ("mesh", "V", "W", "bcs", "ds_1", "dx", "dx_m", "dx_b", "const", "r")
+FINITE_ELEMENTS = ("mesh", "V", "W", "bcs", "ds_1", "dx", "dx_m", "dx_b", "const", "r", "s",
+                   "lifting")
 
 
 @dataclasses.dataclass
@@ -76,7 +77,8 @@ class Discretisation:
 
     @staticmethod
     def _constants(scene: Scene) -> dict[str, float]:
-        return {"dt": scene["time.dt"], **{p: scene[f"model.{p}"] for p in PARAMETERS}}
+        return {"dt": scene["time.dt"], **{p: scene[f"model.{p}"] for p in PARAMETERS},
+                "theta_O": scene["obstacle.temperature"]}
 
     def __getattr__(self, name: str):
         """The finite element side, made on first use (only for the names it makes)."""
@@ -122,7 +124,11 @@ class Discretisation:
         })
         self.dx_m = vertices if mass in ("lumped", "redistributed-lumped") else self.dx
         self.dx_b = self._redistributed(vertices) if self.redistributed else None
-        self.r = copetti.robin_shift(ufl.SpatialCoordinate(self.mesh), self.const.k)
+        # The temperature's lifting θ = Θ + L, L = −θ_A r + θ_O s (forms.copetti.lifting)
+        x = ufl.SpatialCoordinate(self.mesh)
+        self.r = copetti.robin_shift(x, self.const.k)
+        self.s = copetti.obstacle_shift(x, self.const.k)
+        self.lifting = copetti.lifting(self.r, self.s, self.const.theta_A, self.const.theta_O)
 
     def _node_order(self) -> NodeOrder:
         """The nodes, from the cache where it has them."""
@@ -240,6 +246,7 @@ class Discretisation:
         self.const.dt.value = scene["time.dt"]
         for p in PARAMETERS:
             getattr(self.const, p).value = scene[f"model.{p}"]
+        self.const.theta_O.value = scene["obstacle.temperature"]
 
     def function(self, name: str):
         """A new function of V (for values: a field to save, say)."""

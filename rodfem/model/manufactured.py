@@ -55,7 +55,7 @@ def errors(result, scene: Scene) -> dict[str, float]:
     :class:`rodfem.run.RunResult`): of U against u and of the temperature θ = Θ − θ_A r against
     θ."""
     t = scene["time.end"]
-    theta = temperature(result.theta, result.x, scene["model.k"], scene["model.theta_A"])
+    theta = temperature(result.theta, result.x, scene)
     return {
         "u": l2_error(result.x, result.u, lambda p: exact("u", p, t, scene)),
         "theta": l2_error(result.x, theta, lambda p: exact("theta", p, t, scene)),

@@ -31,7 +31,7 @@ class Context:
 
     dt: float
     obstacle: object
-    k: float
+    exchange: object  # the heat-exchange law (rodfem.model.exchange)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -90,8 +90,10 @@ INDEX = {name: i for i, name in enumerate(NAMES)}
 QUANTITIES = (
     Column("theta_1", "temperature θ(1, tⁿ) at the obstacle (physical, not the shifted Θ)",
            lambda raw, c: raw[reading_name("theta", 1.0)], reads=(("theta", 1.0),)),
-    Column("heat_flux_1", "heat flux −θ_x(1, tⁿ) = k θ(1, tⁿ) from the rod into the obstacle",
-           lambda raw, c: c.k * raw[reading_name("theta", 1.0)], reads=(("theta", 1.0),)),
+    Column("heat_flux_1", "heat flux −θ_x(1, tⁿ) = h (θ(1, tⁿ) − θ_O) from the rod into the "
+           "obstacle, h the exchange law's coefficient at u(1, tⁿ) and the contact force",
+           lambda raw, c: c.exchange.flux(raw[reading_name("theta", 1.0)], raw["u_1"],
+                                          _force(raw, c)), reads=(("theta", 1.0),)),
     Column("contact_force", "the obstacle's force p on the rod, p = φ'(u(1)) ≥ 0 = −σ(1, tⁿ) "
            "(the rigid obstacle: its multiplier)", _force),
     Column("contact", "1 while the obstacle pushes on the rod (p > 0), else 0",

@@ -13,17 +13,20 @@ from petsc4py import PETSc
 
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.discrete.nodes import block_diagonal
-from rodfem.model import contact
+from rodfem.model import contact, exchange
 from rodfem.output.columns import RAW, RAW_INDEX, Context, columns_of, for_scene, readings
 
 
 class Energy:
     """Êⁿ of Remark 4.4 in the norms of the scheme's inner product, without its contact term:
 
-        ½ (ΘᵀMΘ + b ΔUᵀMΔU/Δt² + UᵀKU) + a θ_A zᵀU = ½ sᵀ diag(M, bM/Δt², K) s + a θ_A zᵀU
+        ½ (ΘᵀMΘ + b ΔUᵀMΔU/Δt² + UᵀKU) + a θ_A zᵀU − a θ_O z_sᵀU
+            = ½ sᵀ diag(M, bM/Δt², K) s + (a θ_A z − a θ_O z_s)ᵀU
 
-    for s = [Θ; ΔU; U], with M, K, z from ``forms.copetti.mass``, ``stiffness``, ``thermal_load``.
-    The contact term needs only U(1) and is added per block in :meth:`History.take`."""
+    for s = [Θ; ΔU; U], with M, K, z = (r, η_i') and z_s = (s, η_i') from ``forms.copetti.mass``,
+    ``stiffness``, ``thermal_load``: the last two are −a (L, U_x) for the lifting
+    L = −θ_A r + θ_O s (docs/model.md). The contact term needs only U(1) and is added per
+    block in :meth:`History.take`."""
 
     def __init__(self, disc: Discretisation):
         scene = disc.scene
@@ -48,9 +51,15 @@ class Energy:
                              key=("thermal load",))
         self.a_theta_A = scene["model.a"] * scene["model.theta_A"]
         n = disc.nodes.size
-        # ½ sᵀE s + a θ_A zᵀU = ½ (E s + 2w)ᵀs with w = [0; 0; a θ_A z]: one product, one dot
+        # ½ sᵀE s + wᵀU = ½ (E s + 2w)ᵀs with w = [0; 0; a θ_A z − a θ_O z_s]: one product, one
+        # dot (z_s only for an obstacle whose temperature is not 0)
         self.two_w = PETSc.Vec().createSeq(3 * n, comm=PETSc.COMM_SELF)
         self.two_w.array[2 * n:] = 2.0 * self.a_theta_A * self.z.array_r
+        a_theta_O = scene["model.a"] * scene["obstacle.temperature"]
+        if a_theta_O != 0.0:
+            z_s = disc.vector(form(lambda c, u, v: c.thermal_load(disc.s, v, disc.dx)),
+                              key=("obstacle thermal load",))
+            self.two_w.array[2 * n:] -= 2.0 * a_theta_O * z_s.array_r
         self._y = self.two_w.duplicate()
 
     def __call__(self, s: PETSc.Vec) -> float:
@@ -90,7 +99,8 @@ class History:
 
     def __init__(self, disc: Discretisation, block: int = 1024, pointwise=None):
         scene = disc.scene
-        self.context = Context(scene["time.dt"], contact.of_scene(scene), scene["model.k"])
+        self.context = Context(scene["time.dt"], contact.of_scene(scene),
+                               exchange.of_scene(scene))
         self.columns = for_scene(scene)
         reads = readings(self.columns)
         if reads and pointwise is None:

@@ -143,7 +143,7 @@ class Probe:
         self.functions = [disc.function(name) for name in PARTS]
         Θ, D, U = self.functions
         c = disc.const
-        θ = copetti.temperature(Θ, c.theta_A, disc.r)
+        θ = copetti.temperature(Θ, disc.lifting)
         cell = {"sigma": copetti.stress(U, U - D, θ, c.dt, c.zeta, c.a),
                 "heat_flux": copetti.heat_flux(θ)}
         self.theta = disc.function("theta")
@@ -177,17 +177,18 @@ class Probe:
         return θ, cells
 
     def maps(self) -> dict[str, np.ndarray]:
-        """The coefficients of θ and the cell fields, read off their expressions: with θ_A = 0
-        they are linear in (Θ, D, U), so setting one part to 1 on every third node (no cell sees
+        """The coefficients of θ and the cell fields, read off their expressions: with θ_A = θ_O
+        = 0 they are linear in (Θ, D, U), so setting one part to 1 on every third node (no cell sees
         two of them) gives, cell by cell, the coefficient of its left or right node; θ₀, σ₀ and
-        q₀ are the fields of s = 0 with the scene's θ_A. Each cell field's linear part is a table
+        q₀ are the fields of s = 0 with the scene's θ_A and θ_O. Each cell field's linear part is a table
         of a row per cell: the weights of its two nodes in each part (:class:`CellMap`)."""
         n = self.n
         zero = [np.zeros(n) for _ in PARTS]
         theta0, cell0 = self.evaluate(zero)
-        theta_A = self.disc.const.theta_A
-        value = float(theta_A.value)
-        theta_A.value = 0.0
+        lifted = (self.disc.const.theta_A, self.disc.const.theta_O)  # L = 0 while they are 0
+        kept = [float(constant.value) for constant in lifted]
+        for constant in lifted:
+            constant.value = 0.0
         coefficients = {name: [] for name in CELL_FIELDS}  # per part: (left, right)
         try:
             for part in range(len(PARTS)):
@@ -208,7 +209,8 @@ class Probe:
                 if not np.array_equal(unit, expected):
                     raise RuntimeError("θ is not Θ plus a function of x: the maps do not apply")
         finally:
-            theta_A.value = value
+            for constant, value in zip(lifted, kept, strict=True):
+                constant.value = value
         cells = np.arange(n - 1)
         maps = {"theta0": theta0}
         for name in CELL_FIELDS:

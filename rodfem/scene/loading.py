@@ -94,7 +94,7 @@ class Scene:
 
 def _applies(scene: Scene, spec: Key) -> bool:
     """Whether a key that applies only with another key's value (``Key.only_with``) does here."""
-    return spec.only_with is None or scene[spec.only_with[0]] == spec.only_with[1]
+    return spec.only_with is None or spec.applies_with(scene[spec.only_with[0]])
 
 
 def _is_zero(text: str) -> bool:
@@ -136,8 +136,10 @@ def validate(data: dict[str, Any], source: str = "") -> Scene:
         for key, spec in keys.items():
             if key in data.get(section, {}) and not _applies(scene, spec):
                 other, value = spec.only_with
+                wanted = " or ".join(_toml_value(v) for v in
+                                     (value if isinstance(value, tuple) else (value,)))
                 raise SceneError(f"{section}.{key}: applies only with {other} = "
-                                 f"{_toml_value(value)}, not {_toml_value(scene[other])}")
+                                 f"{wanted}, not {_toml_value(scene[other])}")
     _check_consistency(scene)
     return scene
 

@@ -30,9 +30,14 @@ class Key:
     maximum: float | None = None  # inclusive
     choices: tuple[str, ...] = ()
     help: str = ""
-    # ("section.key", value): the key applies only where that key has that value; setting it
-    # elsewhere is a mistake, and a resolved scene leaves it out.
-    only_with: tuple[str, str] | None = None
+    # ("section.key", value): the key applies only where that key has that value (or one of a
+    # tuple of values); setting it elsewhere is a mistake, and a resolved scene leaves it out.
+    only_with: tuple[str, Any] | None = None
+
+    def applies_with(self, value: Any) -> bool:
+        """Whether the key applies where its ``only_with`` key has ``value``."""
+        wanted = self.only_with[1]
+        return value in wanted if isinstance(wanted, tuple) else value == wanted
 
 
 # Bounds that keep every derived quantity (1/ε, Δt², b/Δt², the energy) far from overflow and
@@ -46,6 +51,7 @@ TIME_SCHEMES = ("paper", "crank-nicolson")
 # stiff-obstacle study within 1 % (benchmarks/bench_adaptive_peak.py): the first-order scheme's
 # error over a contact grows as the square root of its tolerance, the second-order one's faster.
 TOLERANCES = {"paper": 5e-5, "crank-nicolson": 1e-3}
+EXCHANGE_LAWS = ("constant", "pressure", "gap")  # rodfem.model.exchange
 MASSES = ("lumped", "consistent", "redistributed", "redistributed-lumped", "dispersion-free")
 # The masses with none at the contact node x = 1: it is moved to its neighbour.
 REDISTRIBUTED = ("redistributed", "redistributed-lumped", "dispersion-free")
@@ -76,6 +82,27 @@ SCHEMA: dict[str, dict[str, Key]] = {
                    "(1/epsilon)[u(1) - g]_+^exponent"),
         "exponent": Key("real", 1.0, minimum=1.0, maximum=100.0,
                         only_with=("obstacle.law", "power"), help="m >= 1 of the power law"),
+        "temperature": Key("real", 0.0, minimum=-BIG, maximum=BIG,
+                           help="temperature theta_O of the obstacle, with which the rod "
+                           "exchanges heat at x = 1"),
+    },
+    # The heat the rod gives the obstacle at x = 1, -theta_x(1) = h (theta(1) - theta_O), with
+    # h = k + q: q from the law (rodfem.model.exchange).
+    "heat_exchange": {
+        "law": Key("choice", "constant", choices=EXCHANGE_LAWS,
+                   help="h at the contact: constant, h = k (the paper's); pressure, "
+                   "h = k + k1 p^exponent with p = -sigma(1) the contact pressure; gap, "
+                   "h = k + k1 exp(min(u(1) - g, 0)/length)"),
+        "k1": Key("real", 1.0, minimum=0.0, maximum=BIG,
+                  only_with=("heat_exchange.law", ("pressure", "gap")),
+                  help="the exchange the contact adds to k: at unit pressure (pressure), in "
+                  "contact (gap)"),
+        "exponent": Key("real", 1.0, above=0.0, maximum=100.0,
+                        only_with=("heat_exchange.law", "pressure"),
+                        help="m > 0 of the pressure law"),
+        "length": Key("real", 0.01, above=0.0, maximum=BIG,
+                      only_with=("heat_exchange.law", "gap"),
+                      help="the gap over which the exchange falls by a factor e (gap law)"),
     },
     "initial": {
         "theta0": Key("expression", "theta_A*(cos(2*pi*x) - sin(pi*x/2))",

@@ -55,6 +55,12 @@ class TimeScheme:
             return law.solve(s, w)
         return law.solve_gradient(s, w, c) if self.gradient_contact else law.solve(s, w)
 
+    def exchange_place(self, y: float, c: float) -> float:
+        """The end displacement at which the step takes the heat exchange's q (a function of
+        u(1) and the contact force, rodfem.model.exchange): Uⁿ(1) = y in the paper's scheme,
+        the midpoint (y + c)/2 in Crank–Nicolson's, c = Uⁿ⁻¹(1)."""
+        return y if self.weight == 1.0 else c + self.weight * (y - c)
+
     def contact_needed(self, law, s: float, c: float) -> bool:
         """Whether a step whose free end would reach s from c can meet the obstacle at all."""
         return s > law.gap or (self.gradient_contact and c > law.gap)

@@ -27,8 +27,8 @@ from petsc4py import PETSc
 
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.discrete.nodes import block_diagonal, block_matrix
-from rodfem.model import contact
-from rodfem.model.robin import robin_shift
+from rodfem.model import contact, exchange
+from rodfem.model.robin import shifted
 from rodfem.solver.errors import SourceNotFinite
 from rodfem.solver.linalg import lu_solver, stacked
 from rodfem.solver.methods import massless
@@ -71,7 +71,7 @@ class Residuals:
         F = copetti.momentum_increment(f("ΔU"), f("D_prev"), f("U_prev"),
                                        f("Θ_prev") + self.weight * f("ΔΘ_other"), w, c.dt, c.b,
                                        c.zeta, c.a, c.theta_A, disc.r, disc.dx_m, disc.dx,
-                                       self.weight, disc.dx_b)
+                                       self.weight, disc.dx_b, c.theta_O, disc.s)
         if "source" in self.momentum_y:
             F += copetti.source(f(self.momentum_y["source"]), w, disc.dx)
         return F
@@ -104,6 +104,10 @@ class Method:
         self.dt = scene["time.dt"] if dt is None else dt
         self.clock = None  # the state's time where steps differ (adaptive), else n Δt
         self.law = contact.of_scene(scene)  # the obstacle's law, or the rigid obstacle
+        # The heat exchange at x = 1: the constant law's k is in the operators; a variable law's
+        # q adds the flux q (Θ(1) + offset) to the heat row of x = 1 (forms.copetti.exchange)
+        self.exchange = exchange.of_scene(scene)
+        self.offset = self.exchange.offset(scene["model.theta_A"])
         self.time_scheme = TIME_SCHEMES[scene["time.scheme"]]
         self.coupled = scene["model.a"] != 0.0  # a = 0: heat does not see motion, nor motion heat
         self.inertia = scene["model.b"] != 0.0
@@ -206,14 +210,14 @@ class Method:
         return self._coupled
 
     def _set_initial_state(self) -> None:
-        """Θ⁰ = P(θ₀ + θ_A r), U⁰ = P u₀ and P u₁, P the H¹_E projection: in 1D with P1, nodal
-        interpolation. The node x = 0 is set to exactly 0 (the scene checked compatibility)."""
+        """Θ⁰ = P(θ₀ − L) (P(θ₀ + θ_A r) for θ_O = 0), U⁰ = P u₀ and P u₁, P the H¹_E
+        projection: in 1D with P1, nodal interpolation. The node x = 0 is set to exactly 0 (the
+        scene checked compatibility)."""
         scene = self.disc.scene
-        theta_A, k = scene["model.theta_A"], scene["model.k"]
         x = self.disc.nodes.x
         clamped = x == 0.0
         params = scene.parameters
-        theta0 = scene.initial("theta0")(x, params) + theta_A * robin_shift(x, k)
+        theta0 = shifted(scene.initial("theta0")(x, params), x, scene)
         u0 = scene.initial("u0")(x, params)
         u1 = scene.initial("u1")(x, params) if self.inertia else np.zeros_like(x)
         for values in (theta0, u0, u1):

@@ -1,0 +1,67 @@
+"""What every heat-exchange law provides; the constant law, the paper's.
+
+A law gives q ≥ 0, the exchange the contact adds to k, as a function of the end's displacement
+y = u(1) and the contact pressure p = −σ(1) ≥ 0, and its partial derivatives (Newton's Jacobian,
+the linearisation of steady states). Everything else follows: h = k + q and the heat flux into
+the obstacle h (θ(1) − θ_O).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class ExchangeLaw:
+    """h = k + q(y, p) at x = 1, with the obstacle at θ_O = ``temperature``."""
+
+    name = ""
+    variable = True  # whether q can be other than 0
+    k1 = 0.0
+
+    def __init__(self, k: float, temperature: float = 0.0):
+        self.k, self.temperature = float(k), float(temperature)
+
+    def extra(self, y: float, p: float) -> float:
+        """q at u(1) = y under the contact pressure p."""
+        raise NotImplementedError
+
+    def extra_slopes(self, y: float, p: float) -> tuple[float, float]:
+        """(∂q/∂y, ∂q/∂p), one-sided (from above) at a kink."""
+        raise NotImplementedError
+
+    def coefficient(self, y: float, p: float) -> float:
+        """h = k + q."""
+        return self.k + self.extra(y, p)
+
+    def coefficients(self, y, p) -> np.ndarray:
+        """h at each pair of entries of y and p."""
+        y, p = np.broadcast_arrays(np.asarray(y, dtype=float), np.asarray(p, dtype=float))
+        return np.array([self.coefficient(a, b) for a, b in zip(y.ravel(), p.ravel(),
+                                                                 strict=True)]).reshape(y.shape)
+
+    def flux(self, theta_1, y, p) -> np.ndarray:
+        """The heat flux into the obstacle, −θ_x(1) = h (θ(1) − θ_O)."""
+        return self.coefficients(y, p) * (np.asarray(theta_1, dtype=float) - self.temperature)
+
+    def offset(self, theta_A: float) -> float:
+        """θ(1) − θ_O of the steady state of the constant law, (θ_A − θ_O)/(k + 1): the end's
+        temperature above the obstacle's is the shifted temperature Θ(1) plus this
+        (forms.copetti.exchange)."""
+        return (theta_A - self.temperature) / (self.k + 1.0)
+
+
+class ConstantLaw(ExchangeLaw):
+    """h = k: the paper's −θ_x(1) = k θ(1) for θ_O = 0."""
+
+    name = "constant"
+    variable = False
+
+    def extra(self, y: float, p: float) -> float:
+        return 0.0
+
+    def extra_slopes(self, y: float, p: float) -> tuple[float, float]:
+        return 0.0, 0.0
+
+    def coefficients(self, y, p) -> np.ndarray:
+        y, p = np.broadcast_arrays(np.asarray(y, dtype=float), np.asarray(p, dtype=float))
+        return np.full(y.shape, self.k)

@@ -1,0 +1,31 @@
+"""Barber's pressure-dependent exchange: q = k₁ p^m, p = −σ(1) ≥ 0 the contact pressure.
+
+Separated (p = 0) the end exchanges only k; pressed, the contact conducts more, the more so the
+harder it is pressed. With a hot obstacle this feeds back: heat expands the rod, which presses
+harder and takes more heat, the source of the non-uniqueness and instability of steady states
+(``rodfem steady``)."""
+
+from __future__ import annotations
+
+import math
+
+from rodfem.model.exchange.law import ExchangeLaw
+
+
+class PressureLaw(ExchangeLaw):
+    name = "pressure"
+
+    def __init__(self, k: float, temperature: float, k1: float, exponent: float = 1.0):
+        super().__init__(k, temperature)
+        self.k1, self.exponent = float(k1), float(exponent)
+
+    def extra(self, y: float, p: float) -> float:
+        return self.k1 * p**self.exponent if p > 0.0 else 0.0
+
+    def extra_slopes(self, y: float, p: float) -> tuple[float, float]:
+        m = self.exponent
+        if p > 0.0:
+            return 0.0, self.k1 * m * p ** (m - 1.0)
+        if m == 1.0:
+            return 0.0, self.k1
+        return 0.0, (0.0 if m > 1.0 or self.k1 == 0.0 else math.inf)
