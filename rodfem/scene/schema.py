@@ -195,5 +195,6 @@ SOURCE_NAMES = (*MODEL_NAMES, "t")
 BUILTIN = tuple(f"paper{i}" for i in range(1, 6))  # the paper's experiments
 # Other built-in scenes: a manufactured solution without contact, with sources
 # (rodfem.model.manufactured), an impact on a rigid wall with an exact solution
-# (rodfem.model.impact), and paper1 against a stiff obstacle, for its peak contact stress
-EXTRA = ("manufactured", "impact", "stiff")
+# (rodfem.model.impact), paper1 against a stiff obstacle, for its peak contact stress, and
+# Barber's thermoelastic contact, with three steady states (rodfem steady barber)
+EXTRA = ("manufactured", "impact", "stiff", "barber")
