@@ -33,6 +33,11 @@ import math
 import numpy as np
 
 MAX_EVALUATIONS = 1_000_000  # of F; the search needs a few hundred per root
+# How many times the bracket is halved: intervals of 2⁻²⁶ of it (√ε_mach), all of one width.
+# Near a double root s − F grows as the square of the distance, so that two roots closer than
+# this are one tangential root to the round-off of s − F. A root where s − F changes sign is
+# then bisected to adjacent doubles.
+DEPTH = 26
 
 
 class SearchError(RuntimeError):
@@ -151,42 +156,43 @@ class Steady:
         lo, hi = self.bracket()
         if lo == hi:
             return [(lo, False)]
-        floor = math.ulp(max(abs(lo), abs(hi)))  # the round-off of s
         leaves = []
-        stack = [(lo, self.F(lo), hi, self.F(hi))]
+        stack = [(lo, self.F(lo), hi, self.F(hi), 0)]
         while stack:
-            s0, f0, s1, f1 = stack.pop()
+            s0, f0, s1, f1, depth = stack.pop()
             if s0 - max(f0, f1) > 0.0 or s1 - min(f0, f1) < 0.0:
                 continue  # s − F(s) cannot vanish on [s0, s1]
             mid = s0 + 0.5 * (s1 - s0)
-            if s1 - s0 <= 4.0 * floor or not s0 < mid < s1:
-                leaves.append((s0, f0, s1, f1))
+            if depth == DEPTH or not s0 < mid < s1:
+                leaves.append((s0, s0 - f0, s1, s1 - f1))
                 continue
             fm = self.F(mid)
-            stack.append((mid, fm, s1, f1))
-            stack.append((s0, f0, mid, fm))  # popped first: leaves come in order
-        return [self._root(cluster) for cluster in _clusters(leaves)]
+            stack.append((mid, fm, s1, f1, depth + 1))
+            stack.append((s0, f0, mid, fm, depth + 1))  # popped first: leaves come in order
+        found = []
+        for cluster in _clusters(leaves):
+            points = [leaf[:2] for leaf in cluster] + [cluster[-1][2:]]  # (s, s − F) in order
+            crossing = [s for s, g in points if g == 0.0] + [
+                self._refined(s0, g0, s1, g1) for (s0, g0), (s1, g1) in zip(points, points[1:])
+                if g0 != 0.0 and g1 != 0.0 and (g0 < 0.0) != (g1 < 0.0)]
+            if crossing:
+                found.extend((s, False) for s in sorted(crossing))
+            else:  # s − F touches 0 here without crossing, within the resolution: a fold
+                found.append((min((abs(g), s) for s, g in points)[1], True))
+        return found
 
-    def _root(self, leaves: list[tuple[float, float, float, float]]) -> tuple[float, bool]:
-        """The root in adjacent leaves: refined to adjacent doubles where s − F changes sign
-        across them, else the point of least |s − F| (a tangential root)."""
-        s0, f0, s1, f1 = leaves[0][0], leaves[0][1], leaves[-1][2], leaves[-1][3]
-        g0, g1 = s0 - f0, s1 - f1
-        if g0 == 0.0 or g1 == 0.0 or (g0 < 0.0) != (g1 < 0.0):
-            while True:
-                if g0 == 0.0 or g1 == 0.0:
-                    break
-                mid = s0 + 0.5 * (s1 - s0)
-                if not s0 < mid < s1:
-                    break
-                gm = mid - self.F(mid)
-                if (gm < 0.0) == (g0 < 0.0):
-                    s0, g0 = mid, gm
-                else:
-                    s1, g1 = mid, gm
-            return (s0 if abs(g0) <= abs(g1) else s1), False
-        points = [(abs(t - f), t) for leaf in leaves for t, f in (leaf[:2], leaf[2:])]
-        return min(points)[1], True
+    def _refined(self, s0: float, g0: float, s1: float, g1: float) -> float:
+        """The root where s − F changes sign on [s0, s1], bisected to adjacent doubles."""
+        while g0 != 0.0 and g1 != 0.0:
+            mid = s0 + 0.5 * (s1 - s0)
+            if not s0 < mid < s1:
+                break
+            gm = mid - self.F(mid)
+            if (gm < 0.0) == (g0 < 0.0):
+                s0, g0 = mid, gm
+            else:
+                s1, g1 = mid, gm
+        return s0 if abs(g0) <= abs(g1) else s1
 
     def states(self) -> list[SteadyState]:
         """Every steady state, in increasing u(1) (and s)."""
