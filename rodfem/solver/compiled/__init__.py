@@ -34,7 +34,8 @@ def compiled_loop(method, history, compress: bool = True):
         return None
     if method.name == "direct":
         from rodfem.solver.compiled import direct as module
-    elif method.name == "picard" and method.coupled and not method.law.rigid:
+    elif (method.name == "picard" and method.coupled and not method.law.rigid
+          and not method.exchange.variable):
         from rodfem.solver.compiled import picard as module
     else:
         return None

@@ -318,3 +318,8 @@ class Method:
         """The elastic obstacle's force for Uⁿ(1) = y and Uⁿ⁻¹(1) = c, at the time scheme's
         rule (:mod:`rodfem.solver.time_schemes`)."""
         return self.time_scheme.contact_force(self.law, y, c)
+
+    def exchange_extra(self, y: float, c: float, pressure: float) -> float:
+        """A variable exchange law's q for Uⁿ(1) = y, Uⁿ⁻¹(1) = c and the step's contact force:
+        the law at the time scheme's place of the end (``TimeScheme.exchange_place``)."""
+        return self.exchange.extra(self.time_scheme.exchange_place(y, c), pressure)

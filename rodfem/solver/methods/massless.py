@@ -86,9 +86,22 @@ class MasslessEnd:
         """Put the end where its equation holds for the state ``values`` (Uⁿ(1), and Dⁿ(1) from
         Uⁿ⁻¹(1) = ``u_prev_1``); return the contact force there, ψ'(y)."""
         y = self.position(values)
-        force = self.law.force(y)
-        if force > 0.0:
-            y = self.law.gap + self._epsilon * force if self._closed else y - self.spring * force
-        values[self.u_1] = y
+        values[self.u_1] = self.displacement(y, force := self.law.force(y))
         values[self.d_1] = values[self.u_1] - u_prev_1
         return force
+
+    def displacement(self, y: float, force: float) -> float:
+        """U(1) where the end's equation holds at the free position y under the force ψ'(y):
+        y where it is free; in contact g + ε ψ'(y) for the linear law (exactly g for the rigid
+        obstacle), y − ψ'(y)/K_NN for any other."""
+        if not force > 0.0:
+            return y
+        return self.law.gap + self._epsilon * force if self._closed else y - self.spring * force
+
+    def displacement_slope(self, y: float) -> float:
+        """d/dy of :meth:`displacement` at y with ψ'(y) (Newton's Jacobian of a variable heat
+        exchange, which takes U(1))."""
+        if self.law.force(y) > 0.0:
+            slope = self.law.slope(y)
+            return self._epsilon * slope if self._closed else 1.0 - self.spring * slope
+        return 1.0

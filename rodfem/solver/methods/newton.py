@@ -13,8 +13,17 @@ the exact solution of the step. The rigid obstacle is a variational inequality, 
 reduced-space active-set method ``vinewtonrsls`` with the bound ΔUⁿ(1) ≤ g − Uⁿ⁻¹(1); the
 contact force is the multiplier −F_U(1).
 
+A variable heat exchange (:mod:`rodfem.model.exchange`) adds φ = q (Θⁿ⁻¹(1) + w x_Θ(1) + offset)
+to the heat row of x = 1, q the law at the time scheme's place of Uⁿ(1) and the step's contact
+force p (for the rigid obstacle its multiplier, −F_U(1) without the bound: the multiplier at the
+solution). The Jacobian gains in that row w q in the column of Θ(1) and (∂q/∂y ∂place/∂y +
+∂q/∂p dp/dy) T in the column of U(1) (T = Θ(1) at the weight, plus the offset), or along the
+row of an eliminated end's free position: with the contact's slope, a change of rank two of C,
+solved by Woodbury's formula with C's LU and C⁻¹[e_Θ(1), e_U(1)] (once per run).
+
 A step has converged when ‖F‖ reaches the round-off of its own evaluation, componentwise:
-64 ε_mach ‖ |C| |x| + |[h; m]| ‖ (a norm bound such as ‖C‖_F ‖x‖ grows like n^1.5 and, at 10⁶ cells,
+64 ε_mach ‖ |C| |x| + |[h; m]| + |φ| ‖ (the exchange's |q| (|Θⁿ⁻¹(1)| + w |x_Θ(1)| + |offset|) in
+the heat row of x = 1; a norm bound such as ‖C‖_F ‖x‖ grows like n^1.5 and, at 10⁶ cells,
 accepted a wrong first guess without an iteration). The converged reason is checked after every
 step, and any other outcome stops the run (exit code 3). The first guess is the last step's
 increment.
@@ -81,6 +90,12 @@ class NewtonMethod(Method):
             self.upper.set(PETSc.INFINITY)
             snes.setVariableBounds(self.lower, self.upper)
         snes.setFromOptions()
+        # A variable heat exchange: the heat row of x = 1 (Θ(1), the index ``last``) gains
+        # w q Θ(1) and β U(1), or β along the eliminated end's row (the module's docstring)
+        self.variable = self.exchange.variable
+        self._exchange = (0.0, 0.0)  # (w q, β) of the last Jacobian
+        self._theta_end = 0.0  # Θⁿ⁻¹(1) of the step
+        self._rigid_F = self.x.duplicate()  # C x − [h; m], for the rigid obstacle's multiplier
         if not self.rigid:
             self._rank_one_solver(snes.getKSP())
         self.snes = snes
@@ -91,30 +106,48 @@ class NewtonMethod(Method):
         contact force's slope, r the unit vector of x = 1 or the eliminated end's row): solved
         by C's LU, factored once, and Sherman–Morrison, J⁻¹b = C⁻¹b − q (κ rᵀC⁻¹b)/(1 + κ rᵀq)
         with q = C⁻¹e, in place of a factorisation of J at every iteration. Exact (1 + κ rᵀq ≥ 1:
-        rᵀq is the compliance w > 0)."""
+        rᵀq is the compliance w > 0). A variable heat exchange adds the rank one term
+        e_Θ (w q e_Θᵀ + β rᵀ) in the heat row of x = 1: Woodbury's formula (:meth:`apply`)."""
         self._c_ksp, factor = lu_factor(self.C, PREFIX + "c_", "rcm")
         self._solve_c = factor.solve
-        unit = self.x.duplicate()
-        unit.setValue(self._index, 1.0)
-        unit.assemble()
-        self._q = self.x.duplicate()
-        self._solve_c(unit, self._q)
+        self._q = self._response(self._index)
         if self.massless is None:
             self._r_dot = lambda v: v.getValue(self._index)
         else:
             row = self.massless.step_row
             self._r_dot = lambda v: float(row @ v.array_r)
         self._r_q = self._r_dot(self._q)
+        if self.variable:  # q_Θ = C⁻¹e_Θ, and [e_Θ, r]ᵀ[q_Θ, q]
+            self._q_theta = self._response(self.last)
+            self._gram = np.array([[self._q_theta.getValue(self.last),
+                                    self._q.getValue(self.last)],
+                                   [self._r_dot(self._q_theta), self._r_q]])
         self._slope = 0.0
         ksp.setType("preonly")
         pc = ksp.getPC()
         pc.setType("python")
         pc.setPythonContext(self)
 
+    def _response(self, index: int) -> PETSc.Vec:
+        """C⁻¹ of the unit vector of the unknown ``index``."""
+        unit, response = self.x.duplicate(), self.x.duplicate()
+        unit.setValue(index, 1.0)
+        unit.assemble()
+        self._solve_c(unit, response)
+        return response
+
     def apply(self, pc, b: PETSc.Vec, y: PETSc.Vec) -> None:
         """J⁻¹b (PETSc's python preconditioner, with KSP preonly: the linear solve)."""
         self._solve_c(b, y)
-        if self._slope:
+        if self._exchange != (0.0, 0.0):
+            # J = C + [e_Θ, e] M [e_Θ, r]ᵀ, M = [[w q, β], [0, κ]]: J⁻¹b = y − [q_Θ, q] z with
+            # (I + M G) z = M [e_Θ, r]ᵀ y, G = [e_Θ, r]ᵀ[q_Θ, q] (Woodbury, M need not be
+            # invertible)
+            M = np.array([[self._exchange[0], self._exchange[1]], [0.0, self._slope]])
+            z = np.linalg.solve(np.eye(2) + M @ self._gram,
+                                M @ [y.getValue(self.last), self._r_dot(y)])
+            y.maxpy([-z[0], -z[1]], [self._q_theta, self._q])
+        elif self._slope:
             y.axpy(-self._slope * self._r_dot(y) / (1.0 + self._slope * self._r_q), self._q)
 
     def saved_state(self) -> dict[str, np.ndarray]:
@@ -134,6 +167,38 @@ class NewtonMethod(Method):
             if pressure:
                 F.setValue(self._index, F.getValue(self._index) + pressure)
                 F.assemble()
+        if self.variable:
+            flux = self._exchange_terms(x, F)[0]
+            if flux:
+                F.setValue(self.last, F.getValue(self.last) + flux)
+                F.assemble()
+
+    def _exchange_terms(self, x: PETSc.Vec, F: PETSc.Vec | None = None):
+        """(φ, q, T, ∂φ/∂U(1)'s factor β) of the variable exchange at the increments x: q at
+        the place of Uⁿ(1) (an eliminated end's settled U(1)) and the step's contact force, for
+        the rigid obstacle −F_U(1) of the residual F without the exchange (read before it is
+        added) or, without F, recomputed. β is the derivative of q along the row of U(1) (or of
+        the end's free position y) times T."""
+        y, c = self._where(x)
+        w, end, law = self.time_scheme.weight, self.massless, self.exchange
+        if self.rigid:
+            if F is None:
+                F = self._rigid_F
+                self.C.mult(x, F)
+                F.axpy(-1.0, self.rhs)
+            pressure, slope = max(-F.getValue(self._index), 0.0), 0.0
+        else:
+            pressure = self.time_scheme.contact_force(self.step_law, y, c)
+            slope = self.time_scheme.contact_slope(self.step_law, y, c)
+        u_1, moves = y, 1.0  # U(1), and its derivative along y
+        if end is not None:
+            u_1, moves = end.displacement(y, end.law.force(y)), end.displacement_slope(y)
+        place = self.time_scheme.exchange_place(u_1, self.u.getValue(self.last))
+        q = law.extra(place, pressure)
+        T = self._theta_end + self.offset + w * x.getValue(self.last)
+        dq_dy, dq_dp = law.extra_slopes(place, pressure)
+        beta = (dq_dy * w * moves + (dq_dp * slope if slope else 0.0)) * T
+        return q * T, q, T, beta, dq_dp * T if pressure > 0.0 else 0.0
 
     def _where(self, x: PETSc.Vec) -> tuple[float, float]:
         """(y, c): where the contact law is taken for the increments x, and a step before."""
@@ -156,7 +221,24 @@ class NewtonMethod(Method):
             J.setValue(self._index, self._index, self.C_last + slope)
         else:
             J.setValues(self._index, self._end_columns, self._end_base + slope * self._end_row)
+        if self.variable:
+            _, q, _, beta, by_pressure = self._exchange_terms(x)
+            self._exchange = (self.time_scheme.weight * q, beta)
+            if self.rigid:  # J itself is factored: the heat row of x = 1, explicitly
+                self._rigid_exchange_row(J, by_pressure)
         J.assemble()
+
+    def _rigid_exchange_row(self, J: PETSc.Mat, by_pressure: float) -> None:
+        """The rigid obstacle's heat row of x = 1 in J: C's, plus w q at Θ(1), β at U(1) and
+        ∂q/∂p T times ∂(−F_U(1))/∂x = −C's row of U(1) (the multiplier's dependence)."""
+        columns, values = self.C.getRow(self.last)
+        row = dict(zip(columns.tolist(), values.tolist(), strict=True))
+        row[self.last] = row.get(self.last, 0.0) + self._exchange[0]
+        row[self._index] = row.get(self._index, 0.0) + self._exchange[1]
+        if by_pressure:
+            for j, value in zip(*self.C.getRow(self._index), strict=True):
+                row[int(j)] = row.get(int(j), 0.0) - by_pressure * value
+        J.setValues(self.last, list(row), list(row.values()))
 
     def _converged(self, snes, its: int, norms) -> int:
         _, _, fnorm = norms
@@ -166,6 +248,14 @@ class NewtonMethod(Method):
         snes.getSolution().copy(self._abs_x)
         self._abs_x.abs()
         self.C_abs.multAdd(self._abs_x, self._abs_rhs, self._bound)  # |C| |x| + |[h; m]|
+        if self.variable:  # + |q| (|Θⁿ⁻¹(1)| + w |x_Θ(1)| + |offset|)
+            x = snes.getSolution()
+            q = abs(self._exchange_terms(x)[1])
+            if q:
+                size = abs(self._theta_end) + self.time_scheme.weight * abs(
+                    x.getValue(self.last)) + abs(self.offset)
+                self._bound.setValue(self.last, self._bound.getValue(self.last) + q * size)
+                self._bound.assemble()
         if fnorm <= ROUNDOFF * self._bound.norm():
             return reason.CONVERGED_FNORM_ABS
         if its >= snes.getTolerances()[3]:
@@ -174,6 +264,7 @@ class NewtonMethod(Method):
 
     def _step(self) -> None:
         self._fixed_parts(self.rhs)
+        self._theta_end = self.theta.getValue(self.last)
         self.rhs.copy(self._abs_rhs)
         self._abs_rhs.abs()
         if self.massless is not None:

@@ -13,6 +13,20 @@ that exceeds 1 (:meth:`rodfem.model.contact.ContactLaw.contraction`, ``rodfem st
 With a = 0 the heat equation does not see the motion: it is solved once per step, and the
 iteration only updates the contact force; as soon as that force repeats, the next iterate would
 repeat too, and the step is done.
+
+**A variable heat exchange** (``heat_exchange.law``, :mod:`rodfem.model.exchange`) adds to the
+heat row of x = 1 the flux φ = q (Θⁿ⁻¹(1) + w ΔΘ(1) + offset) (w the time scheme's weight). As
+(3.3) takes k Θ^{n,l}(1), iteration l takes q^{l−1}, the law at U^{n,l−1}(1) and its contact
+force, and Θ^{n,l}(1) implicitly: the heat operator gains w q^{l−1} e eᵀ, which Sherman–Morrison
+solves with A_h's LU and v = A_h⁻¹ e (once per run). With z = A_h⁻¹(h + N_U ΔU^{n,l−1}), the
+step without the exchange,
+
+    ΔΘ^{n,l} = z − φ v,   φ = q (Θⁿ⁻¹(1) + offset + w z(1)) / (1 + w q v(1)).
+
+With a = 0 the heat depends on the motion only through q: it is solved again when q changes, and
+the step is done when both the contact force and q repeat. An eliminated end
+(:mod:`.massless`) takes q at its settled U(1). The constant law (q = 0) is the paper's
+iteration, untouched.
 """
 
 from __future__ import annotations
@@ -41,6 +55,23 @@ class PicardMethod(Method):
         self._work = [new() for _ in range(4)]
         self._fixed, (self._heat_step, self._momentum_step) = stacked(2, disc.nodes.size)
         self._rhs = new()
+        self._unit_response = None  # v = A_h⁻¹ e, for a variable exchange (on first use)
+
+    def _exchanged(self, dtheta: PETSc.Vec, q: float, theta_end: float) -> None:
+        """ΔΘ = z − φ v in place of z (the module's docstring): the heat step with the exchange
+        w q^{l−1} (Θ(1) + offset) at x = 1, Θⁿ⁻¹(1) + offset = ``theta_end``."""
+        if self._unit_response is None:
+            self._unit_response = self.heat.A.createVecRight()
+            self.solve_heat(self.contact_load, self._unit_response)
+        v, w = self._unit_response, self.time_scheme.weight
+        flux = q * (theta_end + w * dtheta.getValue(self.last)) / (
+            1.0 + w * q * v.getValue(self.last))
+        dtheta.axpy(-flux, v)
+
+    def _end_displacement(self, y: float) -> float:
+        """U(1) of an iterate whose end (its free position, if eliminated) is at y."""
+        end = self.massless
+        return y if end is None else end.displacement(y, end.law.force(y))
 
     def _step(self) -> None:
         h_step, m_step, rhs = self._heat_step, self._momentum_step, self._rhs
@@ -54,6 +85,11 @@ class PicardMethod(Method):
         # The law is taken at Uⁿ(1) from Uⁿ⁻¹(1), or at an eliminated end's free position y
         # (massless.MasslessEnd) from yⁿ⁻¹.
         u_last = self.u.getValue(last) if end is None else end.position(self.values)
+        # A variable exchange's q at the iterate's U(1) from Uⁿ⁻¹(1) (settled, for an eliminated
+        # end) and its contact force; theta_end = Θⁿ⁻¹(1) + offset.
+        variable = self.exchange.variable
+        c_end, theta_end = self.u.getValue(last), self.theta.getValue(last) + self.offset
+        q_used = q = 0.0  # the q of the last heat solve, and the iterate's
 
         dtheta_it, dtheta_new, du_it, du_new = self._work
         dtheta_it.zeroEntries()  # Θ^{n,0} = Θⁿ⁻¹
@@ -62,6 +98,8 @@ class PicardMethod(Method):
             solve_heat(h_step, dtheta_it)
             N_theta.multAdd(dtheta_it, m_step, m_step)
             dtheta_new.zeroEntries()
+            if variable:  # ΔΘⁿ without the exchange, z, from which each new q's is made
+                heat_free = dtheta_it.copy()
         increment, pressure = np.inf, np.nan
         deepest = u_last  # the largest U(1) of the iterates, for the failure's message
         for iteration in range(1, self.max_iterations + 1):  # noqa: B007 (used after the loop)
@@ -70,13 +108,17 @@ class PicardMethod(Method):
                           else end.moved_by(dtheta_it.array_r, du_it.array_r))
             deepest = max(deepest, y)
             pressure = self.time_scheme.contact_force(law, y, u_last)
-            if not coupled and pressure == last_pressure:
-                # The same load as the last iteration: this iterate would equal the last one.
+            if variable:
+                q = self.exchange_extra(self._end_displacement(y), c_end, pressure)
+            if not coupled and pressure == last_pressure and q == q_used:
+                # The same loads as the last iteration: this iterate would equal the last one.
                 iteration, increment = iteration - 1, 0.0
                 break
             if coupled:
                 N_du.multAdd(du_it, h_step, rhs)
                 solve_heat(rhs, dtheta_new)
+                if q:
+                    self._exchanged(dtheta_new, q, theta_end)
                 N_theta.multAdd(dtheta_new, m_step, rhs)
             else:
                 m_step.copy(rhs)
@@ -85,7 +127,12 @@ class PicardMethod(Method):
             solve_momentum(rhs, du_new)
             du_it.aypx(-1.0, du_new)  # the changes, in the vectors of the old iterates
             change_u = du_it.norm(INF)
-            if coupled:
+            reheated = not coupled and q != q_used
+            if reheated:  # a = 0: the heat again, for the new q
+                heat_free.copy(dtheta_new)
+                self._exchanged(dtheta_new, q, theta_end)
+                q_used = q
+            if coupled or reheated:
                 dtheta_it.aypx(-1.0, dtheta_new)
                 change_theta = dtheta_it.norm(INF)
                 dtheta_it, dtheta_new = dtheta_new, dtheta_it
