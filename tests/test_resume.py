@@ -166,12 +166,17 @@ def test_a_finished_run_extends_to_a_later_end(tmp_path):
     assert "end = 1" in (short / "scene.toml").read_text()
 
 
+EXCHANGES = {"constant": [], "pressure": ["--set", "heat_exchange.law=pressure", "--set",
+                                         "heat_exchange.k1=40", "--set", "obstacle.temperature=25"]}
+
+
 @serial_only
-@pytest.mark.parametrize("ranks", [1, 2])
-def test_chosen_outputs_resume_to_the_same_run(tmp_path, ranks):
-    """Probes, added quantities and chosen fields continue bit for bit, as the defaults do."""
+@pytest.mark.parametrize("ranks, exchange", [(1, "constant"), (2, "constant"), (1, "pressure")])
+def test_chosen_outputs_resume_to_the_same_run(tmp_path, ranks, exchange):
+    """Probes, added quantities and chosen fields continue bit for bit, as the defaults do (a
+    heat exchange that depends on the contact pressure too)."""
     short, long = tmp_path / "short", tmp_path / "long"
-    scene = ["paper1", "--set", "mesh.cells=40", "--set", "output.every=7",
+    scene = ["paper1", *EXCHANGES[exchange], "--set", "mesh.cells=40", "--set", "output.every=7",
              "--set", "output.probes=[0.3, 0.5, 1]", "--set", "output.checkpoint=0",
              "--set", 'output.history=["theta_1", "heat_flux_1", "contact_force", "contact"]',
              "--set", 'output.fields=["u", "velocity", "heat_flux"]']

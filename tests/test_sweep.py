@@ -144,6 +144,9 @@ def test_set_ups_reused_across_structures_give_the_fresh_runs_bit_for_bit():
                 ["solver.method=newton", "model.zeta=0.7"], ["model.a=0"],
                 ["model.b=0", "model.zeta=1"], ["time.scheme=crank-nicolson", "model.a=0.05"],
                 ["obstacle.kind=rigid", "solver.method=direct"], ["time.dt=0.002"],
+                ["obstacle.temperature=25"],
+                ["heat_exchange.law=pressure", "heat_exchange.k1=40", "obstacle.temperature=25"],
+                ["heat_exchange.law=gap", "heat_exchange.length=0.05", "model.theta_A=-5"],
                 ["solver.method=direct"]]
     setups = SetUps()
     for extra in variants:
