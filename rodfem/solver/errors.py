@@ -53,3 +53,13 @@ class NotFinite(NotConverged):
         super().__init__(method, step, time, f"{quantity} is not finite", 1)
         RuntimeError.__init__(self, f"step {step} (t = {time:g}) is not finite: {quantity} "
                               "overflowed")
+
+
+class NoUniqueStep(NotConverged):
+    """A step of the direct method whose equation, with a heat exchange that depends on the
+    contact, is not shown to have one solution (rodfem.solver.methods.exchange_step): the state
+    stays at the last step solved."""
+
+    def __init__(self, method: str, step: int, time: float, detail: str):
+        super().__init__(method, step, time, detail, 1)
+        RuntimeError.__init__(self, f"step {step} (t = {time:g}) cannot be taken: {detail}")

@@ -12,6 +12,7 @@ from rodfem.model.exchange.law import ExchangeLaw
 
 class GapLaw(ExchangeLaw):
     name = "gap"
+    code = 2
 
     def __init__(self, k: float, temperature: float, k1: float, gap: float, length: float):
         super().__init__(k, temperature)
@@ -24,3 +25,9 @@ class GapLaw(ExchangeLaw):
         if y >= self.gap:
             return 0.0, 0.0
         return self.extra(y, p) / self.length, 0.0
+
+    def extra_slope_bounds(self, y_lo: float, y_hi: float, p_lo: float,
+                           p_hi: float) -> tuple[float, float]:
+        """∂q/∂y = q/ℓ grows with y up to its left limit k₁/ℓ at g, and is 0 beyond: q(y_hi)/ℓ
+        bounds it (q is continuous)."""
+        return self.extra(y_hi, p_hi) / self.length, 0.0

@@ -15,6 +15,7 @@ class ExchangeLaw:
     """h = k + q(y, p) at x = 1, with the obstacle at θ_O = ``temperature``."""
 
     name = ""
+    code = -1  # the law's number in rodfem/solver/compiled/exchange.h
     variable = True  # whether q can be other than 0
     k1 = 0.0
 
@@ -28,6 +29,14 @@ class ExchangeLaw:
     def extra_slopes(self, y: float, p: float) -> tuple[float, float]:
         """(∂q/∂y, ∂q/∂p), one-sided (from above) at a kink."""
         raise NotImplementedError
+
+    def extra_slope_bounds(self, y_lo: float, y_hi: float, p_lo: float,
+                           p_hi: float) -> tuple[float, float]:
+        """Upper bounds of ∂q/∂y and ∂q/∂p on [y_lo, y_hi] × [p_lo, p_hi] (the direct step's
+        uniqueness test, rodfem.solver.methods.exchange_step): the largest at the corners, for a
+        law whose slopes are monotone there."""
+        corners = [self.extra_slopes(y, p) for y in (y_lo, y_hi) for p in (p_lo, p_hi)]
+        return max(c[0] for c in corners), max(c[1] for c in corners)
 
     def coefficient(self, y: float, p: float) -> float:
         """h = k + q."""
@@ -54,6 +63,7 @@ class ConstantLaw(ExchangeLaw):
     """h = k: the paper's −θ_x(1) = k θ(1) for θ_O = 0."""
 
     name = "constant"
+    code = 0
     variable = False
 
     def extra(self, y: float, p: float) -> float:

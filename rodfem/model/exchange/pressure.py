@@ -14,6 +14,7 @@ from rodfem.model.exchange.law import ExchangeLaw
 
 class PressureLaw(ExchangeLaw):
     name = "pressure"
+    code = 1
 
     def __init__(self, k: float, temperature: float, k1: float, exponent: float = 1.0):
         super().__init__(k, temperature)

@@ -53,6 +53,7 @@
 #include <stddef.h>
 
 #include "contact.h"
+#include "exchange.h"
 #include "record.h"
 
 /* The step's passes are instantiated with constant bands (rk_advance): force the inlining. */
@@ -89,6 +90,9 @@ typedef struct {
     const double *r_value; /* r classes x (r_slots[0] + r_slots[1]) */
     const double *b;       /* r classes x 2 (heat, momentum) */
     const double *q;       /* 2n, interleaved: the response to a unit contact force */
+    const double *qh;      /* 2n, interleaved: the response to a unit heat loss at x = 1 (a
+                              variable exchange only, else NULL) */
+    rx_exchange exchange;  /* the heat exchange's law and the step's scalars (exchange.h) */
     /* E by slots, components 0, 1, 2 of the state */
     int e_ghost;           /* node bandwidth of E */
     int e_slots[3];
@@ -111,8 +115,8 @@ typedef struct {
     double *z;
 } rk_problem;
 
-int rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, long steps,
-               double *rows, double *pressure);
+long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, long steps,
+                double *rows, double *pressure);
 /* cdef end */
 
 #define KMAX 8
@@ -187,15 +191,20 @@ RK_INLINE void forward(const rk_problem *P, const double *sp, double *z, const s
     }
 }
 
-/* The state update of node i by x = z + p q. An end without mass has no velocity of its own:
- * D(1) = U^n(1) - U^(n-1)(1) (Method._accept); `last` says whether i is that node, a constant
- * 0 in the loops over the other nodes, so that they do not test it. */
+/* The state update of node i by x = z + p q + phi q_h (phi = 0 but for a variable exchange).
+ * An end without mass has no velocity of its own: D(1) = U^n(1) - U^(n-1)(1) (Method._accept);
+ * `last` says whether i is that node, a constant 0 in the loops over the other nodes, so that
+ * they do not test it. */
 RK_INLINE void update_node(const rk_problem *P, double *sp, double *u_prev, int i,
-                           double x_theta, double x_u, double p, int last)
+                           double x_theta, double x_u, double p, double phi, int last)
 {
     if (p != 0.0) {
         x_theta += p * P->q[2 * (size_t)i];
         x_u += p * P->q[2 * (size_t)i + 1];
+    }
+    if (phi != 0.0) {
+        x_theta += phi * P->qh[2 * (size_t)i];
+        x_u += phi * P->qh[2 * (size_t)i + 1];
     }
     double *si = sp + 3 * (ptrdiff_t)i;
     const double u_old = si[2];
@@ -210,17 +219,29 @@ RK_INLINE void update_node(const rk_problem *P, double *sp, double *u_prev, int 
 
 /* The state update of node i, and (lagged) the energy rows of node i + e_ghost. */
 RK_INLINE void accept_node(const rk_problem *P, double *sp, double *u_prev, int i,
-                           double x_theta, double x_u, double p, int last, double *energy,
-                           const shape S)
+                           double x_theta, double x_u, double p, double phi, int last,
+                           double *energy, const shape S)
 {
-    update_node(P, sp, u_prev, i, x_theta, x_u, p, last);
+    update_node(P, sp, u_prev, i, x_theta, x_u, p, phi, last);
     if (i + P->e_ghost < P->n)
         *energy += energy_rows(P, sp, i + P->e_ghost, S);
 }
 
-RK_INLINE double contact(const rk_problem *P, const double *sp, double z_u_1)
+/* The step's contact force p from the free increments of x = 1, and with a variable exchange
+ * its flux *phi (exchange.h's rx_solve; *phi = 0 otherwise). Sets *failed where the exchange's
+ * equation is not shown to have one root. */
+RK_INLINE double contact(const rk_problem *P, const double *sp, double z_u_1, double z_theta_1,
+                         double *phi, int *failed)
 {
     const double c = sp[P->u_1], s1 = c + z_u_1;
+    *phi = 0.0;
+    if (P->exchange.law != RX_CONSTANT) {  /* Theta(1) sits two places before U(1) */
+        const rx_exchange *X = &P->exchange;
+        const double T0 = (sp[P->u_1 - 2] + X->offset) + X->weight * z_theta_1;
+        double p = 0.0;
+        *failed = rx_solve(X, &P->obstacle, P->w, s1, c, T0, &p, phi);
+        return p;
+    }
     if (rc_contact_needed(&P->obstacle, s1, c))
         return rc_solve(&P->obstacle, s1, P->w, c);
     return 0.0;
@@ -272,8 +293,8 @@ RK_INLINE double eliminated_end(const rk_problem *P, double *sp, double *u_prev,
 {
     const int n = P->n;
     const double u_old = sp[3 * (ptrdiff_t)(n - 1) + 2];
-    update_node(P, sp, u_prev, n - 1, zb.theta, zb.u, p, 1);
-    update_node(P, sp, u_prev, n - 2, za.theta, za.u, p, 0);
+    update_node(P, sp, u_prev, n - 1, zb.theta, zb.u, p, 0.0, 1);
+    update_node(P, sp, u_prev, n - 2, za.theta, za.u, p, 0.0, 0);
     return end_settle(P, sp, u_old, energy, S);
 }
 
@@ -285,13 +306,13 @@ RK_INLINE void energy_tail(const rk_problem *P, const double *sp, double *energy
 
 /* dtbsv's backward pass, then the state update: returns the step's recorded p, and the new
  * state's energy. An eliminated end's p needs the nodes n-1 and n-2 solved, and their update
- * waits for it. */
+ * waits for it. *failed: the step's p could not be found (nothing is updated). */
 RK_INLINE double backward(const rk_problem *P, double *sp, double *z, double *u_prev,
-                          double *energy, const shape S)
+                          double *energy, int *failed, const shape S)
 {
     const int ku = S.ku;
     const int N = 2 * P->n, eliminated = P->end.kind == RC_END_ELIMINATED;
-    double p = 0.0, recorded = 0.0;
+    double p = 0.0, phi = 0.0, recorded = 0.0;
     *energy = 0.0;
     for (int j = N - 1; j >= 0; j--) {
         const double t = z[j] * P->rdiag[j];
@@ -308,10 +329,13 @@ RK_INLINE double backward(const rk_problem *P, double *sp, double *z, double *u_
             }
             continue;
         }
-        if (j == N - 1)
-            recorded = p = contact(P, sp, t);
+        if (j == N - 2) {  /* the last node's two columns are done */
+            recorded = p = contact(P, sp, z[N - 1], t, &phi, failed);
+            if (*failed)
+                return 0.0;
+        }
         if (!(j & 1))
-            accept_node(P, sp, u_prev, j >> 1, z[j], z[j + 1], p, j == N - 2, energy, S);
+            accept_node(P, sp, u_prev, j >> 1, z[j], z[j + 1], p, phi, j == N - 2, energy, S);
     }
     energy_tail(P, sp, energy, S);
     return recorded;
@@ -378,10 +402,10 @@ RK_INLINE node_pair solve_node(const rk_problem *P, const double *z, int i, doub
  * (an eliminated end's after the first two), each node's state updated as soon as it is solved
  * and p known. Returns the step's recorded p. */
 RK_INLINE double backward_blocked(const rk_problem *P, double *sp, const double *z,
-                                  double *u_prev, double *energy, const shape S)
+                                  double *u_prev, double *energy, int *failed, const shape S)
 {
     const int n = P->n;
-    double win[KMAX + 2], p, recorded;
+    double win[KMAX + 2], p, phi = 0.0, recorded;
     *energy = 0.0;
     for (int t = 0; t < S.ku; t++)
         win[2 + t] = 0.0;
@@ -392,31 +416,43 @@ RK_INLINE double backward_blocked(const rk_problem *P, double *sp, const double 
         recorded = eliminated_end(P, sp, u_prev, zb, za, p, energy, S);
     } else {
         const node_pair x = solve_node(P, z, i, win, S);
-        recorded = p = contact(P, sp, x.u);
-        accept_node(P, sp, u_prev, i--, x.theta, x.u, p, 1, energy, S);
+        recorded = p = contact(P, sp, x.u, x.theta, &phi, failed);
+        if (*failed)
+            return 0.0;
+        accept_node(P, sp, u_prev, i--, x.theta, x.u, p, phi, 1, energy, S);
     }
     for (; i >= 0; i--) {
         const node_pair x = solve_node(P, z, i, win, S);
-        accept_node(P, sp, u_prev, i, x.theta, x.u, p, 0, energy, S);
+        accept_node(P, sp, u_prev, i, x.theta, x.u, p, phi, 0, energy, S);
     }
     energy_tail(P, sp, energy, S);
     return recorded;
 }
 
-RK_INLINE void steps_loop(const rk_problem *P, double *u_prev, long n0, long steps,
+/* Returns the steps done: `steps`, or fewer where a step failed (a variable exchange's equation
+ * without a root shown unique), the state then that of the last step done. A variable exchange
+ * writes u_prev at every step, so that it is right wherever the loop stops. */
+RK_INLINE long steps_loop(const rk_problem *P, double *u_prev, long n0, long steps,
                           double *rows, double *pressure, const shape S)
 {
-    double *sp = P->s + 3 * (ptrdiff_t)P->ghost, *z = P->z, p = 0.0;
+    double *sp = P->s + 3 * (ptrdiff_t)P->ghost, *z = P->z, p = *pressure;
+    const int every = P->exchange.law != RX_CONSTANT;
     for (long k = 0; k < steps; k++) {
-        double energy;
-        double *last = k == steps - 1 ? u_prev : NULL;
+        double energy, step_p;
+        int failed = 0;
+        double *last = k == steps - 1 || every ? u_prev : NULL;
         if (S.blocked) {
             forward_blocked(P, sp, z, S);
-            p = backward_blocked(P, sp, z, last, &energy, S);
+            step_p = backward_blocked(P, sp, z, last, &energy, &failed, S);
         } else {
             forward(P, sp, z, S);
-            p = backward(P, sp, z, last, &energy, S);
+            step_p = backward(P, sp, z, last, &energy, &failed, S);
         }
+        if (failed) {
+            *pressure = p;
+            return k;
+        }
+        p = step_p;
         double *row = rows + (ptrdiff_t)P->width * k;
         row[RAW_N] = (double)(n0 + k + 1);
         row[RAW_ITERATIONS] = 1.0;
@@ -431,17 +467,19 @@ RK_INLINE void steps_loop(const rk_problem *P, double *u_prev, long n0, long ste
         }
     }
     *pressure = p;
+    return steps;
 }
 
 /* `steps` steps from the state `values` = [Theta; D; U] (3n, block order), which is overwritten by
  * the last; u_prev (n) receives U of the step before the last, rows (steps x width) the history
  * rows (n, 1, U(1), D(1), U(0.5), bulk energy, p, the readings) of the steps n0 + 1 .. n0 + steps,
- * and *pressure
- * the last p. Returns 0. */
-int rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, long steps,
-               double *rows, double *pressure)
+ * and *pressure (the method's p on entry) the last p. Returns the steps done (fewer than `steps`
+ * where a step failed: steps_loop). */
+long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, long steps,
+                double *rows, double *pressure)
 {
     const int n = P->n, g = P->ghost;
+    long done = 0;
     if (steps <= 0)
         return 0;
     for (int i = 0; i < 3 * g; i++) {
@@ -465,22 +503,22 @@ int rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, lon
      S.e1 == E1 && S.e2 == E2)
     if (RK_SHAPE(3, 3, 7, 1, 1, 3)) {
         const shape C = {1, 3, 3, 3, 0, 3, 7, 1, 1, 3};
-        steps_loop(P, u_prev, n0, steps, rows, pressure, C);
+        done = steps_loop(P, u_prev, n0, steps, rows, pressure, C);
     } else if (RK_SHAPE(3, 3, 9, 3, 3, 3)) {
         const shape C = {1, 3, 3, 3, 0, 3, 9, 3, 3, 3};
-        steps_loop(P, u_prev, n0, steps, rows, pressure, C);
+        done = steps_loop(P, u_prev, n0, steps, rows, pressure, C);
     } else if (RK_SHAPE(2, 3, 4, 1, 1, 3)) {
         const shape C = {1, 2, 2, 2, 0, 3, 4, 1, 1, 3};
-        steps_loop(P, u_prev, n0, steps, rows, pressure, C);
+        done = steps_loop(P, u_prev, n0, steps, rows, pressure, C);
     } else if (RK_SHAPE(2, 3, 6, 3, 3, 3)) {
         const shape C = {1, 2, 2, 2, 0, 3, 6, 3, 3, 3};
-        steps_loop(P, u_prev, n0, steps, rows, pressure, C);
+        done = steps_loop(P, u_prev, n0, steps, rows, pressure, C);
     } else {
-        steps_loop(P, u_prev, n0, steps, rows, pressure, S);
+        done = steps_loop(P, u_prev, n0, steps, rows, pressure, S);
     }
 #undef RK_SHAPE
     for (int k = 0; k < 3; k++)
         for (int i = 0; i < n; i++)
             values[(size_t)k * n + i] = sp[3 * (size_t)i + k];
-    return 0;
+    return done;
 }

@@ -59,6 +59,7 @@ from pathlib import Path
 import numpy as np
 
 from rodfem.solver.compiled.build import CompiledSource
+from rodfem.solver.errors import NoUniqueStep
 from rodfem.solver.compiled.loop import CompiledLoop, check_library, classes, energy_tables
 
 SOURCE = Path(__file__).with_name("direct.c")
@@ -203,6 +204,8 @@ class DirectKernel(CompiledLoop):
         r_counts, arrays["r_offset"], rows_r["r_value"], r_width = _slots(method.R, 2, n)
         rows_r["b"] = method.b.array_r[to_block].reshape(n, 2)
         arrays["q"] = np.ascontiguousarray(method.response.array_r[to_block])
+        if method.exchange_step is not None:  # and q_h, the response to a heat loss at x = 1
+            arrays["qh"] = np.ascontiguousarray(method.heat_response.array_r[to_block])
         # R and b (read by the forward pass), E and 2w (the backward pass): tables of their
         # distinct rows and each node's row in them (the module's docstring).
         arrays["r_class"], tables_r = classes(rows_r, compress)
@@ -235,6 +238,7 @@ class DirectKernel(CompiledLoop):
         P.e_ghost = e_width
         P.w = method.compliance  # an eliminated end's: that of its free position y
         self.set_obstacle(P.obstacle, method)
+        self.set_exchange(P.exchange, method)
         self.set_end(P.end, self._lib)
         P.midpoint_inertia = self.velocity_update
         P.u_1, P.du_1 = pack(history.u_1), pack(history.du_1)
@@ -243,9 +247,31 @@ class DirectKernel(CompiledLoop):
         self._problem = P
         self._pressure = ffi.new("double *")
 
+    @staticmethod
+    def set_exchange(target, method) -> None:
+        """Fill exchange.h's rx_exchange: the law (RX_CONSTANT: no flux) and the step's scalars
+        (:class:`~rodfem.solver.methods.exchange_step.ExchangeStep`)."""
+        law, step = method.exchange, method.exchange_step
+        target.law = law.code if step is not None else 0
+        if step is None:
+            return
+        target.k1 = law.k1
+        target.exponent = getattr(law, "exponent", 1.0)
+        target.gap, target.length = getattr(law, "gap", 0.0), getattr(law, "length", 1.0)
+        target.alpha, target.beta, target.gamma = step.alpha, step.beta, step.gamma
+        target.weight, target.offset = step.weight, step.offset
+
     def _run(self, steps: int, rows: np.ndarray):
         method = self.method
-        self._lib.rk_advance(self._problem, self.pointer(method.values),
-                             self.pointer(method.u_prev.array), method.n, steps,
-                             self.pointer(rows), self._pressure)
-        return steps, float(self._pressure[0]), 1, None
+        self._pressure[0] = method.pressure
+        done = self._lib.rk_advance(self._problem, self.pointer(method.values),
+                                    self.pointer(method.u_prev.array), method.n, steps,
+                                    self.pointer(rows), self._pressure)
+        error = None
+        if done < steps:
+            step = method.n + done + 1
+            time = step * method.dt if method.clock is None else method.clock + method.dt
+            error = NoUniqueStep("direct", step, time, "the step's equation for u(1) with the "
+                                 "heat exchange may have several roots (a smaller time.dt "
+                                 "makes the step's root unique)")
+        return done, float(self._pressure[0]), 1, error

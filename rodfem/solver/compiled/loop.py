@@ -19,6 +19,7 @@ import weakref
 import numpy as np
 
 from rodfem.model.contact import LinearLaw, PowerLaw, RigidObstacle
+from rodfem.model.exchange import ConstantLaw, GapLaw, PressureLaw
 from rodfem.solver.record import RAW
 
 # What a loop reads off a history's energy, by the history's Energy: the same for every loop of
@@ -39,18 +40,22 @@ def end_supported(method) -> bool:
     """Whether the compiled loops do the method's end x = 1: with its mass, without it, or
     eliminated (:mod:`rodfem.solver.methods.massless`) with the linear law or the rigid obstacle,
     whose series with the last cell is the linear law and whose settled end is in closed form
-    (contact.h's rc_end_settle). The power law in series (``InSeries``) is not."""
+    (contact.h's rc_end_settle). The power law in series (``InSeries``) is not, nor an eliminated
+    end with a heat exchange that depends on the contact (its flux waits for the settled end)."""
     end = method.massless
-    return end is None or isinstance(end.law, LinearLaw)
+    return end is None or (isinstance(end.law, LinearLaw) and not method.exchange.variable)
 
 
 def check_library(lib) -> None:
     """The C side agrees with the Python tables: the raw row's slots (record.h against
     rodfem.solver.record.RAW) and the contact laws' codes (contact.h against
-    rodfem.model.contact). RuntimeError otherwise."""
+    rodfem.model.contact, and exchange.h against rodfem.model.exchange). RuntimeError otherwise."""
     expected = {f"RAW_{slot.name.upper()}": i for i, slot in enumerate(RAW)}
     expected["RAW_SLOTS"] = len(RAW)
     expected.update(RC_LINEAR=LinearLaw.code, RC_POWER=PowerLaw.code, RC_RIGID=RigidObstacle.code)
+    if hasattr(lib, "RX_CONSTANT"):  # the loops with the heat exchange (exchange.h)
+        expected.update(RX_CONSTANT=ConstantLaw.code, RX_PRESSURE=PressureLaw.code,
+                        RX_GAP=GapLaw.code)
     wrong = {name: (getattr(lib, name, None), value) for name, value in expected.items()
              if getattr(lib, name, None) != value}
     if wrong:

@@ -263,9 +263,26 @@ class Method:
         if self.sources["heat"] is not None:
             self._source_load(rhs, None, self.dt if self.clock is None else self.clock + self.dt)
         self.solve_heat(rhs, dtheta)
+        if self.exchange.variable:
+            self._first_exchange(dtheta)
         self._accept(dtheta, self.du)
         self.iterations = 0
         self.pressure = 0.0
+
+    def _first_exchange(self, dtheta: PETSc.Vec) -> None:
+        """The exchange's flux φ = q (Θ¹(1) + offset) in the first step's (3.1), q at U¹(1)
+        without contact force: a rank-one change of the heat operator, (A_h + q e eᵀ) ΔΘ¹ =
+        rhs − q (Θ⁰(1) + offset) e, solved by Sherman–Morrison from ``dtheta`` = A_h⁻¹ rhs and
+        v = A_h⁻¹(−e): ΔΘ¹ = dtheta + φ v, φ = q (Θ⁰(1) + offset + dtheta(1))/(1 − q v(1))."""
+        last = self.last
+        q = self.exchange.extra(self.u.getValue(last) + self.du.getValue(last), 0.0)
+        if q == 0.0:
+            return
+        load, v = self.contact_load.copy(), dtheta.duplicate()
+        load.scale(-1.0)
+        self.solve_heat(load, v)
+        T = (self.theta.getValue(last) + self.offset) + dtheta.getValue(last)
+        dtheta.axpy(q * T / (1.0 - q * v.getValue(last)), v)
 
     def _step(self) -> None:
         raise NotImplementedError

@@ -20,13 +20,20 @@ Each is the unique solution, since y ↦ y + w p(y) is strictly increasing: this
 solution of the step, with no tolerance to choose. Steps without contact (s ≤ g, and for
 Crank–Nicolson Uⁿ⁻¹(1) ≤ g too) cost one comparison. With a = 0, C is block diagonal and the heat
 and momentum operators are factored and solved apart.
+
+A heat exchange that depends on the contact (``heat_exchange.law`` other than constant) adds a
+flux φ at x = 1 and its response q_h = C⁻¹[−e; 0], made once; the step stays exact, with one
+scalar equation in place of the contact's (:mod:`.exchange_step`). The constant law takes the
+step above, untouched.
 """
 
 from __future__ import annotations
 
 from rodfem.discrete.discretisation import Discretisation
+from rodfem.solver.errors import NoUniqueStep
 from rodfem.solver.linalg import lu_factor, stacked
 from rodfem.solver.methods.base import Method
+from rodfem.solver.methods.exchange_step import ExchangeStep, NoUniqueRoot
 
 
 class DirectMethod(Method):
@@ -62,6 +69,15 @@ class DirectMethod(Method):
             self.compliance = -self.massless.moved(self.response.array_r)
         if not self.compliance > 0.0:
             raise RuntimeError(f"the compliance at x = 1 is {self.compliance:g}, not positive")
+        self.exchange_step = None
+        if self.exchange.variable:  # the response to a unit heat loss at x = 1: q_h = C⁻¹[−e; 0]
+            self.rhs.zeroEntries()
+            self.contact_load.copy(self.rhs_heat)
+            self.rhs_heat.scale(-1.0)
+            self._solve(self.rhs, self.x)
+            self.heat_response = self.x.copy()
+            h, q = self.heat_response.array_r, self.response.array_r
+            self.exchange_step = ExchangeStep(self, h[self._index], q[self.last], h[self.last])
         self.x.zeroEntries()
 
     def _step(self) -> None:
@@ -74,12 +90,47 @@ class DirectMethod(Method):
         else:  # its free position yⁿ = s − w p, from c = yⁿ⁻¹, under the law in series
             law, c = end.law, end.position(self.values)
             s = c + end.moved(self._x_values)
+        if self.exchange_step is not None:
+            self._exchange(law, s, c)
+            return
         pressure = 0.0
         if self.time_scheme.contact_needed(law, s, c):
             pressure = self.time_scheme.contact_solve(law, s, self.compliance, c)
             self.x.axpy(pressure, self.response)
         self.pressure = pressure
         self._accept(self.x_heat, self.x_momentum)
+        self.iterations = 1
+
+    def _exchange(self, law, s: float, c: float) -> None:
+        """The step with the exchange's flux φ: x = z + p q_c + φ q_h (:mod:`.exchange_step`).
+        An eliminated end (a = 0: the exchange does not move the rod) takes q at its settled
+        place, once the step has put it there."""
+        step, last = self.exchange_step, self.last
+        T0 = (self.values[last] + self.offset) + step.weight * self._x_values[last]
+        if self.massless is None:
+            try:
+                pressure, phi = step.solve(s, c, T0)
+            except NoUniqueRoot as error:
+                time = (self.n + 1) * self.dt if self.clock is None else self.clock + self.dt
+                raise NoUniqueStep(self.name, self.n + 1, time, str(error)) from None
+        else:
+            pressure = (self.time_scheme.contact_solve(law, s, self.compliance, c)
+                        if self.time_scheme.contact_needed(law, s, c) else 0.0)
+        if pressure != 0.0:
+            self.x.axpy(pressure, self.response)
+        if self.massless is None and phi != 0.0:
+            self.x.axpy(phi, self.heat_response)
+        u_prev_1 = self.values[self._u_1]
+        self._accept(self.x_heat, self.x_momentum)
+        if self.massless is not None:
+            phi = step.flux(self.values[self._u_1], u_prev_1, pressure, T0)[1]
+            if phi != 0.0:
+                n = self.disc.nodes.size
+                self.values[:n] += phi * self.heat_response.array_r[:n]
+                self.theta.stateIncrease()
+                self.state.stateIncrease()
+        if self.massless is None:  # an eliminated end's is its settled force (_accept)
+            self.pressure = pressure
         self.iterations = 1
 
 
