@@ -61,13 +61,14 @@ def states(scene) -> list[tuple]:
             for state in problem.states()]
 
 
-def at_rest(state, kick: float = 0.0) -> list[str]:
+def at_rest(state, velocity: str = "0") -> list[str]:
     """Scene overrides that start the rod at a steady state: θ linear, u of
-    :meth:`~rodfem.model.steady.SteadyState.displacement`, with the velocity ``kick`` x."""
+    :meth:`~rodfem.model.steady.SteadyState.displacement`, with the initial velocity
+    ``velocity`` (an expression in x: a small one perturbs the state)."""
     theta_A, slope, a = state.theta_A, state.theta_1 - state.theta_A, state.a
     return [f"initial.theta0={theta_A!r} + ({slope!r})*x",
             f"initial.u0=({state.sigma_1!r})*x + {a!r}*({theta_A!r}*x + ({slope!r})*x**2/2)",
-            f"initial.u1={kick!r}*x"]
+            f"initial.u1={velocity}"]
 
 
 def envelope(t: np.ndarray, x: np.ndarray, start: float, end: float) -> float:
