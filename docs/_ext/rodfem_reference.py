@@ -67,8 +67,9 @@ def allowed(name: str, key: Key) -> str:
             text = "each value: " + text
     if key.only_with is not None:
         other, value = key.only_with
-        values = value if isinstance(value, tuple) else (value,)
-        text += f"; only with `{other}` = " + " or ".join(f"`{toml(v)}`" for v in values)
+        first, *others = value if isinstance(value, tuple) else (value,)
+        text += f"; only with `{other} = {toml(first)}`" + "".join(
+            f" or `{toml(v)}`" for v in others)
     return text
 
 
