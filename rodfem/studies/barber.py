@@ -126,3 +126,13 @@ def cycle(run_: Run, start: float, end: float | None = None) -> Cycle:
                  period=float(gaps.mean()) if gaps.size else float("nan"),
                  contact_fraction=float(np.mean(run_.p[inside] > 0.0)),
                  u_min=float(run_.u_1[inside].min()), u_max=float(run_.u_1[inside].max()))
+
+
+def step_rate(eigenvalue: complex, dt: float, scheme: str = "paper") -> complex:
+    """The eigenvalue a run sees: the rate μ with e^{μΔt} the factor by which a step multiplies
+    the mode of ``eigenvalue`` λ. The paper's scheme is backward Euler on (Θ, U, δ) (its
+    velocity δⁿ = (Uⁿ − Uⁿ⁻¹)/Δt, the contact and the exchange taken at step n), so a step
+    multiplies by 1/(1 − λΔt); Crank–Nicolson by (1 + λΔt/2)/(1 − λΔt/2)."""
+    z = eigenvalue * dt
+    factor = 1.0 / (1.0 - z) if scheme == "paper" else (1.0 + z / 2.0) / (1.0 - z / 2.0)
+    return complex(np.log(factor) / dt)
