@@ -266,10 +266,13 @@ RK_INLINE double end_contact(const rk_problem *P, const double *sp, node_pair zb
     return rc_contact_needed(&P->obstacle, s1, c) ? rc_solve(&P->obstacle, s1, P->w, c) : 0.0;
 }
 
-/* Then, once both are updated (U(1) was u_old), the end settled, and the energy rows that the
- * update of both would have summed, now that they read the settled end. Returns the settled
- * force, the step's recorded p. */
-RK_INLINE double end_settle(const rk_problem *P, double *sp, double u_old, double *energy,
+/* Then, once both are updated (U(1) was u_old), the end settled; a variable exchange's flux
+ * *phi at the settled end (DirectMethod._exchange: q at U^n(1) and the step's force p, T0 from
+ * Theta^(n-1)(1) = theta_old and the free increment z_theta; a = 0, so beta = 0) added to both
+ * nodes' Theta; and the energy rows that the update of both would have summed, now that they
+ * read the settled end. Returns the settled force, the step's recorded p. */
+RK_INLINE double end_settle(const rk_problem *P, double *sp, double u_old, double theta_old,
+                            double z_theta, double p, double *phi, double *energy,
                             const shape S)
 {
     const rc_end *E = &P->end;
@@ -280,6 +283,18 @@ RK_INLINE double end_settle(const rk_problem *P, double *sp, double u_old, doubl
     const double force = rc_end_settle(E, &P->obstacle, y, &u_1);
     sb[2] = u_1;
     sb[1] = u_1 - u_old;
+    *phi = 0.0;
+    if (P->exchange.law != RX_CONSTANT) {
+        const rx_exchange *X = &P->exchange;
+        const double T0 = (theta_old + X->offset) + X->weight * z_theta;
+        const double q = rx_extra(X, rx_place(X, u_1, u_old), p);
+        if (q != 0.0)
+            *phi = q * ((T0 + X->weight * X->beta * p) / (1.0 - X->weight * X->gamma * q));
+        if (*phi != 0.0) {
+            sb[0] += *phi * P->qh[2 * (size_t)(n - 1)];
+            sa[0] += *phi * P->qh[2 * (size_t)(n - 2)];
+        }
+    }
     for (int i = n - 1; i >= n - 2; i--)
         if (i + P->e_ghost < n)
             *energy += energy_rows(P, sp, i + P->e_ghost, S);
@@ -287,15 +302,16 @@ RK_INLINE double end_settle(const rk_problem *P, double *sp, double u_old, doubl
 }
 
 /* The update of nodes n-1 (zb) and n-2 (za) by x = z + p q, p = end_contact's, and end_settle.
- * Returns the recorded p. */
+ * Returns the recorded p, and in *phi the exchange's flux, for the other nodes' update. */
 RK_INLINE double eliminated_end(const rk_problem *P, double *sp, double *u_prev, node_pair zb,
-                                node_pair za, double p, double *energy, const shape S)
+                                node_pair za, double p, double *phi, double *energy,
+                                const shape S)
 {
     const int n = P->n;
-    const double u_old = sp[3 * (ptrdiff_t)(n - 1) + 2];
+    const double u_old = sp[3 * (ptrdiff_t)(n - 1) + 2], theta_old = sp[3 * (ptrdiff_t)(n - 1)];
     update_node(P, sp, u_prev, n - 1, zb.theta, zb.u, p, 0.0, 1);
     update_node(P, sp, u_prev, n - 2, za.theta, za.u, p, 0.0, 0);
-    return end_settle(P, sp, u_old, energy, S);
+    return end_settle(P, sp, u_old, theta_old, zb.theta, p, phi, energy, S);
 }
 
 RK_INLINE void energy_tail(const rk_problem *P, const double *sp, double *energy, const shape S)
@@ -325,7 +341,7 @@ RK_INLINE double backward(const rk_problem *P, double *sp, double *z, double *u_
             if (j == N - 4) {
                 const node_pair zb = {z[N - 2], z[N - 1]}, za = {z[N - 4], z[N - 3]};
                 p = end_contact(P, sp, zb, za);
-                recorded = eliminated_end(P, sp, u_prev, zb, za, p, energy, S);
+                recorded = eliminated_end(P, sp, u_prev, zb, za, p, &phi, energy, S);
             }
             continue;
         }
@@ -413,7 +429,7 @@ RK_INLINE double backward_blocked(const rk_problem *P, double *sp, const double 
     if (P->end.kind == RC_END_ELIMINATED) {
         const node_pair zb = solve_node(P, z, i--, win, S), za = solve_node(P, z, i--, win, S);
         p = end_contact(P, sp, zb, za);
-        recorded = eliminated_end(P, sp, u_prev, zb, za, p, energy, S);
+        recorded = eliminated_end(P, sp, u_prev, zb, za, p, &phi, energy, S);
     } else {
         const node_pair x = solve_node(P, z, i, win, S);
         recorded = p = contact(P, sp, x.u, x.theta, &phi, failed);

@@ -119,6 +119,14 @@ static inline double rx_root(const rx_exchange *X, const rc_obstacle *O, double 
     return fabs(F_lo) < fabs(F_hi) ? lo : hi;
 }
 
+/* ExchangeStep.force_slope. */
+static inline double rx_force_slope(const rc_obstacle *O, double y_hi, double c)
+{
+    if (O->law == RC_RIGID)
+        return INFINITY;
+    return rc_slope(O, O->gradient && c > y_hi ? c : y_hi);
+}
+
 /* ExchangeStep.unique: 1 if G is shown to have one root in [lo, hi]. */
 static inline int rx_unique(const rx_exchange *X, const rc_obstacle *O, double w, double lo,
                             double hi, double c, double T0)
@@ -136,9 +144,12 @@ static inline int rx_unique(const rx_exchange *X, const rc_obstacle *O, double w
     rx_slope_bounds(X, rx_place(X, y_hi, c), p_lo, p_hi, &L_y, &L_p);
     const double g_hi = q_hi / (1.0 - weight * X->gamma * q_hi);
     const double N_max = fabs(N_lo) > fabs(N_hi) ? fabs(N_lo) : fabs(N_hi);
-    const double kappa = fabs(alpha) * (N_max * (weight * L_y + L_p / w)
-                                        + g_hi * weight * fabs(beta) / w);
-    return kappa < 1.0;
+    const double c_y = fabs(alpha) * N_max * weight * L_y;
+    const double c_p = fabs(alpha) * (N_max * L_p + g_hi * weight * fabs(beta));
+    double margin = 1.0 - c_y;
+    if (!(w - c_p > 0.0))
+        margin += (w - c_p) * rx_force_slope(O, y_hi, c);
+    return margin > 0.0;
 }
 
 /* ExchangeStep.solve: the step's p and phi (*phi) from s = c + z_U(1), c = U^(n-1)(1) and T0.

@@ -40,10 +40,9 @@ def end_supported(method) -> bool:
     """Whether the compiled loops do the method's end x = 1: with its mass, without it, or
     eliminated (:mod:`rodfem.solver.methods.massless`) with the linear law or the rigid obstacle,
     whose series with the last cell is the linear law and whose settled end is in closed form
-    (contact.h's rc_end_settle). The power law in series (``InSeries``) is not, nor an eliminated
-    end with a heat exchange that depends on the contact (its flux waits for the settled end)."""
+    (contact.h's rc_end_settle). The power law in series (``InSeries``) is not."""
     end = method.massless
-    return end is None or (isinstance(end.law, LinearLaw) and not method.exchange.variable)
+    return end is None or isinstance(end.law, LinearLaw)
 
 
 def check_library(lib) -> None:

@@ -134,10 +134,12 @@ class ExchangeStep:
 
         φ = N(p) g(q) with N = T0 + w_t β p affine and g(q) = q/(1 − w_t γ q) increasing, and p, q
         non-decreasing in t. (1) Where N keeps a sign with αN ≤ 0 and βN ≥ 0, αφ is
-        non-increasing and G strictly increasing. (2) Else G(t₂) − G(t₁) ≥ (1 − κ)(t₂ − t₁) with
-        κ = |α| (N̂ (w_t L_y + L_p/w) + ĝ w_t |β|/w), N̂ and ĝ the largest |N| and g on the
-        bracket and L_y, L_p bounds of q's partial derivatives there (Δy ≤ Δt, w Δp ≤ Δt): one
-        root if κ < 1."""
+        non-increasing and G strictly increasing. (2) Else, for t₁ < t₂ with Δy + w Δp = Δt,
+        |α Δφ| ≤ c_y Δy + c_p Δp with c_y = |α| N̂ w_t L_y and c_p = |α| (N̂ L_p + ĝ w_t |β|), N̂
+        and ĝ the largest |N| and g on the bracket and L_y, L_p bounds of q's partial
+        derivatives there; so ΔG ≥ (1 − c_y) Δy + (w − c_p) Δp, and with Δp ≤ S Δy, S a bound
+        of the contact force's slope (:meth:`force_slope`), G increases if 1 − c_y > 0 and
+        w − c_p > 0, or 1 − c_y + (w − c_p) S > 0."""
         p_lo, y_lo, q_lo, _ = self.at(lo, c, T0)
         p_hi, y_hi, q_hi, _ = self.at(hi, c, T0)
         alpha, beta, weight = self.alpha, self.beta, self.weight
@@ -149,11 +151,23 @@ class ExchangeStep:
         place = self.scheme.exchange_place
         L_y, L_p = self.exchange.extra_slope_bounds(place(y_lo, c), place(y_hi, c), p_lo, p_hi)
         g_hi = q_hi / (1.0 - weight * self.gamma * q_hi)
-        kappa = abs(alpha) * (max(abs(N_lo), abs(N_hi)) * (weight * L_y + L_p / self.w)
-                              + g_hi * weight * abs(beta) / self.w)
-        if not kappa < 1.0:
+        N_max = max(abs(N_lo), abs(N_hi))
+        c_y = abs(alpha) * N_max * weight * L_y
+        c_p = abs(alpha) * (N_max * L_p + g_hi * weight * abs(beta))
+        margin = 1.0 - c_y
+        if not self.w - c_p > 0.0:
+            margin += (self.w - c_p) * self.force_slope(y_hi, c)
+        if not margin > 0.0:
             raise NoUniqueRoot(
-                f"the step's equation for u(1) in [{lo - self.w * p_lo:.6g}, "
-                f"{hi - self.w * p_hi:.6g}] may have several roots (the heat the contact "
-                f"exchanges changes the end's motion by {kappa:.3g} times as much as the "
-                "motion itself; a smaller time.dt makes the step's root unique)")
+                f"the step's equation for u(1) in [{y_lo:.6g}, {y_hi:.6g}] may have several "
+                "roots (the heat the contact exchanges moves the end against its motion by as "
+                "much as the motion itself; a smaller time.dt makes the step's root unique)")
+
+    def force_slope(self, y_hi: float, c: float) -> float:
+        """A bound of the step's contact force's slope in y = Uⁿ(1) up to y_hi: φ''(y_hi), and
+        for Crank–Nicolson's discrete gradient from c φ''(max(y_hi, c)) (φ'' non-decreasing:
+        the linear law and the power law with exponent ≥ 1); infinite for the rigid obstacle."""
+        law = self.law
+        if law.rigid:
+            return math.inf
+        return law.slope(max(y_hi, c) if self.scheme.gradient_contact else y_hi)
