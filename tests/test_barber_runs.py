@@ -118,3 +118,26 @@ def test_unstable_state_settles_into_periodic_intermittent_contact(hopf_run):
         # far from onset (ζ = 0.01 against ζ ≈ 0.02) the cycle's period is the linear one's
         # only roughly: it grows with the amplitude squared
         assert linear < cycle_period < 1.1 * linear
+
+
+@pytest.mark.parametrize("scheme", ["paper", "crank-nicolson"])
+def test_near_onset_the_step_rate_decides(scheme):
+    """Just below the Hopf bifurcation (ζ = 0.018 against 0.0183) the state is unstable, Re λ =
+    0.0047; the paper's scheme damps the vibration by about ω²Δt/2 = 0.0175 and its run returns
+    to the state, Crank–Nicolson's leaves it, each at its Re μ and with the period 2π/Im μ."""
+    scene = [*HOPF, "model.zeta=0.018", f"time.scheme={scheme}", "time.end=200"]
+    (state, eigenvalues), = barber.states(rodfem.scene.load("barber", scene))
+    critical = eigenvalues[0]
+    assert 0.0 < critical.real < 0.01
+    mu = barber.step_rate(critical, 0.001, scheme)
+    assert (mu.real < 0.0) == (scheme == "paper")
+    period = 2.0 * math.pi / abs(mu.imag)
+    run = barber.run("barber", [*scene, *barber.at_rest(state, "1e-4*x")])
+    assert run.status == "complete" and np.all(run.p > 0.0)  # pressed: the problem is linear
+    distance = run.u_1 - state.u_1
+    # from t = 100 the next pair (Re λ ≤ −0.05) is down by e^{−5} against the critical one: the
+    # envelopes 90 periods apart and the mean of 90 periods are off by less than 1e-4 of it
+    rate = barber.decay_rate(run.t, distance, (100.0, 100.0 + period),
+                             (100.0 + 90 * period, 100.0 + 91 * period))
+    assert rate == pytest.approx(mu.real, abs=2e-4)
+    assert barber.period(run.t, distance, 100.0, 200.0) == pytest.approx(period, rel=1e-4)
