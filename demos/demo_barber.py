@@ -236,6 +236,37 @@ with style.mpl_fonts():
     save(fig, "hopf.png")
 # -
 
+# The scheme moves the onset. The paper's scheme multiplies the mode of $\lambda$ by
+# $1/(1 - \lambda\Delta t)$, which damps a vibration of frequency $\omega$ by about
+# $\omega^2\Delta t/2$ (0.0175 here with $\Delta t = 0.001$); Crank–Nicolson's
+# $(1 + \lambda\Delta t/2)/(1 - \lambda\Delta t/2)$ keeps $|z| > 1$ exactly where
+# $\operatorname{Re}\lambda > 0$. Just below the onset, at $\zeta = 0.018$, the two schemes
+# disagree as their step rates $\mu$ say:
+
+# +
+def onset_of(rate, lo: float = 0.005, hi: float = 0.04, steps: int = 30) -> float:
+    """The ζ where rate(second vibration's λ) crosses 0, by bisection."""
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if rate(vibration(rightmost(mid)[1], 4.0, 8.0)) > 0 else (lo, mid)
+    return lo
+
+
+say(f"onset with the paper's scheme, dt = {DT}: zeta = "
+    f"{onset_of(lambda lam: barber.step_rate(lam, DT).real):.5f} (Crank-Nicolson: that of Re lambda)")
+near_state, near_eigenvalues = rightmost(0.018)
+for scheme in ("paper", "crank-nicolson"):
+    mu = barber.step_rate(near_eigenvalues[0], DT, scheme)
+    P = 2 * math.pi / mu.imag
+    near = barber.run("barber", [*HOPF, "model.zeta=0.018", f"time.scheme={scheme}",
+                                 "time.end=200", *barber.at_rest(near_state, "1e-4*x")])
+    distance = near.u_1 - near_state.u_1
+    rate = barber.decay_rate(near.t, distance, (100, 100 + P), (100 + 90 * P, 100 + 91 * P))
+    say(f"{scheme:15s} Re lambda = {near_eigenvalues[0].real:.5f}: the run's rate {rate:.5f} "
+        f"(Re mu = {mu.real:.5f}), period {barber.period(near.t, distance, 100, 200):.5f} "
+        f"(2 pi/Im mu = {P:.5f})")
+# -
+
 # Above the bifurcation ($\zeta = 0.03$) a run from the uniformly hot rod, which flies into the
 # obstacle, settles; below it ($\zeta = 0.01$) a run started at the steady state with a
 # velocity of $10^{-5}x$ leaves it with the critical pair's period $2\pi/\operatorname{Im}\mu$
