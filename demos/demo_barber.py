@@ -48,6 +48,7 @@ COMM = MPI.COMM_WORLD
 SHORT = bool(os.environ.get("CI"))
 OUT = Path("results/demo_barber")
 FIGURES = OUT / "figures"
+STEADY = OUT / "steady"  # rodfem steady's directory: steady.csv, branches.csv, its figure
 CELLS = 40 if SHORT else 100
 DT = 0.001
 
@@ -104,10 +105,10 @@ table(found)
 # +
 values = np.linspace(0.0, 40.0, 41 if SHORT else 161)
 rows = analysis.continuation("barber", BASE, "obstacle.temperature", values, Spectra(COMM))
-analysis.write(OUT, True, COMM, analysis.analyse(rodfem.scene.load("barber", BASE), Spectra(COMM)),
-               rows)
+states = analysis.analyse(rodfem.scene.load("barber", BASE), Spectra(COMM))
+analysis.write(STEADY, True, COMM, states, rows)
 if COMM.rank == 0:
-    plot_branches(OUT, "obstacle.temperature", gap=0.02)
+    plot_branches(STEADY, "obstacle.temperature", gap=0.02)
 for line in analysis.branch_lines(rows, "obstacle.temperature"):
     say(line)
 # -
@@ -316,6 +317,27 @@ with style.mpl_fonts():
     bottom.legend(loc="upper left", fontsize=style.MPL_LEGEND_SIZE)
     right.legend(loc="upper right", fontsize=style.MPL_LEGEND_SIZE)
     save(fig, "intermittent_contact.png")
+# -
+
+# How the cycle grows with the distance from onset: from each state, kicked with $10^{-2}x$
+# (near the cycle), the cycle reached by $t = 250$. Near onset it is small and stays pressed,
+# its amplitude growing as $\sqrt{\operatorname{Re}\mu}$ and its period off the critical
+# pair's by the amplitude squared (a supercritical Hopf bifurcation); once the amplitude
+# exceeds $\varepsilon p$ the end leaves the obstacle once a period.
+
+# +
+say(f"{'zeta':>6} {'Re mu':>7} {'2 pi/Im mu':>10} {'period':>8} {'max|u-u*|':>10} {'contact':>8}")
+for zeta in (0.016, 0.015, 0.012, 0.01):
+    cycle_state, cycle_eigenvalues = rightmost(zeta)
+    mu = barber.step_rate(cycle_eigenvalues[0], DT)
+    grown = barber.run("barber", [*HOPF, f"model.zeta={zeta}", "time.end=300",
+                                  *barber.at_rest(cycle_state, "1e-2*x")])
+    distance = grown.u_1 - cycle_state.u_1
+    window = barber.cycle(grown, 250)
+    say(f"{zeta:6.3f} {mu.real:7.4f} {2 * math.pi / mu.imag:10.5f} "
+        f"{barber.period(grown.t, distance, 250, 300):8.5f} "
+        f"{barber.envelope(grown.t, distance, 250, 300):10.2e} "
+        f"{100 * window.contact_fraction:7.0f}%")
 # -
 
 # From another start, the uniformly hot rod flying into the obstacle, the first vibration is
