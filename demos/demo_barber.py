@@ -228,6 +228,8 @@ with style.mpl_fonts():
         ax.plot(zetas, followed.real, "o-", color=style.colour(j),
                 label=f"{name} (Im λ from {followed.imag.min():.2f} to "
                 f"{followed.imag.max():.2f})")
+    ax.plot(zetas, [barber.step_rate(v, DT).real for v in second], "--", color=style.colour(1),
+            label=f"second vibration's Re μ, the paper's scheme with Δt = {DT}")
     ax.axhline(0, color="k", linewidth=1)
     ax.axvline(lo, color="0.6", linestyle="--", label=f"Hopf, ζ = {lo:.4f}")
     ax.set_xlabel("ζ (model.zeta)")
