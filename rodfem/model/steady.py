@@ -17,9 +17,10 @@ where q, hence h, is non-decreasing in s and θ(1) is monotone in h (increasing 
 F is monotone and continuous, and bounded by its values at h = k and h = ∞ (θ(1) = θ_O). On an
 interval [s₀, s₁], s − F(s) lies in [s₀ − max F, s₁ − min F] with F's extremes at the ends: an
 interval where that excludes 0 holds no root. :meth:`Steady.states` halves every interval it
-cannot exclude down to the round-off of s, so it cannot miss a root: where s − F changes sign
-across what is left it is refined to adjacent doubles, and where it does not, the root is a
-tangential one (a fold of the branches).
+cannot exclude down to 2⁻²⁶ of the bracket, so it cannot miss a root: where s − F changes sign
+across what is left, the root is bisected to adjacent doubles; where it touches 0 without a
+change of sign, the root is a tangential one (a fold of the branches), to the resolution that
+round-off allows near a double root.
 
 P1 on this 1D problem is exact at the nodes (the H¹_E projection interpolates), so the scheme's
 steady states are these at the nodes.
@@ -28,7 +29,6 @@ steady states are these at the nodes.
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
@@ -156,6 +156,7 @@ class Steady:
         lo, hi = self.bracket()
         if lo == hi:
             return [(lo, False)]
+        self.evaluations = 0
         leaves = []
         stack = [(lo, self.F(lo), hi, self.F(hi), 0)]
         while stack:

@@ -17,6 +17,10 @@ from rodfem.post.runs import PARAMETERS, PlotError
 
 FLAGS = ("contact", "stable", "tangential")
 FIGURE = "branches.png"
+# The symbols of the keys a continuation most often runs over, beside the paper's.
+SYMBOLS = {**{key: symbol for key, (_, symbol) in PARAMETERS.items()},
+           "obstacle.temperature": "θ_O", "heat_exchange.k1": "k₁",
+           "heat_exchange.exponent": "m", "heat_exchange.length": "ℓ"}
 
 
 def read_branches(path: Path) -> list[dict]:
@@ -47,10 +51,27 @@ def _runs(rows: list[dict]) -> list[tuple[bool, list[dict]]]:
     return runs
 
 
+def _folds(rows: list[dict]) -> list[tuple[dict, dict]]:
+    """Two branches that begin (or end) at the same value, inside the range, met at a fold
+    between it and the value before (after): their first (last) states, to be joined."""
+    values = sorted({r["parameter"] for r in rows})
+    ends: dict[tuple[str, float], list[dict]] = {}
+    for label in {r["branch"] for r in rows}:
+        branch = sorted((r for r in rows if r["branch"] == label), key=lambda r: r["parameter"])
+        for which, row in (("first", branch[0]), ("last", branch[-1])):
+            ends.setdefault((which, row["parameter"]), []).append(row)
+    pairs = []
+    for (which, value), found in ends.items():
+        inside = value != (values[0] if which == "first" else values[-1])
+        if inside and len(found) == 2:
+            pairs.append(tuple(sorted(found, key=lambda r: r["u_1"])))
+    return pairs
+
+
 def plot_branches(out: Path, key: str, gap: float | None = None) -> list[Path]:
     """figures/branches.png of ``out``/branches.csv, continued over ``key``."""
     rows = read_branches(out / "branches.csv")
-    symbol = PARAMETERS.get(key, (None, key))[1]
+    symbol = SYMBOLS.get(key, key)
     with style.mpl_fonts():
         fig = Figure(figsize=style.MPL_SIZE, dpi=style.MPL_DPI)
         top, bottom = fig.subplots(2, 1, sharex=True)
@@ -65,6 +86,10 @@ def plot_branches(out: Path, key: str, gap: float | None = None) -> list[Path]:
             folds = [r for r in branch if r["tangential"]]
             for ax, name in ((top, "u_1"), (bottom, "theta_1")):
                 ax.plot([r["parameter"] for r in folds], [r[name] for r in folds], "ko")
+        for pair in _folds(rows):
+            for ax, name in ((top, "u_1"), (bottom, "theta_1")):
+                ax.plot([r["parameter"] for r in pair], [r[name] for r in pair], color="0.4",
+                        linestyle=":", linewidth=style.MPL_LINE_WIDTH)
         if gap is not None:
             top.axhline(gap, color="0.6", linewidth=1.0)
         top.set_ylabel("$u(1)$")
@@ -73,9 +98,11 @@ def plot_branches(out: Path, key: str, gap: float | None = None) -> list[Path]:
         top.set_title(f"Steady states over {symbol}: stable solid, unstable dashed")
         for ax in (top, bottom):
             ax.grid(True, color="0.9")
-        top.legend([Line2D([], [], color="k"), Line2D([], [], color="k", linestyle="--")]
+        top.legend([Line2D([], [], color="k"), Line2D([], [], color="k", linestyle="--"),
+                    Line2D([], [], color="0.4", linestyle=":")]
                    + ([Line2D([], [], color="0.6")] if gap is not None else []),
-                   ["stable", "unstable"] + (["gap g"] if gap is not None else []),
+                   ["stable", "unstable", "across a fold"] + (["gap g"] if gap is not None
+                                                               else []),
                    loc="best", fontsize=style.MPL_LEGEND_SIZE)
         fig.tight_layout()
         path = out / "figures" / FIGURE

@@ -131,5 +131,7 @@ class Spectra:
         return eigenvalues(A, B)
 
     def growth_rate(self, scene, lin) -> float:
-        """The largest real part of the spectrum: the state is stable where it is < 0."""
-        return float(self.eigenvalues(scene, lin)[0].real)
+        """The largest real part of the spectrum: the state is stable where it is < 0 (NaN if
+        every eigenvalue is infinite, which no scene with a heat equation gives)."""
+        found = self.eigenvalues(scene, lin)
+        return float(found[0].real) if found.size else float("nan")
