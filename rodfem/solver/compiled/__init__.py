@@ -23,9 +23,9 @@ def compiled_loop(method, history, compress: bool = True):
     them per C call, to round-off (Picard: the same iterations). RODFEM_KERNEL=0 in the
     environment keeps the PETSc loop; so do sources (the manufactured scene), Newton, Picard
     with a = 0, a rigid obstacle or a heat exchange that depends on the contact, and an
-    eliminated massless end with the power law (:func:`.loop.end_supported`). ``compress=False``: the loop reads a coefficient row per
-    node, not tables of the distinct rows (the same steps bit for bit, quicker to build: for a
-    loop that takes a step or two)."""
+    eliminated massless end with the power law (:func:`.loop.end_supported`).
+    ``compress=False``: the loop reads a coefficient row per node, not tables of the distinct
+    rows (the same steps bit for bit, quicker to build: for a loop that takes a step or two)."""
     from rodfem.solver.compiled.loop import end_supported
 
     if os.environ.get("RODFEM_KERNEL", "1") == "0":

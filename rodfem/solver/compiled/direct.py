@@ -12,7 +12,10 @@ the operators off a method and its history once and runs ``steps`` steps in ``di
     [ΔΘⁿ; ΔUⁿ] = z + p q              (q = ``method.response``, w = ``method.compliance``)
     Θⁿ = Θⁿ⁻¹ + ΔΘⁿ, Uⁿ = Uⁿ⁻¹ + ΔUⁿ, Dⁿ = ΔUⁿ (Crank–Nicolson with inertia: 2ΔUⁿ − Dⁿ⁻¹)
 
-and for each new state the raw row of :data:`rodfem.solver.record.RAW` (record.h), which
+with a heat exchange that depends on the contact (``method.exchange_step``) p and the flux φ
+from exchange.h's scalar equation and [ΔΘⁿ; ΔUⁿ] = z + p q + φ q_h (q_h =
+``method.heat_response``), and for each new state the raw row of
+:data:`rodfem.solver.record.RAW` (record.h), which
 :meth:`rodfem.output.history.History.take` turns into rows of ``history.h5`` as it does the
 PETSc loop's.
 
@@ -44,8 +47,9 @@ test in the two.
 
 **What it does not do.** The paper scheme's first step with inertia (n = 0 → 1,
 :meth:`Method._first_step`) is left to ``method.advance()``; sources are refused at
-construction. The loop is rank-local, as the state is (every rank holds all of it and computes
-the same rows).
+construction. A step whose exchange equation is not shown to have one root stops the loop at the
+step before it, with :class:`~rodfem.solver.errors.NoUniqueStep`. The loop is rank-local, as the
+state is (every rank holds all of it and computes the same rows).
 
 **Building.** direct.c is compiled with cffi on first use and cached (:mod:`.build`);
 :func:`available` says whether it could be built and loaded (else the caller keeps the PETSc
@@ -60,6 +64,7 @@ import numpy as np
 
 from rodfem.solver.compiled.build import CompiledSource
 from rodfem.solver.errors import NoUniqueStep
+from rodfem.solver.methods.exchange_step import NOT_UNIQUE
 from rodfem.solver.compiled.loop import CompiledLoop, check_library, classes, energy_tables
 
 SOURCE = Path(__file__).with_name("direct.c")
@@ -271,7 +276,5 @@ class DirectKernel(CompiledLoop):
         if done < steps:
             step = method.n + done + 1
             time = step * method.dt if method.clock is None else method.clock + method.dt
-            error = NoUniqueStep("direct", step, time, "the step's equation for u(1) with the "
-                                 "heat exchange may have several roots (a smaller time.dt "
-                                 "makes the step's root unique)")
+            error = NoUniqueStep("direct", step, time, NOT_UNIQUE)
         return done, float(self._pressure[0]), 1, error

@@ -17,7 +17,7 @@
 enum { RX_CONSTANT = 0, RX_PRESSURE = 1, RX_GAP = 2 };
 
 typedef struct {
-    int law;              /* RX_CONSTANT (no flux: the step of contact.h alone), RX_PRESSURE, RX_GAP */
+    int law;              /* RX_CONSTANT (no flux: contact.h's step alone), RX_PRESSURE, RX_GAP */
     double k1, exponent;  /* q = k1 p^exponent (pressure) */
     double gap, length;   /* q = k1 exp(min(y - gap, 0)/length) (gap) */
     /* the step's scalars (ExchangeStep): the responses alpha = q_h,U(1), beta = q_c,Theta(1),
@@ -190,8 +190,9 @@ static inline int rx_solve(const rx_exchange *X, const rc_obstacle *O, double w,
     }
     if (!rx_unique(X, O, w, lo, hi, c, T0))
         return 1;
-    const double t = f_hi == 0.0 ? hi : f_lo == 0.0 ? lo
-                                                    : rx_root(X, O, w, s, c, T0, lo, hi, f_lo, f_hi);
+    const double t = f_hi == 0.0   ? hi
+                     : f_lo == 0.0 ? lo
+                                   : rx_root(X, O, w, s, c, T0, lo, hi, f_lo, f_hi);
     *phi = rx_at(X, O, w, t, c, T0, p, &y, &q);
     return 0;
 }

@@ -34,6 +34,12 @@ MAX_ITERATIONS = 4000  # as rodfem.model.contact.law's monotone_root
 MAX_DOUBLINGS = 2100  # enough to reach a double's range from any start
 
 
+# What a step says where it is not shown to have one root (the compiled loop says the same)
+NOT_UNIQUE = ("the step's equation for u(1) with the heat exchange may have several roots (heat "
+              "that enters through the contact can push the end on as much as its motion holds "
+              "it back); a smaller time.dt makes its root unique")
+
+
 class NoUniqueRoot(ValueError):
     """The step's equation G(t) = 0 has no root shown to be unique: the detail says why."""
 
@@ -98,14 +104,19 @@ class ExchangeStep:
     def solve(self, s: float, c: float, T0: float) -> tuple[float, float]:
         """The step's (p, φ), from s = c + z_U(1), c = Uⁿ⁻¹(1) and T0. NoUniqueRoot where the
         root is not shown to be unique in its bracket."""
-        alpha = self.alpha
+        alpha, known = self.alpha, {}  # known: at(t) of each t evaluated
+
+        def at(t: float) -> tuple[float, float, float, float]:
+            if t not in known:
+                known[t] = self.at(t, c, T0)
+            return known[t]
 
         def G(t: float) -> float:
-            return t - s - alpha * self.at(t, c, T0)[3]
+            return t - s - alpha * at(t)[3]
 
         f = G(s)
         if f == 0.0:  # no exchange at s (or α = 0): today's step
-            p, _, _, phi = self.at(s, c, T0)
+            p, _, _, phi = at(s)
             return p, phi
         # G(t) ≥ t − s − |α φ(t)|: step away from s, doubling, until G changes sign
         direction = 1.0 if f < 0.0 else -1.0
@@ -124,13 +135,14 @@ class ExchangeStep:
             raise NoUniqueRoot(f"no root of the step's equation found from u(1) = {s:g}")
         lo, hi, f_lo, f_hi = (near, far, f_near, f_far) if direction > 0.0 else \
             (far, near, f_far, f_near)
-        self.unique(lo, hi, c, T0)
+        self.unique(at(lo), at(hi), c, T0)
         t = hi if f_hi == 0.0 else lo if f_lo == 0.0 else bracketed_root(G, lo, hi, f_lo, f_hi)
-        p, _, _, phi = self.at(t, c, T0)
+        p, _, _, phi = at(t)
         return p, phi
 
-    def unique(self, lo: float, hi: float, c: float, T0: float) -> None:
-        """Show that G has one root in [lo, hi], or raise NoUniqueRoot.
+    def unique(self, lo: tuple, hi: tuple, c: float, T0: float) -> None:
+        """Show that G has one root in the bracket whose ends have :meth:`at` ``lo`` and ``hi``,
+        or raise NoUniqueRoot.
 
         φ = N(p) g(q) with N = T0 + w_t β p affine and g(q) = q/(1 − w_t γ q) increasing, and p, q
         non-decreasing in t. (1) Where N keeps a sign with αN ≤ 0 and βN ≥ 0, αφ is
@@ -140,8 +152,7 @@ class ExchangeStep:
         derivatives there; so ΔG ≥ (1 − c_y) Δy + (w − c_p) Δp, and with Δp ≤ S Δy, S a bound
         of the contact force's slope (:meth:`force_slope`), G increases if 1 − c_y > 0 and
         w − c_p > 0, or 1 − c_y + (w − c_p) S > 0."""
-        p_lo, y_lo, q_lo, _ = self.at(lo, c, T0)
-        p_hi, y_hi, q_hi, _ = self.at(hi, c, T0)
+        (p_lo, y_lo, q_lo, _), (p_hi, y_hi, q_hi, _) = lo, hi
         alpha, beta, weight = self.alpha, self.beta, self.weight
         N_lo, N_hi = T0 + weight * beta * p_lo, T0 + weight * beta * p_hi
         if N_lo >= 0.0 and N_hi >= 0.0 and alpha <= 0.0 and beta >= 0.0:
@@ -158,10 +169,7 @@ class ExchangeStep:
         if not self.w - c_p > 0.0:
             margin += (self.w - c_p) * self.force_slope(y_hi, c)
         if not margin > 0.0:
-            raise NoUniqueRoot(
-                f"the step's equation for u(1) in [{y_lo:.6g}, {y_hi:.6g}] may have several "
-                "roots (the heat the contact exchanges moves the end against its motion by as "
-                "much as the motion itself; a smaller time.dt makes the step's root unique)")
+            raise NoUniqueRoot(NOT_UNIQUE)
 
     def force_slope(self, y_hi: float, c: float) -> float:
         """A bound of the step's contact force's slope in y = Uⁿ(1) up to y_hi: φ''(y_hi), and
