@@ -2,9 +2,9 @@
 the same algebra as the PETSc loops to round-off (Picard: the same iterations at every step).
 
 ``direct.py`` + ``direct.c`` and ``picard.py`` + ``picard.c`` are the two loops, on the base
-class of ``loop.py``; ``contact.h`` (the contact laws) and ``record.h`` (the raw history row)
-are shared by both; ``build.py`` compiles and caches them. :func:`compiled_loop` picks the loop a
-run can use.
+class of ``loop.py``; ``contact.h`` (the contact laws), ``exchange.h`` (the heat-exchange laws)
+and ``record.h`` (the raw history row) are shared by both; ``build.py`` compiles and caches
+them. :func:`compiled_loop` picks the loop a run can use.
 """
 
 from __future__ import annotations
@@ -22,10 +22,10 @@ def compiled_loop(method, history, compress: bool = True):
     (:mod:`.picard`) where it applies and can be built, else None: the same steps, a block of
     them per C call, to round-off (Picard: the same iterations). RODFEM_KERNEL=0 in the
     environment keeps the PETSc loop; so do sources (the manufactured scene), Newton, Picard
-    with a = 0, a rigid obstacle or a heat exchange that depends on the contact, and an
-    eliminated massless end with the power law (:func:`.loop.end_supported`).
-    ``compress=False``: the loop reads a coefficient row per node, not tables of the distinct
-    rows (the same steps bit for bit, quicker to build: for a loop that takes a step or two)."""
+    with a = 0 or a rigid obstacle, and an eliminated massless end with the power law
+    (:func:`.loop.end_supported`). ``compress=False``: the loop reads a coefficient row per node,
+    not tables of the distinct rows (the same steps bit for bit, quicker to build: for a loop
+    that takes a step or two)."""
     from rodfem.solver.compiled.loop import end_supported
 
     if os.environ.get("RODFEM_KERNEL", "1") == "0":
@@ -34,8 +34,7 @@ def compiled_loop(method, history, compress: bool = True):
         return None
     if method.name == "direct":
         from rodfem.solver.compiled import direct as module
-    elif (method.name == "picard" and method.coupled and not method.law.rigid
-          and not method.exchange.variable):
+    elif method.name == "picard" and method.coupled and not method.law.rigid:
         from rodfem.solver.compiled import picard as module
     else:
         return None

@@ -1,6 +1,7 @@
 /*
- * exchange.h -- the heat exchange at x = 1 for rodfem's compiled direct loop:
- * rodfem/model/exchange/ (pressure.py, gap.py) and the direct step's scalar equation,
+ * exchange.h -- the heat exchange at x = 1 for rodfem's compiled loops (picard.c takes the law and
+ * its place, direct.c the step's equation too): rodfem/model/exchange/ (pressure.py, gap.py) and
+ * the direct step's scalar equation,
  * rodfem/solver/methods/exchange_step.py, in C, formula for formula, so that a compiled step
  * takes the same branches as the Python one. A new law is a new case here beside its Python
  * module; rodfem/solver/compiled/loop.py's check_library checks the codes below against the

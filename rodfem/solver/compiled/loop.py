@@ -1,5 +1,6 @@
 """What both compiled time loops share: the base class that a method's loop derives from, the
-checks of the C side against the Python tables, and the tables of distinct coefficient rows.
+checks of the C side against the Python tables (the contact laws, the heat-exchange laws, the raw
+row), and the tables of distinct coefficient rows.
 
 A loop is built on a :class:`~rodfem.solver.methods.base.Method` and the run's
 :class:`~rodfem.output.history.History`, reading only their public attributes: the state
@@ -114,6 +115,17 @@ class CompiledLoop:
         target.law = law.code
         target.gradient = int(method.time_scheme.gradient_contact and not law.rigid)
         target.gap, target.epsilon, target.exponent = law.gap, law.epsilon, law.exponent
+
+    @staticmethod
+    def set_exchange(target, method) -> None:
+        """Fill exchange.h's rx_exchange from the method's heat-exchange law, time scheme and
+        offset."""
+        law = method.exchange
+        target.law = law.code
+        target.k1 = law.k1
+        target.exponent = getattr(law, "exponent", 1.0)
+        target.gap, target.length = getattr(law, "gap", 0.0), getattr(law, "length", 1.0)
+        target.weight, target.offset = method.time_scheme.weight, method.offset
 
     def set_end(self, target, lib) -> None:
         """Fill contact.h's rc_end: the end with its mass, without it (a redistributed mass), or

@@ -32,6 +32,12 @@
  * in the CSR's column order, as PETSc's MatMultAdd does; the substitutions round differently from
  * PETSc's LU (normalised factors, U L for A_m).
  *
+ * A variable heat exchange (exchange.h) adds q (Theta(1) + offset) to the heat row of x = 1,
+ * q = q(place of c + V(1), p) of the last iterate and Theta(1) taken implicitly, at the weight w:
+ * by Sherman-Morrison with v = A_h^-1 e (PicardMethod.unit_response, from the PETSc loop),
+ *     T' = z - phi v,  phi = q (Theta^(n-1)(1) + offset + w z(1)) / (1 + w q v(1)),
+ * z the heat step without it. z(1) is sweep B's first value, so the sweep corrects as it goes.
+ *
  * A redistributed mass (rodfem/solver/methods/massless.py, contact.h's rc_end) changes the end
  * only: without its mass, D(1) = U^n(1) - U^(n-1)(1). (An eliminated end needs a = 0, which this
  * loop leaves to the PETSc loop.)
@@ -45,6 +51,7 @@
 #include <stddef.h>
 
 #include "contact.h"
+#include "exchange.h"
 #include "record.h"
 
 /* cdef begin: the declarations cffi reads (rodfem/solver/compiled/picard.py) */
@@ -54,6 +61,8 @@ typedef struct {
     double tol;
     rc_obstacle obstacle;  /* the law and the time scheme's rule (contact.h) */
     rc_end end;            /* the end x = 1: with its mass or without (contact.h) */
+    rx_exchange exchange;  /* the heat exchange's law (exchange.h) */
+    const double *unit_response;  /* v = A_h^-1 e (n), for a variable exchange */
     int midpoint_inertia;  /* D = 2 dU - D (Crank-Nicolson with inertia), else D = dU */
     /* Tables of distinct rows, with each node's row number (its class) in *_class: */
     /* rows of 20: the heat row of R (blocks Theta, D, U; each (i-1, i, i+1)), b_h, then the
@@ -191,6 +200,8 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
     const int *restrict cc = P->coupling_class;
     const int midpoint_inertia = P->midpoint_inertia;
     const int massless = P->end.kind != RC_END_MASS;
+    const int variable = P->exchange.law != RX_CONSTANT;
+    const double weight = P->exchange.weight, *restrict v = P->unit_response;
     long done = 0;
     int its = *iterations;
     double p = *pressure, inc = 0.0;
@@ -202,7 +213,7 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
             fixed_row(P, i, th, D, U, h, m, gH, &gh);
     }
     for (long k = 0; k < steps; k++) {
-        const double c = U[n - 1];
+        const double c = U[n - 1], theta_end = th[n - 1] + P->exchange.offset;
         int l;
         int failed = 0;
         for (int i = 0; i < n; i++) {
@@ -212,17 +223,28 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
         double deepest = c;  /* the largest U(1) of the iterates, for the failure's message */
         for (l = 1; l <= max_it; l++) {
             deepest = c + V[n - 1] > deepest ? c + V[n - 1] : deepest;
-            const double q = -rc_contact_force(&P->obstacle, c + V[n - 1], c);
+            const double force = rc_contact_force(&P->obstacle, c + V[n - 1], c);
+            const double q = -force;
             double ct, cu, bad, e;
+            /* the exchange's flux phi of the heat step without it, z; T' = z - phi v */
+            double z1 = gH[n - 1], phi = 0.0;
+            if (variable) {
+                const double qx = rx_extra(&P->exchange, rx_place(&P->exchange, c + V[n - 1], c),
+                                           force);
+                if (qx != 0.0)
+                    phi = qx * (theta_end + weight * z1) / (1.0 + weight * qx * v[n - 1]);
+            }
             /* sweep B, descending: T' by A_h's substitution; momentum rhs and elimination one
              * node behind (x1 = T'(i + 1), x2 = T'(i + 2)) */
-            double x1 = gH[n - 1], x2 = 0.0, gm = 0.0;
+            double x1 = phi != 0.0 ? z1 + -phi * v[n - 1] : z1, x2 = 0.0, gm = 0.0;
             e = fabs(x1 - T[n - 1]);
             ct = e;
             bad = e;
             T[n - 1] = x1;
             for (int i = n - 2; i >= 0; i--) {
-                const double ti = gH[i] - fd[3 * (size_t)i] * x1;
+                const double zi = gH[i] - fd[3 * (size_t)i] * z1;
+                const double ti = phi != 0.0 ? zi + -phi * v[i] : zi;
+                z1 = zi;
                 e = fabs(ti - T[i]);
                 ct = e > ct ? e : ct;
                 bad += e;

@@ -11,6 +11,9 @@ off a method and its history once and runs ``steps`` steps of exactly that algeb
     for l = 1, 2, …, max_iterations:
         p   = contact force of c + ΔU^{l−1}(1)  (the law at the time scheme's rule: contact.h)
         ΔΘˡ = A_h⁻¹ (h + N_ΔU ΔU^{l−1})          (``method.heat.A``, ``heat.N["du"]``)
+              − φ v                             (a variable heat exchange, exchange.h: φ of
+                                                 q at c + ΔU^{l−1}(1) and p, v = A_h⁻¹ e,
+                                                 ``method.unit_response()``)
         ΔUˡ = A_m⁻¹ (m + N_ΔΘ ΔΘˡ − p e)         (``method.momentum.A``, ``N["dtheta"]``,
                                                  ``method.contact_load``)
         change = max(‖ΔΘˡ − ΔΘ^{l−1}‖∞, ‖ΔUˡ − ΔU^{l−1}‖∞); stop if change < tol (``method.tol``)
@@ -173,6 +176,10 @@ class PicardKernel(CompiledLoop):
         P.tol = float(method.tol)
         self.set_obstacle(P.obstacle, method)
         self.set_end(P.end, lib)
+        self.set_exchange(P.exchange, method)
+        if method.exchange.variable:  # v = A_h⁻¹ e, the PETSc loop's
+            self._arrays["unit_response"] = np.ascontiguousarray(
+                method.unit_response().array_r, dtype=float)
         P.blocks = blocks
         P.midpoint_inertia = self.velocity_update
         for field, array in self._arrays.items():

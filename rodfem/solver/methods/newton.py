@@ -142,10 +142,8 @@ class NewtonMethod(Method):
         if self._exchange != (0.0, 0.0):
             # J = C + [e_Θ, e] M [e_Θ, r]ᵀ, M = [[w q, β], [0, κ]]: J⁻¹b = y − [q_Θ, q] z with
             # (I + M G) z = M [e_Θ, r]ᵀ y, G = [e_Θ, r]ᵀ[q_Θ, q] (Woodbury, M need not be
-            # invertible)
-            M = np.array([[self._exchange[0], self._exchange[1]], [0.0, self._slope]])
-            z = np.linalg.solve(np.eye(2) + M @ self._gram,
-                                M @ [y.getValue(self.last), self._r_dot(y)])
+            # invertible); (I + M G)⁻¹ M is made with the Jacobian
+            z = self._woodbury @ [y.getValue(self.last), self._r_dot(y)]
             y.maxpy([-z[0], -z[1]], [self._q_theta, self._q])
         elif self._slope:
             y.axpy(-self._slope * self._r_dot(y) / (1.0 + self._slope * self._r_q), self._q)
@@ -174,11 +172,12 @@ class NewtonMethod(Method):
                 F.assemble()
 
     def _exchange_terms(self, x: PETSc.Vec, F: PETSc.Vec | None = None):
-        """(φ, q, T, ∂φ/∂U(1)'s factor β) of the variable exchange at the increments x: q at
-        the place of Uⁿ(1) (an eliminated end's settled U(1)) and the step's contact force, for
-        the rigid obstacle −F_U(1) of the residual F without the exchange (read before it is
-        added) or, without F, recomputed. β is the derivative of q along the row of U(1) (or of
-        the end's free position y) times T."""
+        """(φ, q, T, β, ∂q/∂p T) of the variable exchange at the increments x: q at the place
+        of Uⁿ(1) (an eliminated end's settled U(1)) and the step's contact force, for the rigid
+        obstacle −F_U(1) of the residual F without the exchange (read before it is added) or,
+        without F, recomputed; β = dq/dU(1) T, through the place and the contact law (along the
+        end's free position y, if eliminated); ∂q/∂p T where p > 0 (the rigid obstacle's
+        multiplier's derivative in J, :meth:`_rigid_exchange_row`), else 0."""
         y, c = self._where(x)
         w, end, law = self.time_scheme.weight, self.massless, self.exchange
         if self.rigid:
@@ -224,6 +223,9 @@ class NewtonMethod(Method):
         if self.variable:
             _, q, _, beta, by_pressure = self._exchange_terms(x)
             self._exchange = (self.time_scheme.weight * q, beta)
+            if not self.rigid and self._exchange != (0.0, 0.0):
+                M = np.array([[self._exchange[0], beta], [0.0, slope]])
+                self._woodbury = np.linalg.solve(np.eye(2) + M @ self._gram, M)
             if self.rigid:  # J itself is factored: the heat row of x = 1, explicitly
                 self._rigid_exchange_row(J, by_pressure)
         J.assemble()

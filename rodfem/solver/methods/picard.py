@@ -56,17 +56,22 @@ class PicardMethod(Method):
         self._fixed, (self._heat_step, self._momentum_step) = stacked(2, disc.nodes.size)
         self._rhs = new()
         self._unit_response = None  # v = A_h⁻¹ e, for a variable exchange (on first use)
+        self._heat_free = new()  # with a = 0 and a variable exchange, ΔΘⁿ without it
 
     def _exchanged(self, dtheta: PETSc.Vec, q: float, theta_end: float) -> None:
         """ΔΘ = z − φ v in place of z (the module's docstring): the heat step with the exchange
         w q^{l−1} (Θ(1) + offset) at x = 1, Θⁿ⁻¹(1) + offset = ``theta_end``."""
-        if self._unit_response is None:
-            self._unit_response = self.heat.A.createVecRight()
-            self.solve_heat(self.contact_load, self._unit_response)
-        v, w = self._unit_response, self.time_scheme.weight
+        v, w = self.unit_response(), self.time_scheme.weight
         flux = q * (theta_end + w * dtheta.getValue(self.last)) / (
             1.0 + w * q * v.getValue(self.last))
         dtheta.axpy(-flux, v)
+
+    def unit_response(self) -> PETSc.Vec:
+        """v = A_h⁻¹ e: the heat step's response to a unit flux at x = 1 (made on first use)."""
+        if self._unit_response is None:
+            self._unit_response = self.heat.A.createVecRight()
+            self.solve_heat(self.contact_load, self._unit_response)
+        return self._unit_response
 
     def _end_displacement(self, y: float) -> float:
         """U(1) of an iterate whose end (its free position, if eliminated) is at y."""
@@ -99,7 +104,8 @@ class PicardMethod(Method):
             N_theta.multAdd(dtheta_it, m_step, m_step)
             dtheta_new.zeroEntries()
             if variable:  # ΔΘⁿ without the exchange, z, from which each new q's is made
-                heat_free = dtheta_it.copy()
+                heat_free = self._heat_free
+                dtheta_it.copy(heat_free)
         increment, pressure = np.inf, np.nan
         deepest = u_last  # the largest U(1) of the iterates, for the failure's message
         for iteration in range(1, self.max_iterations + 1):  # noqa: B007 (used after the loop)
