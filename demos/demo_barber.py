@@ -255,8 +255,9 @@ def onset_of(rate, lo: float = 0.005, hi: float = 0.04, steps: int = 30) -> floa
     return lo
 
 
-say(f"onset with the paper's scheme, dt = {DT}: zeta = "
-    f"{onset_of(lambda lam: barber.step_rate(lam, DT).real):.5f} (Crank-Nicolson: that of Re lambda)")
+paper_onset = onset_of(lambda lam: barber.step_rate(lam, DT).real)
+say(f"onset with the paper's scheme, dt = {DT}: zeta = {paper_onset:.5f} "
+    "(Crank-Nicolson: that of Re lambda)")
 near_state, near_eigenvalues = rightmost(0.018)
 for scheme in ("paper", "crank-nicolson"):
     mu = barber.step_rate(near_eigenvalues[0], DT, scheme)
