@@ -216,3 +216,17 @@ def stiffness(u, v, dx):
 def thermal_load(r, v, dx):
     """(r, v_x): z (and (L, v_x) for the lifting L)."""
     return r * v.dx(0) * dx
+
+
+# The operators of the dynamic problem linearised about a steady state (rodfem.solver.spectrum):
+# besides M, K and the inertia's (·,·)_b, the coupling and the point x = 1.
+
+
+def coupling(u, w, dx):
+    """(u_x, w): the heat equation's coupling a (u_xt, w), less a and the time derivative."""
+    return u.dx(0) * w * dx
+
+
+def end_product(u, v, ds_1):
+    """u(1) v(1): B, the exchange and the contact at x = 1."""
+    return u * v * ds_1

@@ -10,6 +10,8 @@
                      [--zeta LIST] [--a LIST] [--end T] [--force] [--progress]
     rodfem verify [--out DIR] [--scenes S,...] [--force] [--quick] [--progress]
     rodfem work-precision [--out DIR] [--force] [--quick] [--progress]
+    rodfem steady SCENE [--out DIR] [--set section.key=value ...] [--continue KEY=a:b:n]
+                  [--force]
 
 Exit codes (:mod:`rodfem.commands`): 0 complete, 2 bad input, 3 a step could not be taken, 4 a
 file could not be written, 128 + the signal's number when stopped by a signal.
@@ -58,7 +60,7 @@ def parser() -> argparse.ArgumentParser:
         description="Dynamic contact of a thermoviscoelastic rod with an obstacle (Copetti).",
     )
     sub = parser.add_subparsers(dest="command", required=True)
-    for add in (_run, _sweep, _resume, _plot, _paper, _stability, _verify):
+    for add in (_run, _sweep, _resume, _plot, _paper, _stability, _verify, _steady):
         add(sub)
     return parser
 
@@ -245,11 +247,34 @@ def _verify(sub) -> None:
                         "and impact)")
 
 
+def _steady(sub) -> None:
+    """``rodfem steady``: every steady state of a scene, its stability, and their branches."""
+    steady = sub.add_parser(
+        "steady",
+        help="every steady state of a scene and its stability",
+        description="Find every steady state of a scene (the rod at rest: the temperature "
+        "linear, the stress constant, the contact and heat-exchange laws closing one scalar "
+        "equation, all of whose roots are found) and its stability (the spectrum of the "
+        "dynamic problem linearised about it, discretised like the scene), and write "
+        "steady.csv: one row per state, in increasing u(1). With --continue, the states at n "
+        "values of a scene value from a to b: branches.csv and figures/branches.png (stable "
+        "branches solid, unstable dashed).",
+    )
+    steady.add_argument("scene",
+                        help=f"a built-in scene ({', '.join(BUILTIN + EXTRA)}) or a TOML file")
+    _output(steady, None, "output directory (default: results/<scene name>-steady)",
+            "replace an earlier result of this command in --out")
+    _overrides(steady, "override a scene value, e.g. --set heat_exchange.k1=500 (repeatable)")
+    steady.add_argument("--continue", dest="continuation", metavar="KEY=a:b:n",
+                        help="the branches over n values of the real scene value KEY from a to "
+                        "b, e.g. obstacle.temperature=0:20:81")
+
+
 COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.resume,
             "plot": commands.plot,
             "paper": commands.paper,
             "stability": commands.stability, "verify": commands.verify,
-            "work-precision": commands.verify}
+            "work-precision": commands.verify, "steady": commands.steady}
 
 
 def _release(status: str) -> None:

@@ -177,7 +177,7 @@ def test_unknown_scene(shared_dir, capsys):
     assert code == 2
     if COMM.rank == 0:
         builtin = ("paper1, paper2, paper3, paper4, paper5, manufactured, manufactured-gap, "
-                   "impact, stiff")
+                   "impact, stiff, barber")
         assert f"not a built-in scene ({builtin}) nor a TOML file" in err
     assert not out.exists()
 

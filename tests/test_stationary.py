@@ -1,11 +1,11 @@
-"""Convergence to the stationary solution of the model, derived in rodfem/stationary.py: at rest
+"""Convergence to the stationary solution of the model, derived in rodfem/model/steady.py: at rest
 the shifted temperature vanishes and u*(x) = σ x + a θ_A (x − c x²/2), with σ = 0 without contact
 and σ = (g − U*)/(1 + ε) with it; P1 is exact at the nodes, so the scheme must converge to it."""
 
 import numpy as np
 import pytest
 
-from rodfem.model.stationary import stationary
+from rodfem.model.steady import stationary
 
 
 @pytest.mark.parametrize("k, in_contact", [(1.0, True), (100.0, False)])

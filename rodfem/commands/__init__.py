@@ -2,14 +2,14 @@
 them): load and check the input, run, and report in one line per outcome, with the exit codes of
 :mod:`rodfem.commands.common`. By family: :mod:`~rodfem.commands.runs` (run, resume),
 :mod:`~rodfem.commands.sweeps` (sweep), :mod:`~rodfem.commands.figures` (plot) and
-:mod:`~rodfem.commands.studies` (paper, stability, verify, work-precision).
+:mod:`~rodfem.commands.studies` (paper, stability, verify, work-precision, steady).
 """
 
 from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, say
 from rodfem.commands.figures import plot
 from rodfem.commands.runs import resume, run
-from rodfem.commands.studies import paper, stability, verify
+from rodfem.commands.studies import paper, stability, steady, verify
 from rodfem.commands.sweeps import sweep
 
 __all__ = ["EXIT_DIVERGED", "EXIT_INPUT", "EXIT_IO", "paper", "plot", "resume", "run", "say",
-           "stability", "sweep", "verify"]
+           "stability", "steady", "sweep", "verify"]

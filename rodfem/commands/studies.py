@@ -1,5 +1,6 @@
 """The studies over many runs: ``rodfem paper``, ``rodfem stability``, ``rodfem verify`` and
-``rodfem work-precision``, each into its directory, then its figures and summary lines."""
+``rodfem work-precision``, each into its directory, then its figures and summary lines; and
+``rodfem steady``, a scene's steady states and their branches."""
 
 from __future__ import annotations
 
@@ -75,6 +76,51 @@ def stability(args: argparse.Namespace) -> int:
     for line in st.report_lines(records, grid, seconds, args.out, comm.size):
         say(line, sys.stdout)
     for path in written:
+        say(str(path), sys.stdout)
+    comm.barrier()
+    return 0
+
+
+def steady(args: argparse.Namespace) -> int:
+    """Every steady state of a scene and its stability (and their branches) into its
+    directory; the states as a table."""
+    from mpi4py import MPI
+
+    from rodfem.output.directories import OutputError, finish
+    from rodfem.solver.spectrum import Spectra
+    from rodfem.studies import steady as st
+
+    comm = MPI.COMM_WORLD
+    try:
+        key, values = st.parse_continuation(args.continuation) if args.continuation \
+            else (None, None)
+    except st.SteadyError as err:
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    scene = load(args.scene, args.overrides)
+    out = args.out if args.out is not None else \
+        Path("results") / f"{Path(args.scene).stem}-steady"
+    spectra = Spectra(comm)
+    rows = st.analyse(scene, spectra)
+    branch_rows = None if key is None else \
+        st.continuation(args.scene, args.overrides, key, values, spectra)
+    try:
+        st.write(out, args.force, comm, rows, branch_rows)
+    except OutputError as err:
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT
+    written = []
+    if comm.rank == 0 and key is not None:
+        from rodfem.post.steady import plot_branches
+
+        written = plot_branches(out, key, scene["obstacle.gap"])
+    finish(out, "complete", comm)
+    for line in st.table_lines(rows):
+        say(line, sys.stdout)
+    if key is not None:
+        for line in st.branch_lines(branch_rows, key):
+            say(line, sys.stdout)
+    for path in (out / st.STATES, *([out / st.BRANCHES] if key else []), *written):
         say(str(path), sys.stdout)
     comm.barrier()
     return 0

@@ -1,2 +1,2 @@
-"""The continuous model in NumPy: the contact laws at x = 1, the Robin shift r(x), the stationary
-state and the manufactured exact solution. Nothing here knows of meshes or PETSc."""
+"""The continuous model in NumPy: the contact and heat-exchange laws at x = 1, the Robin shift
+r(x), the steady states and the manufactured exact solution. Nothing here knows of meshes or PETSc."""

@@ -195,6 +195,7 @@ SOURCE_NAMES = (*MODEL_NAMES, "t")
 BUILTIN = tuple(f"paper{i}" for i in range(1, 6))  # the paper's experiments
 # Other built-in scenes: manufactured solutions without contact, with sources
 # (rodfem.model.manufactured; one with a gap-dependent heat exchange), an impact on a rigid wall
-# with an exact solution (rodfem.model.impact), and paper1 against a stiff obstacle, for its peak
-# contact stress
-EXTRA = ("manufactured", "manufactured-gap", "impact", "stiff")
+# with an exact solution (rodfem.model.impact), paper1 against a stiff obstacle, for its peak
+# contact stress, and Barber's thermoelastic contact, with three steady states (rodfem steady
+# barber)
+EXTRA = ("manufactured", "manufactured-gap", "impact", "stiff", "barber")

@@ -17,7 +17,7 @@ from mpi4py import MPI
 
 import rodfem
 import rodfem.scene
-from rodfem.model.stationary import stationary
+from rodfem.model.steady import stationary
 from rodfem.output.directories import finish, prepare_directory
 from rodfem.output.files import write_text
 from rodfem.output.readers import history_path, read_history
@@ -90,7 +90,7 @@ def measured(scene: rodfem.scene.Scene, run: Path, result) -> str:
         f"{ended}{contact}; at t = {t[-1]:g} the rod is "
         f"{'in contact' if touching[-1] else 'free'}, "
         f"u(1) = {u_1[-1]:.5f}, σ(1) = {sigma_1[-1]:.5f}, against the stationary state "
-        f"u*(1) = {u_star[0]:.5f}, σ* = {sigma_star:.5f} (`rodfem.model.stationary`). Energy "
+        f"u*(1) = {u_star[0]:.5f}, σ* = {sigma_star:.5f} (`rodfem.model.steady`). Energy "
         f"non-increasing: {'yes' if s['energy_non_increasing'] else 'NO'} ({change}); "
         f"{s['iterations_mean']:.2f} Picard iterations per step."
     )

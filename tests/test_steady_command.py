@@ -1,0 +1,149 @@
+"""``rodfem steady``: its tables, its figure, its refusals and its directory."""
+
+import csv
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from mpi4py import MPI
+
+import rodfem.scene
+from rodfem.cli import main
+from rodfem.model import steady
+from rodfem.output.directories import finish
+from rodfem.studies import steady as st
+
+COMM = MPI.COMM_WORLD
+serial_only = pytest.mark.skipif(COMM.size > 1, reason="starts its own processes; run serially")
+MPI_ENV = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
+
+
+def read(path: Path) -> tuple[list[str], list[dict]]:
+    with open(path, newline="", encoding="utf-8") as f:
+        reader = csv.DictReader(f)
+        return reader.fieldnames, list(reader)
+
+
+def test_states_table(shared_dir, capsys):
+    out = shared_dir / "states"
+    assert main(["steady", "barber", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    columns, rows = read(out / "steady.csv")
+    assert columns[:6] == ["u_1", "sigma_1", "theta_1", "contact", "stable", "growth_rate"]
+    states = steady.of_scene(rodfem.scene.load("barber", [])).states()
+    assert [float(r["u_1"]) for r in rows] == [s.u_1 for s in states]  # in increasing u(1)
+    assert [float(r["sigma_1"]) for r in rows] == [s.sigma_1 for s in states]
+    assert [r["contact"] for r in rows] == ["false", "true", "true"]
+    assert [r["stable"] for r in rows] == ["true", "false", "true"]
+    assert all((float(r["growth_rate"]) < 0) == (r["stable"] == "true") for r in rows)
+    if COMM.rank == 0:
+        assert printed.count("\n") == 1 + 3 + 1 and "growth rate" in printed
+        assert str(out / "steady.csv") in printed
+
+
+def test_branches(shared_dir, capsys):
+    out = shared_dir / "branches"
+    code = main(["steady", "barber", "--out", str(out), "--set", "mesh.cells=20",
+                 "--continue", "obstacle.temperature=0:30:16"])
+    assert code == 0
+    printed = capsys.readouterr().out
+    columns, rows = read(out / "branches.csv")
+    assert columns[:8] == ["parameter", "u_1", "sigma_1", "theta_1", "contact", "stable",
+                           "growth_rate", "branch"]
+    values = sorted({float(r["parameter"]) for r in rows})
+    assert values == [2.0 * i for i in range(16)]
+    counts = [sum(float(r["parameter"]) == v for r in rows) for v in values]
+    assert set(counts) == {1, 3}  # one state, three between the folds, one again
+    assert counts[0] == 1 and counts[-1] == 1 and 3 in counts
+    # the states at each value are those of the scene there, in increasing u(1)
+    at = [r for r in rows if float(r["parameter"]) == 10.0]
+    states = steady.of_scene(rodfem.scene.load("barber", ["obstacle.temperature=10.0"])).states()
+    assert [float(r["u_1"]) for r in at] == [s.u_1 for s in states]
+    assert len({r["branch"] for r in rows}) == 3
+    assert (out / "steady.csv").is_file()
+    assert (out / "figures" / "branches.png").stat().st_size > 10_000
+    if COMM.rank == 0:
+        assert "obstacle.temperature from" in printed
+
+
+BAD = [
+    (["--continue", "model.zeta"], "is not KEY=a:b:n"),
+    (["--continue", "model.zeta=1:2"], "is not KEY=a:b:n"),
+    (["--continue", "model.zeta=a:2:3"], "is not KEY=a:b:n"),
+    (["--continue", "model.zeta=1:2:1"], "2 <= n"),
+    (["--continue", "model.zeta=1:1:3"], "differ"),
+    (["--continue", "model.zeta=1:inf:3"], "finite"),
+    (["--continue", "model.nothing=1:2:3"], "unknown scene key 'model.nothing'"),
+    (["--continue", "mesh.cells=10:20:3"], "mesh.cells is not a real value"),
+    (["--continue", "heat_exchange.law=1:2:3"], "heat_exchange.law is not a real value"),
+    (["--continue", "model.zeta=-1:1:3"], "model.zeta: must be >= 0"),
+    (["--set", "heat_exchange.length=1"], "heat_exchange.length: applies only with"),
+    (["--set", "model.k=-1"], "model.k: must be >= 0"),
+]
+
+
+@pytest.mark.parametrize("args, message", BAD)
+def test_bad_input(args, message, shared_dir, capsys):
+    out = shared_dir / "bad"
+    code = main(["steady", "barber", "--out", str(out), *args])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert not out.exists()
+    if COMM.rank == 0:
+        assert err.startswith("rodfem: error: ") and message in err, err
+        assert err.count("\n") == 1
+
+
+def test_existing_directory(shared_dir, capsys):
+    """Never overwritten without --force; with it, only an earlier result is replaced."""
+    out = shared_dir / "again"
+    st.prepare(out, False, COMM, (st.STATES,), "steady")
+    finish(out, "complete", COMM)
+    if COMM.rank == 0:
+        (out / "steady.csv").write_text("old")
+    COMM.barrier()
+    args = ["steady", "barber", "--out", str(out), "--set", "mesh.cells=10"]
+    assert main(args) == 2
+    assert "exists; use --force" in capsys.readouterr().err or COMM.rank > 0
+    assert (out / "steady.csv").read_text() == "old"
+    if COMM.rank == 0:
+        (out / "notes.txt").write_text("mine")
+    COMM.barrier()
+    assert main([*args, "--force"]) == 2
+    assert "holds notes.txt" in capsys.readouterr().err or COMM.rank > 0
+    assert (out / "steady.csv").read_text() == "old" and (out / "notes.txt").exists()
+    COMM.barrier()
+    if COMM.rank == 0:
+        (out / "notes.txt").unlink()
+    COMM.barrier()
+    assert main([*args, "--force"]) == 0
+    capsys.readouterr()
+    assert (out / "steady.csv").read_text().startswith("u_1,")
+
+
+def test_default_directory(shared_dir, monkeypatch, capsys):
+    monkeypatch.chdir(shared_dir)
+    assert main(["steady", "barber", "--set", "mesh.cells=10"]) == 0
+    capsys.readouterr()
+    assert (shared_dir / "results" / "barber-steady" / "steady.csv").is_file()
+
+
+def _cli(out: Path, ranks: int) -> str:
+    command = [str(Path(sys.executable).with_name("rodfem")), "steady", "barber", "--out",
+               str(out), "--continue", "heat_exchange.k1=500:1500:3"]
+    if ranks > 1:
+        command = ["mpirun", "-n", str(ranks), *command]
+    done = subprocess.run(command, env=MPI_ENV, capture_output=True, text=True, timeout=300,
+                          check=True)
+    assert done.stdout.count("growth rate") == 1
+    return (out / "steady.csv").read_text() + (out / "branches.csv").read_text()
+
+
+@serial_only
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+def test_command_under_mpirun_writes_the_serial_tables(tmp_path):
+    assert _cli(tmp_path / "n2", 2) == _cli(tmp_path / "n1", 1)
