@@ -16,7 +16,7 @@ import numpy as np
 from rodfem.model import steady
 from rodfem.scene import SCHEMA, load
 from rodfem.solver.spectrum import Spectra
-from rodfem.studies.common import prepare, write_csv
+from rodfem.studies.common import deal, prepare, write_csv
 
 STATES = "steady.csv"
 BRANCHES = "branches.csv"
@@ -72,9 +72,17 @@ def continuation(scene_name: str, overrides: list[str], key: str, values: np.nda
                  spectra: Spectra) -> list[dict]:
     """The states and their stability at each value of ``key``, each row with its
     ``parameter`` and ``branch`` (:func:`branches`). Every value is checked before any is
-    solved (SceneError)."""
+    solved (SceneError). Under MPI the values are dealt to the ranks (their operators assembled
+    first, together) and the table gathered on every rank: the serial table."""
     scenes = [load(scene_name, [*overrides, f"{key}={float(value)!r}"]) for value in values]
-    table = [analyse(scene, spectra) for scene in scenes]
+    comm = spectra.comm
+    for scene in scenes:
+        spectra.operators(scene)  # collective: once per mesh, mass and step
+    mine = deal([1.0] * len(scenes), comm.size)[comm.rank]
+    solved = {i: analyse(scenes[i], spectra) for i in mine}
+    for part in comm.allgather(solved):
+        solved.update(part)
+    table = [solved[i] for i in range(len(scenes))]
     rows = []
     for value, states, labels in zip(values, table, branches(table), strict=True):
         rows.extend({"parameter": float(value), **row, "branch": label}
