@@ -147,3 +147,11 @@ def _cli(out: Path, ranks: int) -> str:
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
 def test_command_under_mpirun_writes_the_serial_tables(tmp_path):
     assert _cli(tmp_path / "n2", 2) == _cli(tmp_path / "n1", 1)
+
+
+def test_branches_are_born_and_end_in_pairs_at_folds():
+    """The S of a fold pair: the two states born together start two branches, the others keep
+    theirs in order, and the two that meet end together."""
+    s = [[0.0], [0.01, 0.5, 0.51], [0.02, 0.45, 0.6], [0.29, 0.31, 0.7], [0.8]]
+    table = [[{"u_1": value, "sigma_1": 0.0} for value in states] for states in s]
+    assert st.branches(table) == [[0], [0, 1, 2], [0, 1, 2], [0, 1, 2], [2]]

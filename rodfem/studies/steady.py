@@ -91,28 +91,39 @@ def continuation(scene_name: str, overrides: list[str], key: str, values: np.nda
 
 
 def branches(table: list[list[dict]]) -> list[list[int]]:
-    """A branch number for each state of each value: a state continues the branch of the
-    nearest state (in u(1)) of the value before that no nearer state continues; a state that
-    continues none starts a new branch (past a fold a branch ends)."""
+    """A branch number for each state of each value. The states are the ordered roots of one
+    scalar equation in s = u(1) − σ(1), which stay in order as the value moves and are born or
+    end in pairs at folds: from one value to the next, the pairs of neighbours closest in s are
+    the ones born (or ended), and the others continue their branches in order."""
     labels: list[list[int]] = []
     made = 0
-    before: list[tuple[float, int]] = []
+    before: list[tuple[float, int]] = []  # (s, branch) of the value before, in order
     for states in table:
-        here = [None] * len(states)
-        pairs = sorted((abs(row["u_1"] - u), i, j) for i, row in enumerate(states)
-                       for j, (u, _) in enumerate(before))
-        taken = set()
-        for _, i, j in pairs:
-            if here[i] is None and j not in taken:
-                here[i] = before[j][1]
-                taken.add(j)
+        now = [row["u_1"] - row["sigma_1"] for row in states]
+        kept_before = _unpaired([s for s, _ in before], len(before) - len(now))
+        kept_now = _unpaired(now, len(now) - len(before))
+        here: list[int | None] = [None] * len(states)
+        for i, j in zip(kept_now, kept_before):
+            here[i] = before[j][1]
         for i in range(len(states)):
             if here[i] is None:
                 here[i] = made
                 made += 1
         labels.append(here)
-        before = [(row["u_1"], label) for row, label in zip(states, here, strict=True)]
+        before = list(zip(now, here, strict=True))
     return labels
+
+
+def _unpaired(values: list[float], excess: int) -> list[int]:
+    """The indices of ``values`` (increasing) left when ``excess`` // 2 pairs of neighbours,
+    the closest first, are taken out."""
+    left = list(range(len(values)))
+    while excess >= 2 and len(left) >= 2:
+        gaps = [values[b] - values[a] for a, b in zip(left, left[1:])]
+        i = int(np.argmin(gaps))
+        del left[i:i + 2]
+        excess -= 2
+    return left
 
 
 def write(out: Path, force: bool, comm, rows: list[dict],
