@@ -157,3 +157,23 @@ def test_branches_are_born_and_end_in_pairs_at_folds():
     s = [[0.0], [0.01, 0.5, 0.51], [0.02, 0.45, 0.6], [0.29, 0.31, 0.7], [0.8]]
     table = [[{"u_1": value, "sigma_1": 0.0} for value in states] for states in s]
     assert st.branches(table) == [[0], [0, 1, 2], [0, 1, 2], [0, 1, 2], [2]]
+
+
+def test_python_api_gives_the_tables(shared_dir, capsys):
+    out = shared_dir / "api"
+    assert main(["steady", "barber", "--out", str(out), "--set", "mesh.cells=20",
+                 "--continue", "heat_exchange.k1=500:1500:3"]) == 0
+    capsys.readouterr()
+    import rodfem
+
+    states = rodfem.steady("barber", {"mesh.cells": 20})
+    _, rows = read(out / "steady.csv")
+    assert [r["u_1"] for r in rows] == [repr(s["u_1"]) for s in states]
+    assert [r["growth_rate"] for r in rows] == [repr(s["growth_rate"]) for s in states]
+    over = rodfem.steady("barber", {"mesh.cells": 20}, over=("heat_exchange.k1", [500, 1000, 1500]))
+    _, rows = read(out / "branches.csv")
+    assert [(r["parameter"], r["u_1"], r["growth_rate"], r["branch"]) for r in rows] == \
+        [(repr(s["parameter"]), repr(s["u_1"]), repr(s["growth_rate"]), str(s["branch"]))
+         for s in over]
+    with pytest.raises(rodfem.SceneError, match="heat_exchange.k1: must be >= 0"):
+        rodfem.steady("barber", over=("heat_exchange.k1", [-1.0]))

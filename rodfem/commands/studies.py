@@ -103,8 +103,8 @@ def steady(args: argparse.Namespace) -> int:
         Path("results") / f"{Path(args.scene).stem}-steady"
     spectra = Spectra(comm)
     rows = st.analyse(scene, spectra)
-    branch_rows = None if key is None else \
-        st.continuation(args.scene, args.overrides, key, values, spectra)
+    branch_rows = None if key is None else st.continuation(
+        st.scenes_over(args.scene, args.overrides, key, values), values, spectra)
     try:
         st.write(out, args.force, comm, rows, branch_rows)
     except OutputError as err:

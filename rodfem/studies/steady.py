@@ -59,6 +59,11 @@ def parse_continuation(text: str) -> tuple[str, np.ndarray]:
     return key, np.linspace(a, b, n)
 
 
+def scenes_over(scene_name: str, overrides: list[str], key: str, values: np.ndarray) -> list:
+    """The scene at each value of ``key`` (every one checked: SceneError)."""
+    return [load(scene_name, [*overrides, f"{key}={float(value)!r}"]) for value in values]
+
+
 def check_mesh(scene) -> None:
     """SteadyError for a mesh finer than the dense eigenproblem takes."""
     if scene["mesh.cells"] > MAX_CELLS:
@@ -79,13 +84,11 @@ def analyse(scene, spectra: Spectra) -> list[dict]:
     return rows
 
 
-def continuation(scene_name: str, overrides: list[str], key: str, values: np.ndarray,
-                 spectra: Spectra) -> list[dict]:
-    """The states and their stability at each value of ``key``, each row with its
-    ``parameter`` and ``branch`` (:func:`branches`). Every value is checked before any is
-    solved (SceneError). Under MPI the values are dealt to the ranks (their operators assembled
-    first, together) and the table gathered on every rank: the serial table."""
-    scenes = [load(scene_name, [*overrides, f"{key}={float(value)!r}"]) for value in values]
+def continuation(scenes: list, values: np.ndarray, spectra: Spectra) -> list[dict]:
+    """The states and their stability of each scene, the scene at each value of a continuation,
+    each row with its ``parameter`` and ``branch`` (:func:`branches`). Under MPI the scenes are
+    dealt to the ranks (their operators assembled first, together) and the table gathered on
+    every rank: the serial table."""
     comm = spectra.comm
     for scene in scenes:
         spectra.operators(scene)  # collective: once per mesh, mass and step
