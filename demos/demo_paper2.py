@@ -35,7 +35,7 @@ from rodfem.studies.paper import run_experiment
 # $c = k/(k+1) = 1/2$, and the free thermal expansion of the rod would be
 # $U^* = a\theta_A(1 - c/2) = 0.1275 > g = 0.1$: the rod must end pressed into the obstacle,
 # with $u^*(1) = (\varepsilon U^* + g)/(1 + \varepsilon) = 0.10027$ and
-# $\sigma^* = (g - U^*)/(1 + \varepsilon) = -0.0272$ (`rodfem.model.stationary`). The paper reports
+# $\sigma^* = (g - U^*)/(1 + \varepsilon) = -0.0272$ (`rodfem.model.steady`). The paper reports
 # contact at later times and a rapid stabilisation; the run reaches this state to five digits
 # well before $t = 8$.
 

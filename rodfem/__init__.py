@@ -5,7 +5,8 @@ contact with an elastic obstacle at x = 1, P1 elements and a Picard loop per tim
 
 From Python: :func:`simulate` runs a scene, :func:`load` reads a run directory, both give a
 :class:`Result`; :func:`sweep` runs a sweep file (:mod:`rodfem.studies.sweep`);
-:func:`read_fields` reads any run's ``fields.xdmf`` into NumPy (:class:`Fields`). They are
+:func:`read_fields` reads any run's ``fields.xdmf`` into NumPy (:class:`Fields`); :func:`steady`
+gives a scene's steady states and their stability. They are
 imported on first use, so that ``import rodfem`` stays light.
 """
 
@@ -15,7 +16,7 @@ _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "SceneError": "rodfem.scene", "OutputError": "rodfem.output.directories",
         "sweep": "rodfem.studies.sweep", "load_sweep": "rodfem.studies.sweep",
         "read_fields": "rodfem.output.readers", "Fields": "rodfem.output.readers",
-        "CoarseStepWarning": "rodfem.model.timescales"}
+        "CoarseStepWarning": "rodfem.model.timescales", "steady": "rodfem.api"}
 __all__ = [*_API, "__version__"]
 
 

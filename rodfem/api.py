@@ -1,5 +1,6 @@
 """rodfem from Python: run a scene (:func:`simulate`), read a run directory (:func:`load`), and
-what both give back (:class:`Result`).
+what both give back (:class:`Result`); a scene's steady states and their stability
+(:func:`steady`).
 
     >>> import rodfem
     >>> r = rodfem.simulate("paper1", {"time.end": 1, "model.k": 10})
@@ -251,3 +252,31 @@ def _fields_of(path: Path) -> Callable[[], Fields]:
             raise RunDirectoryError(str(err)) from None
 
     return read
+
+
+def steady(scene: str | Path | Mapping | Scene, overrides=None, over=None) -> list[dict]:
+    """Every steady state of a scene with its stability, as ``rodfem steady`` writes them.
+
+    Args:
+        scene, overrides: as for :func:`simulate`.
+        over: (key, values): the states at each value of that real scene key, as
+            ``rodfem steady --continue`` writes them, each with its ``parameter`` and ``branch``.
+
+    Returns:
+        One dict per state, in increasing u(1) (per value, with ``over``): ``u_1``, ``sigma_1``,
+        ``theta_1``, ``contact``, ``stable``, ``growth_rate`` (the largest real part of the
+        spectrum of the problem linearised about it), ``h`` and ``tangential`` (on a fold).
+
+    Raises:
+        SceneError: a mistake in the scene, the overrides or a value of ``over``.
+    """
+    from rodfem.solver.spectrum import Spectra
+    from rodfem.studies import steady as st
+
+    spectra = Spectra()
+    if over is None:
+        return st.analyse(scene_of(scene, overrides), spectra)
+    key, values = over
+    base = scene_of(scene, overrides)
+    values = np.asarray(values, dtype=float)
+    return st.continuation([scene_of(base, {key: float(v)}) for v in values], values, spectra)

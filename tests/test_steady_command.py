@@ -83,6 +83,8 @@ BAD = [
     (["--continue", "model.zeta=-1:1:3"], "model.zeta: must be >= 0"),
     (["--set", "heat_exchange.length=1"], "heat_exchange.length: applies only with"),
     (["--set", "model.k=-1"], "model.k: must be >= 0"),
+    (["--set", "mesh.cells=1001"], "mesh.cells = 1001: the stability of steady states is "
+     "computed on at most 1000 cells"),
 ]
 
 
@@ -147,3 +149,31 @@ def _cli(out: Path, ranks: int) -> str:
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
 def test_command_under_mpirun_writes_the_serial_tables(tmp_path):
     assert _cli(tmp_path / "n2", 2) == _cli(tmp_path / "n1", 1)
+
+
+def test_branches_are_born_and_end_in_pairs_at_folds():
+    """The S of a fold pair: the two states born together start two branches, the others keep
+    theirs in order, and the two that meet end together."""
+    s = [[0.0], [0.01, 0.5, 0.51], [0.02, 0.45, 0.6], [0.29, 0.31, 0.7], [0.8]]
+    table = [[{"u_1": value, "sigma_1": 0.0} for value in states] for states in s]
+    assert st.branches(table) == [[0], [0, 1, 2], [0, 1, 2], [0, 1, 2], [2]]
+
+
+def test_python_api_gives_the_tables(shared_dir, capsys):
+    out = shared_dir / "api"
+    assert main(["steady", "barber", "--out", str(out), "--set", "mesh.cells=20",
+                 "--continue", "heat_exchange.k1=500:1500:3"]) == 0
+    capsys.readouterr()
+    import rodfem
+
+    states = rodfem.steady("barber", {"mesh.cells": 20})
+    _, rows = read(out / "steady.csv")
+    assert [r["u_1"] for r in rows] == [repr(s["u_1"]) for s in states]
+    assert [r["growth_rate"] for r in rows] == [repr(s["growth_rate"]) for s in states]
+    over = rodfem.steady("barber", {"mesh.cells": 20}, over=("heat_exchange.k1", [500, 1000, 1500]))
+    _, rows = read(out / "branches.csv")
+    assert [(r["parameter"], r["u_1"], r["growth_rate"], r["branch"]) for r in rows] == \
+        [(repr(s["parameter"]), repr(s["u_1"]), repr(s["growth_rate"]), str(s["branch"]))
+         for s in over]
+    with pytest.raises(rodfem.SceneError, match="heat_exchange.k1: must be >= 0"):
+        rodfem.steady("barber", over=("heat_exchange.k1", [-1.0]))

@@ -91,19 +91,20 @@ def steady(args: argparse.Namespace) -> int:
     from rodfem.studies import steady as st
 
     comm = MPI.COMM_WORLD
+    scene = load(args.scene, args.overrides)
     try:
         key, values = st.parse_continuation(args.continuation) if args.continuation \
             else (None, None)
+        st.check_mesh(scene)
     except st.SteadyError as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
-    scene = load(args.scene, args.overrides)
     out = args.out if args.out is not None else \
         Path("results") / f"{Path(args.scene).stem}-steady"
     spectra = Spectra(comm)
     rows = st.analyse(scene, spectra)
-    branch_rows = None if key is None else \
-        st.continuation(args.scene, args.overrides, key, values, spectra)
+    branch_rows = None if key is None else st.continuation(
+        st.scenes_over(args.scene, args.overrides, key, values), values, spectra)
     try:
         st.write(out, args.force, comm, rows, branch_rows)
     except OutputError as err:

@@ -16,7 +16,7 @@ import numpy as np
 from rodfem.model import steady
 from rodfem.scene import SCHEMA, load
 from rodfem.solver.spectrum import Spectra
-from rodfem.studies.common import prepare, write_csv
+from rodfem.studies.common import deal, prepare, write_csv
 
 STATES = "steady.csv"
 BRANCHES = "branches.csv"
@@ -24,6 +24,9 @@ COLUMNS = ("u_1", "sigma_1", "theta_1", "contact", "stable", "growth_rate", "h",
 BRANCH_COLUMNS = ("parameter", "u_1", "sigma_1", "theta_1", "contact", "stable", "growth_rate",
                   "branch", "h", "tangential")
 MAX_POINTS = 10_000  # values of a continuation
+# The spectrum is a dense eigenproblem in 3 × cells unknowns: at 1000 cells about 100 s a state
+# and 0.55 GB (measured on 2 shared cores; it grows as cells³ and cells²).
+MAX_CELLS = 1000
 
 
 class SteadyError(ValueError):
@@ -56,6 +59,19 @@ def parse_continuation(text: str) -> tuple[str, np.ndarray]:
     return key, np.linspace(a, b, n)
 
 
+def scenes_over(scene_name: str, overrides: list[str], key: str, values: np.ndarray) -> list:
+    """The scene at each value of ``key`` (every one checked: SceneError)."""
+    return [load(scene_name, [*overrides, f"{key}={float(value)!r}"]) for value in values]
+
+
+def check_mesh(scene) -> None:
+    """SteadyError for a mesh finer than the dense eigenproblem takes."""
+    if scene["mesh.cells"] > MAX_CELLS:
+        raise SteadyError(f"mesh.cells = {scene['mesh.cells']}: the stability of steady states "
+                          f"is computed on at most {MAX_CELLS} cells (a dense eigenproblem); "
+                          f"--set mesh.cells={MAX_CELLS} or fewer")
+
+
 def analyse(scene, spectra: Spectra) -> list[dict]:
     """One row per steady state of ``scene``, in increasing u(1), with its stability."""
     problem = steady.of_scene(scene)
@@ -68,13 +84,19 @@ def analyse(scene, spectra: Spectra) -> list[dict]:
     return rows
 
 
-def continuation(scene_name: str, overrides: list[str], key: str, values: np.ndarray,
-                 spectra: Spectra) -> list[dict]:
-    """The states and their stability at each value of ``key``, each row with its
-    ``parameter`` and ``branch`` (:func:`branches`). Every value is checked before any is
-    solved (SceneError)."""
-    scenes = [load(scene_name, [*overrides, f"{key}={float(value)!r}"]) for value in values]
-    table = [analyse(scene, spectra) for scene in scenes]
+def continuation(scenes: list, values: np.ndarray, spectra: Spectra) -> list[dict]:
+    """The states and their stability of each scene, the scene at each value of a continuation,
+    each row with its ``parameter`` and ``branch`` (:func:`branches`). Under MPI the scenes are
+    dealt to the ranks (their operators assembled first, together) and the table gathered on
+    every rank: the serial table."""
+    comm = spectra.comm
+    for scene in scenes:
+        spectra.operators(scene)  # collective: once per mesh, mass and step
+    mine = deal([1.0] * len(scenes), comm.size)[comm.rank]
+    solved = {i: analyse(scenes[i], spectra) for i in mine}
+    for part in comm.allgather(solved):
+        solved.update(part)
+    table = [solved[i] for i in range(len(scenes))]
     rows = []
     for value, states, labels in zip(values, table, branches(table), strict=True):
         rows.extend({"parameter": float(value), **row, "branch": label}
@@ -83,28 +105,39 @@ def continuation(scene_name: str, overrides: list[str], key: str, values: np.nda
 
 
 def branches(table: list[list[dict]]) -> list[list[int]]:
-    """A branch number for each state of each value: a state continues the branch of the
-    nearest state (in u(1)) of the value before that no nearer state continues; a state that
-    continues none starts a new branch (past a fold a branch ends)."""
+    """A branch number for each state of each value. The states are the ordered roots of one
+    scalar equation in s = u(1) − σ(1), which stay in order as the value moves and are born or
+    end in pairs at folds: from one value to the next, the pairs of neighbours closest in s are
+    the ones born (or ended), and the others continue their branches in order."""
     labels: list[list[int]] = []
     made = 0
-    before: list[tuple[float, int]] = []
+    before: list[tuple[float, int]] = []  # (s, branch) of the value before, in order
     for states in table:
-        here = [None] * len(states)
-        pairs = sorted((abs(row["u_1"] - u), i, j) for i, row in enumerate(states)
-                       for j, (u, _) in enumerate(before))
-        taken = set()
-        for _, i, j in pairs:
-            if here[i] is None and j not in taken:
-                here[i] = before[j][1]
-                taken.add(j)
+        now = [row["u_1"] - row["sigma_1"] for row in states]
+        kept_before = _unpaired([s for s, _ in before], len(before) - len(now))
+        kept_now = _unpaired(now, len(now) - len(before))
+        here: list[int | None] = [None] * len(states)
+        for i, j in zip(kept_now, kept_before):
+            here[i] = before[j][1]
         for i in range(len(states)):
             if here[i] is None:
                 here[i] = made
                 made += 1
         labels.append(here)
-        before = [(row["u_1"], label) for row, label in zip(states, here, strict=True)]
+        before = list(zip(now, here, strict=True))
     return labels
+
+
+def _unpaired(values: list[float], excess: int) -> list[int]:
+    """The indices of ``values`` (increasing) left when ``excess`` // 2 pairs of neighbours,
+    the closest first, are taken out."""
+    left = list(range(len(values)))
+    while excess >= 2 and len(left) >= 2:
+        gaps = [values[b] - values[a] for a, b in zip(left, left[1:])]
+        i = int(np.argmin(gaps))
+        del left[i:i + 2]
+        excess -= 2
+    return left
 
 
 def write(out: Path, force: bool, comm, rows: list[dict],
