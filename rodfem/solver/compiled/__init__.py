@@ -3,8 +3,9 @@ the same algebra as the PETSc loops to round-off (Picard: the same iterations at
 
 ``direct.py`` + ``direct.c`` and ``picard.py`` + ``picard.c`` are the two loops, on the base
 class of ``loop.py``; ``contact.h`` (the contact laws), ``exchange.h`` (the heat-exchange laws)
-and ``record.h`` (the raw history row) are shared by both; ``build.py`` compiles and caches
-them. :func:`compiled_loop` picks the loop a run can use.
+and ``record.h`` (the raw history row) are shared by both, ``end.h`` (the eliminated massless end)
+and ``band.h`` (the banded substitutions) are parts of ``direct.c``; ``build.py`` compiles and
+caches them. :func:`compiled_loop` picks the loop a run can use.
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """Building rodfem's compiled loops (``direct.c``, ``picard.c``) with cffi.
 
-Both include the shared headers beside them: ``contact.h`` (the contact laws) and ``record.h``
-(the raw history row). A C source is compiled (API mode, the system's C compiler, as dolfinx's
+Both include the shared headers beside them: ``contact.h`` (the contact laws), ``exchange.h`` (the
+heat-exchange laws) and ``record.h`` (the raw history row); ``direct.c`` also its own parts
+``end.h`` and ``band.h``. A C source is compiled (API mode, the system's C compiler, as dolfinx's
 JIT does) once per hash of its text and its headers' texts, the compiler flags, the cffi version and
 the interpreter, into ``$XDG_CACHE_HOME/rodfem`` (or ``~/.cache/rodfem``, else a per-user directory
 in the temporary directory): in a temporary directory beside the target, then moved into place with
@@ -31,7 +32,9 @@ COMPILE_ARGS = ["-O2", "-std=c99"]
 
 def declarations(source: str) -> str:
     """The part of a C source between ``/* cdef begin … */`` and ``/* cdef end */``: what cffi
-    is told of it."""
+    is told of it. A header without them (a part of one source) declares nothing."""
+    if "/* cdef begin" not in source:
+        return ""
     begin = source.index("/* cdef begin")
     begin = source.index("*/", begin) + 2
     return source[begin:source.index("/* cdef end */")]

@@ -1,7 +1,9 @@
 /*
- * kernel.c -- many steps of rodfem's `direct` method in one call (C99; built by rodfem/kernel.py).
+ * direct.c -- many steps of rodfem's `direct` method in one call (C99; built by
+ * rodfem/solver/compiled/direct.py).
  *
- * A step of DirectScheme (rodfem/direct.py) is, for the state s = [Theta; D; U] of n nodes,
+ * A step of DirectMethod (rodfem/solver/methods/direct.py) is, for the state s = [Theta; D; U] of
+ * n nodes,
  *
  *     rhs = R s + b                       (R: 2n x 3n, the right-hand sides [h; m])
  *     z   = C^-1 rhs                      (C: the coupled operator, factored once)
@@ -18,7 +20,7 @@
  * 0), the law (in series with the last cell) is taken at the end's free position y, a row on
  * Theta and U of nodes n-2 and n-1: c = y of the old state, s1 = c + y's row on z, w and the
  * law those of y (set by the caller), and after the update the end is settled (U(1), D(1)) and
- * the force there is the step's recorded p.
+ * the force there is the step's recorded p (end.h).
  *
  * Everything here is in *node-interleaved* order, where the operators are banded with a small
  * band: the state is packed as s[3 i + k] (k = 0 Theta, 1 D, 2 U of node i), with g ghost nodes of
@@ -28,26 +30,18 @@
  * row has no entry). Slots whose values are all exactly 0 are dropped: the sums are those of the
  * CSR products, term for term, in the CSR's column order, less exact zeros.
  *
- * C = P L U is LAPACK's dgbtrf of the interleaved operator (partial pivoting). The solve is
- * dgbtrs's algorithm: the forward pass applies the interchange ipiv[j] and the column j of L to
- * the rows below j (an axpy); the backward pass is dtbsv's column-oriented upper-triangular solve,
- * which finishes z[j] at column j, highest first. Its first column is dU(1) (x = 1 is the last
- * node), so the contact force p is known after one column, and each node's x = z + p q is final,
- * and the state updated, as soon as its two columns are done (an eliminated end's p after the
- * columns of nodes n-1 and n-2, whose update waits for it). So a step is two passes over the
- * nodes:
+ * C = P L U is LAPACK's dgbtrf of the interleaved operator (partial pivoting), and the solve is
+ * dgbtrs's algorithm (band.h), whose backward pass finishes z[j] at column j, highest first. Its
+ * first column is dU(1) (x = 1 is the last node), so the contact force p is known after one
+ * column, and each node's x = z + p q is final, and the state updated, as soon as its two columns
+ * are done (an eliminated end's p after the columns of nodes n-1 and n-2, whose update waits for
+ * it). So a step is two passes over the nodes:
  *
  *   forward (ascending):   rows of R s + b computed just before the elimination reaches them
  *                          (kl rows ahead), and L's elimination;
  *   backward (descending): U's substitution, p after the first column, then per node x = z + p q,
  *                          the state update, and the energy rows of the node g_e above (those
  *                          need the new state of nodes i .. i + 2 g_e, all final by then).
- *
- * The superdiagonals of U beyond the last one with a non-zero entry, and the multipliers of L
- * likewise, are dropped by the caller (without pivoting U has only C's ku superdiagonals), and
- * U's diagonal is stored as its reciprocals (one multiplication in place of a division on the
- * backward pass's chain of dependences: the only rounding that differs from dgbtrs'). Without
- * interchanges (ipiv[j] = j for every j) the forward pass skips them.
  */
 #include <math.h>
 #include <stddef.h>
@@ -63,7 +57,7 @@
 #define RK_INLINE static inline
 #endif
 
-/* cdef begin: the declarations cffi reads (rodfem/kernel.py) */
+/* cdef begin: the declarations cffi reads (rodfem/solver/compiled/direct.py) */
 typedef struct {
     int n;                 /* nodes */
     int ghost;             /* ghost nodes on each side of the packed state */
@@ -119,8 +113,6 @@ long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, lo
                 double *rows, double *pressure);
 /* cdef end */
 
-#define KMAX 8
-
 /* The loop bounds of a step: bands and slot counts. rk_advance passes constants for the common
  * cases, so that the inlined loops are unrolled with their offsets in registers. */
 typedef struct {
@@ -163,32 +155,6 @@ RK_INLINE double energy_rows(const rk_problem *P, const double *sp, int m, const
         o += count[k];
     }
     return part[0] + (part[1] + part[2]);
-}
-
-/* dgbtrs's forward pass: z = L^-1 P^T (R s + b), the rows of R s + b made just in time. */
-RK_INLINE void forward(const rk_problem *P, const double *sp, double *z, const shape S)
-{
-    const int kl = S.kl, reach = S.reach, pivoting = S.pivoting;
-    const int N = 2 * P->n;
-    int next = 0;
-    for (int j = 0; j < N; j++) {
-        const int need = j + reach < N - 1 ? j + reach : N - 1;
-        for (; next <= need; next++)
-            z[next] = rhs_row(P, sp, next >> 1, next & 1, P->r_class[next >> 1], S);
-        double t = z[j];
-        if (pivoting) {
-            const int l = P->ipiv[j];
-            if (l != j) {
-                t = z[l];
-                z[l] = z[j];
-                z[j] = t;
-            }
-        }
-        const int lm = kl < N - 1 - j ? kl : N - 1 - j;
-        const double *col = P->lower + (size_t)j * kl;
-        for (int i = 0; i < lm; i++)
-            z[j + 1 + i] -= col[i] * t;
-    }
 }
 
 /* The state update of node i by x = z + p q + phi q_h (phi = 0 but for a variable exchange).
@@ -253,197 +219,10 @@ typedef struct {
     double theta, u;
 } node_pair;
 
-/* The eliminated end (contact.h's rc_end; DirectMethod._step with a MasslessEnd), in two parts
- * around the update of nodes n-1 and n-2, which wait for each other. First the step's p: the
- * law in series at y, from c = y of the old state and the free increments zb of node n-1 and za
- * of node n-2. */
-RK_INLINE double end_contact(const rk_problem *P, const double *sp, node_pair zb, node_pair za)
-{
-    const rc_end *E = &P->end;
-    const double *sa = sp + 3 * (ptrdiff_t)(P->n - 2), *sb = sa + 3;
-    const double c = rc_end_position(E, sa[0], sb[0], sa[2], sb[2]);
-    const double s1 = c + rc_end_moved(E, za.theta, zb.theta, za.u, zb.u);
-    return rc_contact_needed(&P->obstacle, s1, c) ? rc_solve(&P->obstacle, s1, P->w, c) : 0.0;
-}
-
-/* Then, once both are updated (U(1) was u_old), the end settled; a variable exchange's flux
- * *phi at the settled end (DirectMethod._exchange: q at U^n(1) and the step's force p, T0 from
- * Theta^(n-1)(1) = theta_old and the free increment z_theta; a = 0, so beta = 0) added to both
- * nodes' Theta; and the energy rows that the update of both would have summed, now that they
- * read the settled end. Returns the settled force, the step's recorded p. */
-RK_INLINE double end_settle(const rk_problem *P, double *sp, double u_old, double theta_old,
-                            double z_theta, double p, double *phi, double *energy,
-                            const shape S)
-{
-    const rc_end *E = &P->end;
-    const int n = P->n;
-    double *sa = sp + 3 * (ptrdiff_t)(n - 2), *sb = sa + 3;
-    double u_1;
-    const double y = rc_end_position(E, sa[0], sb[0], sa[2], sb[2]);
-    const double force = rc_end_settle(E, &P->obstacle, y, &u_1);
-    sb[2] = u_1;
-    sb[1] = u_1 - u_old;
-    *phi = 0.0;
-    if (P->exchange.law != RX_CONSTANT) {
-        const rx_exchange *X = &P->exchange;
-        const double T0 = (theta_old + X->offset) + X->weight * z_theta;
-        const double q = rx_extra(X, rx_place(X, u_1, u_old), p);
-        if (q != 0.0)
-            *phi = q * ((T0 + X->weight * X->beta * p) / (1.0 - X->weight * X->gamma * q));
-        if (*phi != 0.0) {
-            sb[0] += *phi * P->qh[2 * (size_t)(n - 1)];
-            sa[0] += *phi * P->qh[2 * (size_t)(n - 2)];
-        }
-    }
-    for (int i = n - 1; i >= n - 2; i--)
-        if (i + P->e_ghost < n)
-            *energy += energy_rows(P, sp, i + P->e_ghost, S);
-    return force;
-}
-
-/* The update of nodes n-1 (zb) and n-2 (za) by x = z + p q, p = end_contact's, and end_settle.
- * Returns the recorded p, and in *phi the exchange's flux, for the other nodes' update. */
-RK_INLINE double eliminated_end(const rk_problem *P, double *sp, double *u_prev, node_pair zb,
-                                node_pair za, double p, double *phi, double *energy,
-                                const shape S)
-{
-    const int n = P->n;
-    const double u_old = sp[3 * (ptrdiff_t)(n - 1) + 2], theta_old = sp[3 * (ptrdiff_t)(n - 1)];
-    update_node(P, sp, u_prev, n - 1, zb.theta, zb.u, p, 0.0, 1);
-    update_node(P, sp, u_prev, n - 2, za.theta, za.u, p, 0.0, 0);
-    return end_settle(P, sp, u_old, theta_old, zb.theta, p, phi, energy, S);
-}
-
-RK_INLINE void energy_tail(const rk_problem *P, const double *sp, double *energy, const shape S)
-{
-    for (int m = (P->e_ghost < P->n ? P->e_ghost : P->n) - 1; m >= 0; m--)
-        *energy += energy_rows(P, sp, m, S);
-}
-
-/* dtbsv's backward pass, then the state update: returns the step's recorded p, and the new
- * state's energy. An eliminated end's p needs the nodes n-1 and n-2 solved, and their update
- * waits for it. *failed: the step's p could not be found (nothing is updated). */
-RK_INLINE double backward(const rk_problem *P, double *sp, double *z, double *u_prev,
-                          double *energy, int *failed, const shape S)
-{
-    const int ku = S.ku;
-    const int N = 2 * P->n, eliminated = P->end.kind == RC_END_ELIMINATED;
-    double p = 0.0, phi = 0.0, recorded = 0.0;
-    *energy = 0.0;
-    for (int j = N - 1; j >= 0; j--) {
-        const double t = z[j] * P->rdiag[j];
-        z[j] = t;
-        const int top = j < ku ? j : ku;
-        const double *col = P->upper + (size_t)j * ku;
-        for (int i = 0; i < top; i++)
-            z[j - 1 - i] -= t * col[i];
-        if (eliminated && j >= N - 4) {
-            if (j == N - 4) {
-                const node_pair zb = {z[N - 2], z[N - 1]}, za = {z[N - 4], z[N - 3]};
-                p = end_contact(P, sp, zb, za);
-                recorded = eliminated_end(P, sp, u_prev, zb, za, p, &phi, energy, S);
-            }
-            continue;
-        }
-        if (j == N - 2) {  /* the last node's two columns are done */
-            recorded = p = contact(P, sp, z[N - 1], t, &phi, failed);
-            if (*failed)
-                return 0.0;
-        }
-        if (!(j & 1))
-            accept_node(P, sp, u_prev, j >> 1, z[j], z[j + 1], p, phi, j == N - 2, energy, S);
-    }
-    energy_tail(P, sp, energy, S);
-    return recorded;
-}
-
-
-/* Without interchanges, L y = R s + b by nodes: the two unknowns of node i at once from those
- * of the nodes before it, y_i = A_i (R s + b)_i - F_i y_(2i-kl .. 2i-1), A_i = [[1, 0], [-l_i,
- * 1]] the inverse of L's diagonal block, F_i = A_i L_(i, 2i-kl .. 2i-1). The last kl values of
- * y are kept in registers, and the nearest are subtracted last: the chain of dependences from
- * node to node is one multiplication and one subtraction. */
-RK_INLINE void forward_blocked(const rk_problem *P, const double *sp, double *z, const shape S)
-{
-    const int kl = S.kl;
-    const int n = P->n;
-    double win[KMAX + 2];
-    for (int t = 0; t < kl; t++)
-        win[t] = 0.0;
-    for (int i = 0; i < n; i++) {
-        const int k = P->r_class[i];
-        const double z0 = rhs_row(P, sp, i, 0, k, S), z1 = rhs_row(P, sp, i, 1, k, S);
-        const double *f = P->fwd + (size_t)i * (2 * kl + 1);
-        double y0 = z0, y1 = z1 - f[0] * z0;
-#pragma GCC unroll 8
-        for (int t = 0; t < kl; t++) {
-            y0 -= f[1 + t] * win[t];
-            y1 -= f[1 + kl + t] * win[t];
-        }
-        z[2 * i] = y0;
-        z[2 * i + 1] = y1;
-        win[kl] = y0;
-        win[kl + 1] = y1;
-#pragma GCC unroll 8
-        for (int t = 0; t < kl; t++)
-            win[t] = win[t + 2];
-    }
-}
-
-/* Node i of U x = y by nodes: x_i = D_i y_i - H_i x_(2i+2 .. 2i+1+ku), D_i the inverse of U's
- * diagonal block [[d00, -d01], [0, d11]], H_i = D_i U_(i, 2i+2 .. 2i+1+ku); win holds the last
- * ku values of x, and receives x_i. */
-RK_INLINE node_pair solve_node(const rk_problem *P, const double *z, int i, double *win,
-                               const shape S)
-{
-    const int ku = S.ku;
-    const double *h = P->bwd + (size_t)i * (2 * ku + 3);
-    const double y0 = z[2 * i], y1 = z[2 * i + 1];
-    double x0 = h[0] * y0 - h[1] * y1, x1 = h[2] * y1;
-#pragma GCC unroll 8
-    for (int t = ku - 1; t >= 0; t--) {
-        x0 -= h[3 + t] * win[2 + t];
-        x1 -= h[3 + ku + t] * win[2 + t];
-    }
-    win[0] = x0;
-    win[1] = x1;
-#pragma GCC unroll 8
-    for (int t = ku - 1; t >= 0; t--)
-        win[2 + t] = win[t];
-    const node_pair x = {x0, x1};
-    return x;
-}
-
-/* U x = y by nodes, from the last (solve_node). The contact force is known after the first node
- * (an eliminated end's after the first two), each node's state updated as soon as it is solved
- * and p known. Returns the step's recorded p. */
-RK_INLINE double backward_blocked(const rk_problem *P, double *sp, const double *z,
-                                  double *u_prev, double *energy, int *failed, const shape S)
-{
-    const int n = P->n;
-    double win[KMAX + 2], p, phi = 0.0, recorded;
-    *energy = 0.0;
-    for (int t = 0; t < S.ku; t++)
-        win[2 + t] = 0.0;
-    int i = n - 1;
-    if (P->end.kind == RC_END_ELIMINATED) {
-        const node_pair zb = solve_node(P, z, i--, win, S), za = solve_node(P, z, i--, win, S);
-        p = end_contact(P, sp, zb, za);
-        recorded = eliminated_end(P, sp, u_prev, zb, za, p, &phi, energy, S);
-    } else {
-        const node_pair x = solve_node(P, z, i, win, S);
-        recorded = p = contact(P, sp, x.u, x.theta, &phi, failed);
-        if (*failed)
-            return 0.0;
-        accept_node(P, sp, u_prev, i--, x.theta, x.u, p, phi, 1, energy, S);
-    }
-    for (; i >= 0; i--) {
-        const node_pair x = solve_node(P, z, i, win, S);
-        accept_node(P, sp, u_prev, i, x.theta, x.u, p, phi, 0, energy, S);
-    }
-    energy_tail(P, sp, energy, S);
-    return recorded;
-}
+/* The two passes of a step, which read the rows and the node updates above: the eliminated end's
+ * part (end.h), then the banded substitutions (band.h). */
+#include "end.h"
+#include "band.h"
 
 /* Returns the steps done: `steps`, or fewer where a step failed (a variable exchange's equation
  * without a root shown unique), the state then that of the last step done. A variable exchange

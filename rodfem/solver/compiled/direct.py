@@ -68,7 +68,7 @@ from rodfem.solver.errors import NoUniqueStep
 from rodfem.solver.methods.exchange_step import NOT_UNIQUE
 
 SOURCE = Path(__file__).with_name("direct.c")
-KMAX = 8  # the widest band of the blocked substitutions (direct.c)
+KMAX = 8  # the widest band of the blocked substitutions (band.h)
 
 _source = CompiledSource(SOURCE, "_rodfem_kernel_", "kernel", check_library)
 _library = _source.library
@@ -110,7 +110,7 @@ def _slots(A, parts: int, n: int):
 
 
 def _blocked(lu: np.ndarray, kl: int, ku: int, kl_kept: int, ku_kept: int, n: int):
-    """The node-blocked recurrences of direct.c (forward_blocked, backward_blocked) from
+    """The node-blocked recurrences of band.h (forward_blocked, backward_blocked) from
     dgbtrf's factors without interchanges, P = I: per node i, l_i and F_i (rows 0, 1), and
     d00, d01, d11 and H_i (rows 0, 1)."""
     kd, N = kl + ku, 2 * n
