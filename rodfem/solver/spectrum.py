@@ -77,13 +77,13 @@ def pencil(ops: Operators, a: float, b: float, zeta: float, lin) -> tuple[np.nda
     :class:`~rodfem.model.steady.Linearisation` is ``lin``."""
     K, G = ops.K, ops.G
     n = K.shape[0]
-    I, Z = np.eye(n), np.zeros((n, n))
+    One, Z = np.eye(n), np.zeros((n, n))
     E = np.zeros((n, n))
     E[-1, -1] = 1.0
     A = np.block([[-K - lin.h * E, -lin.exchange_u * E, -a * G],
-                  [Z, Z, I],
+                  [Z, Z, One],
                   [a * G.T, -K - lin.kappa * E, -zeta * K]])
-    B = np.block([[ops.M, Z, Z], [Z, I, Z], [Z, Z, b * ops.Mb]])
+    B = np.block([[ops.M, Z, Z], [Z, One, Z], [Z, Z, b * ops.Mb]])
     if not lin.held:
         return A, B
     # The heat row of x = 1 gains −c_p p̃, p̃ = −(b M_b V̇ + K U + ζ K V − a Gᵀ Θ)(1).
