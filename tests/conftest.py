@@ -79,3 +79,17 @@ def dense(A) -> np.ndarray:
     array = D.getDenseArray().copy()
     D.destroy()
     return array
+
+
+def assert_refused(args, out, message, capsys):
+    """``rodfem ARGS`` refuses a user's mistake: exit 2, one line ``rodfem: error: …`` holding
+    ``message`` on rank 0, and no ``out`` written."""
+    from rodfem.cli import main
+
+    code = main(args)
+    err = capsys.readouterr().err
+    assert code == 2
+    assert not Path(out).exists()
+    if COMM.rank == 0:
+        assert err.startswith("rodfem: error: ") and message in err, err
+        assert err.count("\n") == 1

@@ -21,7 +21,7 @@ import pytest
 from mpi4py import MPI
 
 import rodfem.scene
-from conftest import COMM, history_rows, serial_only
+from conftest import COMM, assert_refused, history_rows, serial_only
 from rodfem.cli import main
 from rodfem.output.directories import finish
 from rodfem.studies import stability as st
@@ -203,13 +203,7 @@ BAD = [
 @pytest.mark.parametrize("args, message", BAD)
 def test_bad_input(args, message, shared_dir, capsys):
     out = shared_dir / "map"
-    code = main(["stability", "--out", str(out), *args])
-    err = capsys.readouterr().err
-    assert code == 2
-    assert not out.exists()
-    if COMM.rank == 0:
-        assert err.startswith("rodfem: error: ") and message in err, err
-        assert err.count("\n") == 1
+    assert_refused(["stability", "--out", str(out), *args], out, message, capsys)
 
 
 def test_existing_directory(shared_dir, capsys):

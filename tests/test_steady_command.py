@@ -8,16 +8,14 @@ import sys
 from pathlib import Path
 
 import pytest
-from mpi4py import MPI
 
 import rodfem.scene
+from conftest import COMM, assert_refused, serial_only
 from rodfem.cli import main
 from rodfem.model import steady
 from rodfem.output.directories import finish
 from rodfem.studies import steady as st
 
-COMM = MPI.COMM_WORLD
-serial_only = pytest.mark.skipif(COMM.size > 1, reason="starts its own processes; run serially")
 MPI_ENV = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
            "OMPI_MCA_rmaps_base_oversubscribe": "1"}
 
@@ -91,13 +89,7 @@ BAD = [
 @pytest.mark.parametrize("args, message", BAD)
 def test_bad_input(args, message, shared_dir, capsys):
     out = shared_dir / "bad"
-    code = main(["steady", "barber", "--out", str(out), *args])
-    err = capsys.readouterr().err
-    assert code == 2
-    assert not out.exists()
-    if COMM.rank == 0:
-        assert err.startswith("rodfem: error: ") and message in err, err
-        assert err.count("\n") == 1
+    assert_refused(["steady", "barber", "--out", str(out), *args], out, message, capsys)
 
 
 def test_existing_directory(shared_dir, capsys):
