@@ -37,10 +37,10 @@ import numpy as np
 from matplotlib.figure import Figure
 from mpi4py import MPI
 
+import rodfem
 import rodfem.scene
 from rodfem.post import style
 from rodfem.post.steady import plot_branches
-from rodfem.solver.spectrum import Spectra
 from rodfem.studies import barber
 from rodfem.studies import steady as analysis
 
@@ -104,8 +104,8 @@ table(found)
 
 # +
 values = np.linspace(0.0, 40.0, 41 if SHORT else 161)
-rows = analysis.continuation("barber", BASE, "obstacle.temperature", values, Spectra(COMM))
-states = analysis.analyse(rodfem.scene.load("barber", BASE), Spectra(COMM))
+rows = rodfem.steady("barber", BASE, over=("obstacle.temperature", values))
+states = rodfem.steady("barber", BASE)
 analysis.write(STEADY, True, COMM, states, rows)
 if COMM.rank == 0:
     plot_branches(STEADY, "obstacle.temperature", gap=0.02)
