@@ -276,3 +276,20 @@ def test_heat_flux_column_is_the_steps_flux(monkeypatch):
     extra = flux - k * (theta_1 - theta_O)
     assert np.all(phi < 0.0)  # heat enters from the hot obstacle
     assert np.all(np.abs(extra - phi) <= 64 * EPS * np.abs(flux).max())
+
+
+@pytest.mark.parametrize("law", sorted(LAWS))
+def test_the_responses_solve_their_loads(law):
+    """C q_c = [0; −e] and C q_h = [−e; 0], each computed from a vector that held the other's
+    load: the responses are to their own loads alone (PETSc ≥ 3.20 skips zeroing a vector whose
+    state says it is zero, and the loads are written through its parts)."""
+    method = method_of("paper1", *LAWS[law], *HOT)
+    C = method.coupled_operator()
+    n = method.disc.nodes.size
+    for response, part in ((method.response, 1), (method.heat_response, 0)):
+        load = C.createVecLeft()
+        C.mult(response, load)
+        expected = np.zeros(2 * n)
+        expected[part * n + n - 1] = -1.0
+        scale = np.abs(load.array_r).max() + 1.0
+        assert np.abs(load.array_r - expected).max() < 64 * np.finfo(float).eps * scale * n

@@ -71,6 +71,9 @@ class DirectMethod(Method):
             raise RuntimeError(f"the compliance at x = 1 is {self.compliance:g}, not positive")
         self.exchange_step = None
         if self.exchange.variable:  # the response to a unit heat loss at x = 1: q_h = C⁻¹[−e; 0]
+            # rhs was written through its part rhs_momentum, which PETSc does not see: its state
+            # still says zero, and PETSc ≥ 3.20 skips zeroing a vector it knows to be zero
+            self.rhs.stateIncrease()
             self.rhs.zeroEntries()
             self.contact_load.copy(self.rhs_heat)
             self.rhs_heat.scale(-1.0)
