@@ -119,6 +119,22 @@ def test_newton_rigid_obstacle_agrees_with_the_direct_method(law):
     assert agreement("newton", law, "paper", **{"obstacle.kind": "rigid"}).max() <= PICARD
 
 
+@pytest.mark.parametrize("exponent", [0.5, 1.0])
+def test_newton_rigid_obstacle_off_its_bound_has_no_pressure(exponent):
+    """A rod that never reaches the rigid obstacle has no multiplier, in the iterations too: the
+    pressure law adds nothing, and each step is one iteration, as without the exchange (with a
+    multiplier read off an unconverged residual, m = 1/2 diverged at step 47)."""
+    free = {"obstacle.kind": "rigid", "mesh.cells": 20, "time.dt": 0.01, "time.end": 2.0,
+            "heat_exchange.exponent": exponent}
+    newton = rodfem.simulate("barber", {**free, "solver.method": "newton"}, comm=MPI.COMM_SELF)
+    direct = rodfem.simulate("barber", {**free, "solver.method": "direct"}, comm=MPI.COMM_SELF)
+    assert newton.status == direct.status == "complete"
+    assert newton.history["u_1"].max() < 0.5 * rodfem.scene.load("barber")["obstacle.gap"]
+    assert newton.history["iterations"].max() == 1
+    u_1 = direct.history["u_1"]
+    assert np.abs(newton.history["u_1"] - u_1).max() <= PICARD * np.abs(u_1).max()
+
+
 @pytest.mark.parametrize("method", ["picard", "newton"])
 @pytest.mark.parametrize("law", LAWS)
 def test_uncoupled_agrees_with_the_direct_method(law, method):

@@ -100,3 +100,18 @@ def test_keys_follow_their_law_in_a_resolved_scene():
     assert "length = 0.01" in section and "k1 = 1.0" in section
     assert "exponent" not in section
     assert "k1" not in scene().to_toml().split("[heat_exchange]")[1].split("\n\n")[0]
+
+
+@pytest.mark.parametrize("law", [exchange.PressureLaw(0.5, 1.0, 4.0, 1.7),
+                                 exchange.PressureLaw(0.5, 1.0, 4.0, 0.6),
+                                 exchange.GapLaw(0.5, 1.0, 3.0, 0.1, 0.02),
+                                 exchange.ConstantLaw(0.5, 1.0)])
+def test_vectorised_coefficients_are_the_scalar_ones(law):
+    """The history's h (and heat_flux_1) in NumPy's terms: the scalar law's value at each pair,
+    to the last bit or two of a power or an exponential."""
+    rng = np.random.default_rng(5)
+    y = np.concatenate([rng.uniform(-0.2, 0.3, 50), [0.1, 0.1 - 1e-12]])
+    p = np.concatenate([rng.uniform(0.0, 2.0, 50) * (rng.random(50) < 0.7), [0.0, 1e-300]])
+    h = law.coefficients(y, p)
+    scalar = np.array([law.coefficient(a, b) for a, b in zip(y, p, strict=True)])
+    assert np.all(np.abs(h - scalar) <= 4 * np.finfo(float).eps * np.abs(scalar))

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from rodfem.model.exchange.law import ExchangeLaw
 
 
@@ -20,6 +22,10 @@ class GapLaw(ExchangeLaw):
 
     def extra(self, y: float, p: float) -> float:
         return self.k1 * math.exp(min(y - self.gap, 0.0) / self.length)
+
+    def coefficients(self, y, p) -> np.ndarray:
+        y, p = np.broadcast_arrays(np.asarray(y, dtype=float), np.asarray(p, dtype=float))
+        return self.k + self.k1 * np.exp(np.minimum(y - self.gap, 0.0) / self.length)
 
     def extra_slopes(self, y: float, p: float) -> tuple[float, float]:
         if y >= self.gap:

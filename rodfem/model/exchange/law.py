@@ -43,7 +43,7 @@ class ExchangeLaw:
         return self.k + self.extra(y, p)
 
     def coefficients(self, y, p) -> np.ndarray:
-        """h at each pair of entries of y and p."""
+        """h at each pair of entries of y and p (a law may give the same in NumPy's terms)."""
         y, p = np.broadcast_arrays(np.asarray(y, dtype=float), np.asarray(p, dtype=float))
         return np.array([self.coefficient(a, b) for a, b in zip(y.ravel(), p.ravel(),
                                                                  strict=True)]).reshape(y.shape)

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from rodfem.model.exchange.law import ExchangeLaw
 
 
@@ -22,6 +24,13 @@ class PressureLaw(ExchangeLaw):
 
     def extra(self, y: float, p: float) -> float:
         return self.k1 * p**self.exponent if p > 0.0 else 0.0
+
+    def coefficients(self, y, p) -> np.ndarray:
+        y, p = np.broadcast_arrays(np.asarray(y, dtype=float), np.asarray(p, dtype=float))
+        pressed = p > 0.0
+        extra = np.zeros(p.shape)
+        extra[pressed] = self.k1 * p[pressed] ** self.exponent
+        return self.k + extra
 
     def extra_slopes(self, y: float, p: float) -> tuple[float, float]:
         m = self.exponent

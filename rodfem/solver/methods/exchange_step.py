@@ -132,7 +132,8 @@ class ExchangeStep:
         else:
             f_far = math.nan
         if not (math.isfinite(far) and math.isfinite(f_far)):
-            raise NoUniqueRoot(f"no root of the step's equation found from u(1) = {s:g}")
+            raise NoUniqueRoot("no root of the step's equation found from the end's free "
+                               f"position {s:g}")
         lo, hi, f_lo, f_hi = (near, far, f_near, f_far) if direction > 0.0 else \
             (far, near, f_far, f_near)
         self.unique(at(lo), at(hi), c, T0)

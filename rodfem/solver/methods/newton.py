@@ -185,7 +185,10 @@ class NewtonMethod(Method):
                 F = self._rigid_F
                 self.C.mult(x, F)
                 F.axpy(-1.0, self.rhs)
-            pressure, slope = max(-F.getValue(self._index), 0.0), 0.0
+            # the multiplier where the bound holds (as _step reads it); off it the rod is free
+            touching = x.getValue(self._index) >= self.upper.getValue(self._index)
+            pressure = max(-F.getValue(self._index), 0.0) if touching else 0.0
+            slope = 0.0
         else:
             pressure = self.time_scheme.contact_force(self.step_law, y, c)
             slope = self.time_scheme.contact_slope(self.step_law, y, c)
