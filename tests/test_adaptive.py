@@ -39,7 +39,7 @@ def history(out):
 
 def replay(scene, steps):
     """The reference at the given steps, for the scene's parameters."""
-    m, p = scene.values["model"], scene.parameters
+    m, p = scene.sections["model"], scene.parameters
 
     def initial(name):
         return lambda x: scene.initial(name)(x, p)

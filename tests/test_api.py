@@ -58,11 +58,11 @@ def test_scene_forms_all_give_the_same_scene(tmp_path):
     path.write_text("[model]\nk = 3.0\n")
     by_dict = rodfem.api.scene_of({"model": {"k": 3.0}})  # the defaults, k = 3
     assert by_dict["model.k"] == 3.0 and by_dict["solver.method"] == "direct"
-    assert rodfem.api.scene_of(by_dict).values == by_dict.values
-    assert rodfem.api.scene_of(path).values == by_dict.values
+    assert rodfem.api.scene_of(by_dict).sections == by_dict.sections
+    assert rodfem.api.scene_of(path).sections == by_dict.sections
     paper = rodfem.api.scene_of("paper1", {"model.k": 3})
     assert paper["solver.method"] == "picard" and paper["model.k"] == 3.0
-    assert rodfem.api.scene_of("paper1", ["model.k=3"]).values == paper.values
+    assert rodfem.api.scene_of("paper1", ["model.k=3"]).sections == paper.sections
 
 
 @pytest.mark.parametrize("scene, overrides, message", [

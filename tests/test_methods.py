@@ -33,7 +33,7 @@ PICARD = 1e-9  # Picard (tol 1e-10) against an exact step
 
 
 def run_reference(scene, method="exact", obstacle="elastic"):
-    m, p = scene.values["model"], scene.parameters
+    m, p = scene.sections["model"], scene.parameters
 
     def initial(name):
         return lambda x: scene.initial(name)(x, p)

@@ -25,7 +25,7 @@ from rodfem.output.columns import NAMES as COLUMNS  # noqa: E402
 
 
 def run_reference(scene, increment):
-    m, p = scene.values["model"], scene.parameters
+    m, p = scene.sections["model"], scene.parameters
 
     def initial(name):
         return lambda x: scene.initial(name)(x, p)

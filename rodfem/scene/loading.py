@@ -10,13 +10,13 @@ what is allowed.
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any
 
 import numpy as np
 
-from rodfem.scene.expressions import Expression, shorten
+from rodfem.scene.expressions import shorten
 from rodfem.scene.files import _parse_toml, read  # noqa: F401 (re-exported)
+from rodfem.scene.scene import Scene, _applies
 from rodfem.scene.schema import (  # noqa: F401 (re-exported)
     BIG,
     BUILTIN,
@@ -35,73 +35,6 @@ from rodfem.scene.schema import (  # noqa: F401 (re-exported)
     SceneError,
 )
 from rodfem.scene.values import _check_value, _suggest, _toml_value
-
-
-@dataclasses.dataclass(frozen=True)
-class Scene:
-    """A validated scene: ``values[section][key]`` holds every key, defaults filled in."""
-
-    values: dict[str, dict[str, Any]]
-    description: str = ""
-    source: str = ""
-
-    def __getitem__(self, dotted: str) -> Any:
-        section, key = dotted.split(".")
-        return self.values[section][key]
-
-    @property
-    def steps(self) -> int:
-        """N = T/Δt (with adaptive steps, the steps of the first step's size: an estimate)."""
-        return int(round(self["time.end"] / self["time.dt"]))
-
-    @property
-    def adaptive(self) -> bool:
-        """Whether the steps adapt (``time.adaptive``)."""
-        return bool(self["time.adaptive"])
-
-    @property
-    def parameters(self) -> dict[str, float]:
-        """The model's parameters, the names an initial-data expression may use."""
-        return dict(self.values["model"])
-
-    def initial(self, name: str) -> Expression:
-        return Expression(self.values["initial"][name], MODEL_NAMES)
-
-    def source_term(self, name: str) -> Expression | None:
-        """The source of the ``heat`` or ``momentum`` equation, f(x, t; parameters), or None
-        where the scene has none."""
-        text = self.values["source"][name].strip()
-        return None if _is_zero(text) else Expression(text, SOURCE_NAMES)
-
-    def data(self) -> dict[str, dict[str, Any]]:
-        """The resolved scene as TOML data (a fresh copy): every key that applies, so that
-        :func:`validate` of it gives this scene again."""
-        return {section: {key: self.values[section][key] for key, spec in keys.items()
-                          if _applies(self, spec)} for section, keys in SCHEMA.items()}
-
-    def to_toml(self) -> str:
-        """The resolved scene as TOML: loading it gives the same scene."""
-        lines = []
-        if self.description:
-            lines += [f"description = {_toml_value(self.description)}", ""]
-        for section, keys in self.data().items():
-            lines.append(f"[{section}]")
-            for key, value in keys.items():
-                lines.append(f"{key} = {_toml_value(value)}")
-            lines.append("")
-        return "\n".join(lines)
-
-
-def _applies(scene: Scene, spec: Key) -> bool:
-    """Whether a key that applies only with another key's value (``Key.only_with``) does here."""
-    return spec.only_with is None or spec.applies_with(scene[spec.only_with[0]])
-
-
-def _is_zero(text: str) -> bool:
-    try:
-        return float(text) == 0.0
-    except ValueError:
-        return False
 
 
 def validate(data: dict[str, Any], source: str = "") -> Scene:
@@ -278,9 +211,9 @@ def _check_data(scene: Scene) -> None:
         if bad.size:
             raise SceneError(
                 f"initial.{name}: not finite at x = {x[bad[0]]:g} "
-                f"({_toml_value(scene.values['initial'][name])})"
+                f"({_toml_value(scene.sections['initial'][name])})"
             )
-        _check_magnitude(f"initial.{name}", values, x, scene.values["initial"][name])
+        _check_magnitude(f"initial.{name}", values, x, scene.sections["initial"][name])
         if abs(values[0] - required) > 1e-12 * max(1.0, abs(required)):
             raise SceneError(
                 f"initial.{name}: must equal {required:g} at x = 0 (boundary condition), "
@@ -298,9 +231,9 @@ def _check_data(scene: Scene) -> None:
             if bad.size:
                 raise SceneError(
                     f"source.{name}: not finite at x = {x[bad[0]]:g}, t = {t:g} "
-                    f"({_toml_value(scene.values['source'][name])})"
+                    f"({_toml_value(scene.sections['source'][name])})"
                 )
-            _check_magnitude(f"source.{name}", values, x, scene.values["source"][name], t)
+            _check_magnitude(f"source.{name}", values, x, scene.sections["source"][name], t)
 
 
 def _parse_override(item: str) -> tuple[str, str, Any]:
