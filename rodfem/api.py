@@ -31,6 +31,8 @@ from rodfem.output.measures import measures as _measures
 from rodfem.output.readers import Fields
 from rodfem.scene import Scene, SceneError, read, validate, with_values
 from rodfem.scene import load as load_scene
+from rodfem.scene.files import based
+from rodfem.scene.values import with_changes
 
 
 @dataclass(frozen=True)
@@ -113,7 +115,7 @@ def scene_of(scene: str | Path | Mapping | Scene, overrides=None) -> Scene:
         data, source = scene.data(), scene.source
         data["description"] = scene.description
     elif isinstance(scene, Mapping):
-        data, source = dict(scene), "<dict>"
+        data, source = based(dict(scene), "scene"), "<dict>"  # it may name a base scene
     elif isinstance(scene, (str, Path)):
         data, source = read(scene)
     else:
@@ -121,7 +123,10 @@ def scene_of(scene: str | Path | Mapping | Scene, overrides=None) -> Scene:
                          f"{type(scene).__name__}")
     values = {key: value.item() if isinstance(value, np.generic) else value  # NumPy scalars
               for key, value in dict(overrides or {}).items()}
-    return validate(with_values(data, values, "overrides"), source)
+    data = with_values(data, values, "overrides")
+    if values and isinstance(data.get("description", ""), str):  # as --set: the keys named
+        data["description"] = with_changes(data.get("description", ""), values)
+    return validate(data, source)
 
 
 def simulate(scene: str | Path | Mapping | Scene, overrides=None, out: str | Path | None = None,

@@ -92,7 +92,11 @@ def scene_reference() -> str:
     for name, default in TOP_LEVEL.items():
         lines.append(f"| `{name}` | text | `{toml(default)}` |")
     lines.append("")
-    lines.append("`description` is free text, recorded with the run.")
+    lines.append("| `scene` | text | none |")
+    lines.append("")
+    lines.append("`description` is free text, recorded with the run; setting keys over a scene "
+                 "names them in it. `scene` names a base scene (a built-in name, or a file "
+                 "relative to this one) whose keys this file's are set over.")
     for section, keys in SCHEMA.items():
         lines += ["", f"## `[{section}]`", "",
                   "| key | kind | default | allowed | meaning |", "|---|---|---|---|---|"]

@@ -14,7 +14,10 @@ from importlib import resources
 from pathlib import Path
 
 from rodfem.scene.expressions import shorten
-from rodfem.scene.schema import BUILTIN, EXTRA, SceneError
+from rodfem.scene.schema import BUILTIN, EXTRA, SCHEMA, SceneError
+from rodfem.scene.values import with_changes
+
+MAX_BASES = 16  # base scenes, one on another
 
 
 def _parse_toml(text: str, what: str) -> dict:
@@ -78,19 +81,68 @@ def read_file(path: str | Path, what: str) -> dict:
 
 def read(scene: str | Path) -> tuple[dict, str]:
     """The raw TOML data of a built-in scene (by name) or a TOML file (by path), and its source:
-    the name, or the path as given.
+    the name, or the path as given. A file that names a base scene (``scene = "paper2"``, a
+    built-in name or a path relative to the file) is read over it (:func:`based`).
 
     Raises:
         SceneError: if the scene cannot be read.
     """
-    scene = str(scene)
+    return _read(str(scene), ())
+
+
+def _read(scene: str, chain: tuple[str, ...]) -> tuple[dict, str]:
+    """:func:`read`, ``chain`` the files that named this one as their base (for a cycle)."""
     if scene in BUILTIN or scene in EXTRA:
         text = resources.files("rodfem.scene").joinpath("builtin", f"{scene}.toml").read_text()
         return _parse_toml(text, f"scene '{scene}'"), scene
-    text = read_text(Path(scene), f"scene '{shorten(scene)}'")
+    what = f"scene '{shorten(scene)}'"
+    text = read_text(Path(scene), what)
     if text is None:
         raise SceneError(
-            f"scene '{scene}': not a built-in scene ({', '.join(BUILTIN + EXTRA)}) nor a TOML "
-            "file"
+            f"{what}: not a built-in scene ({', '.join(BUILTIN + EXTRA)}) nor a TOML file"
+            if not chain else f"{what}: no such file (the base scene of '{shorten(chain[-1])}')"
         )
-    return _parse_toml(text, f"scene '{shorten(scene)}'"), str(Path(scene))
+    return based(_parse_toml(text, what), what, Path(scene).parent,
+                 (*chain, str(Path(scene).resolve()))), \
+        str(Path(scene))
+
+
+def based(data: dict, what: str, directory: Path | None = None,
+          chain: tuple[str, ...] = ()) -> dict:
+    """A scene's raw ``data`` read over the base scene it names (``scene = "paper2"``: a built-in
+    name, or a TOML path relative to ``directory``), if it names one: the base's sections with
+    this scene's keys set over them, key by key (a section such as ``[measures]`` too, entry by
+    entry), and its description unless this scene has its own (the base's, naming the keys
+    this scene sets: :func:`~rodfem.scene.values.with_changes`). A base may name a base of its own.
+
+    Raises:
+        SceneError: for a base that is not a name or path, cannot be read, or comes round again.
+    """
+    if not isinstance(data, dict) or "scene" not in data:
+        return data
+    name = data["scene"]
+    if not isinstance(name, str) or not name.strip():
+        raise SceneError(f'{what}: scene must name its base scene, e.g. scene = "paper2"')
+    path = name
+    if name not in BUILTIN + EXTRA and directory is not None and not Path(name).is_absolute():
+        path = str(directory / name)
+    again = name not in BUILTIN + EXTRA and str(Path(path).resolve()) in chain
+    if again or len(chain) > MAX_BASES:
+        raise SceneError(f"{what}: its base scene '{shorten(name)}' comes round again (a cycle "
+                         "of base scenes)" if again else
+                         f"{what}: more than {MAX_BASES} base scenes, one on another")
+    base, _ = _read(path, chain)
+    merged = {key: dict(value) if isinstance(value, dict) else value
+              for key, value in base.items()}
+    for key, value in data.items():
+        if key == "scene":
+            continue
+        if isinstance(value, dict) and isinstance(merged.get(key), dict):
+            merged[key].update(value)
+        else:
+            merged[key] = value
+    if "description" not in data and isinstance(merged.get("description"), str):
+        changes = {f"{section}.{key}": value for section, keys in data.items()
+                   if section in SCHEMA and isinstance(keys, dict) for key, value in keys.items()}
+        merged["description"] = with_changes(merged["description"], changes)
+    return merged

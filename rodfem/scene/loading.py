@@ -34,7 +34,7 @@ from rodfem.scene.schema import (  # noqa: F401 (re-exported)
     Key,
     SceneError,
 )
-from rodfem.scene.values import _check_value, _suggest, _toml_value
+from rodfem.scene.values import _check_value, _suggest, _toml_value, with_changes
 
 
 def validate(data: dict[str, Any], source: str = "") -> Scene:
@@ -291,6 +291,8 @@ def with_values(data: dict, values: dict[str, Any], what: str = "--set") -> dict
 
 def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
     """Load a built-in scene by name or a TOML file by path, apply ``--set`` overrides, validate.
+    The description names the keys set (:func:`~rodfem.scene.values.with_changes`), unless an
+    override sets it: ``description=...``.
 
     Raises:
         SceneError: if the scene cannot be read or any value is wrong.
@@ -298,10 +300,16 @@ def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
     if isinstance(overrides, str):
         raise SceneError(f"overrides: a list of section.key=value, not the string {overrides!r}")
     data, source = read(scene)
+    changes, described = {}, False
     for item in overrides:
+        if item.startswith("description="):
+            data["description"], described = item.split("=", 1)[1], True
+            continue
         section, key, value = _parse_override(item)
         data.setdefault(section, {})
         if not isinstance(data[section], dict):
             raise SceneError(f"{section}: must be a section [{section}]")
-        data[section][key] = value
+        data[section][key] = changes[f"{section}.{key}"] = value
+    if not described and isinstance(data.get("description", ""), str):
+        data["description"] = with_changes(data.get("description", ""), changes)
     return validate(data, source)

@@ -29,6 +29,21 @@ def _toml_value(value: Any) -> str:
     return repr(value)
 
 
+SHOWN_CHANGES = 4  # the keys a description names of those set over a scene
+
+
+def with_changes(description: str, changes: dict[str, Any]) -> str:
+    """A scene's description after ``changes`` ({"model.zeta": 2}) were set over it, naming them
+    (the first few): "Experiment 1 of the paper (with model.zeta = 2)"."""
+    if not changes:
+        return description
+    items = [f"{key} = {shorten(_toml_value(value))}" for key, value in changes.items()]
+    shown = ", ".join(items[:SHOWN_CHANGES])
+    if len(items) > SHOWN_CHANGES:
+        shown += f" and {len(items) - SHOWN_CHANGES} more"
+    return f"{description} (with {shown})" if description else f"with {shown}"
+
+
 def _suggest(name: str, allowed) -> str:
     """The closest allowed name, if one is close, and every allowed name."""
     close = difflib.get_close_matches(name, list(allowed), n=1, cutoff=0.5)
