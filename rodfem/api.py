@@ -18,7 +18,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import json
-import textwrap
 import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -33,6 +32,7 @@ from rodfem.output.readers import Fields
 from rodfem.scene import Scene, SceneError, read, validate, with_values
 from rodfem.scene import load as load_scene
 from rodfem.scene.expressions import shorten
+from rodfem.scene.scene import wrapped
 
 # The measures a Result's repr shows (with those the scene declares).
 SHOWN = ("u_1_final", "max_penetration", "contact_fraction", "energy_final")
@@ -117,9 +117,8 @@ class Result:
         measures = self.measures
         shown = [*SHOWN, *(d.name for d in getattr(self.scene, "measures", ()))]
         if measures:
-            lines += textwrap.wrap(", ".join(f"{name} = {number(measures[name])}"
-                                             for name in shown[:8] if name in measures),
-                                   96, initial_indent="    measures: ", subsequent_indent="    ")
+            lines += wrapped([f"{name} = {number(measures[name])}" for name in shown[:8]
+                              if name in measures], "    measures: ")
         if self.path is not None:
             lines.append(f"    path: {self.path}")
         return "\n".join(lines)

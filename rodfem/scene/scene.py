@@ -4,7 +4,6 @@ defaults filled in, and what the rest of rodfem asks of it."""
 from __future__ import annotations
 
 import dataclasses
-import textwrap
 from collections.abc import Iterator, Mapping
 from typing import Any
 
@@ -112,9 +111,22 @@ def _summary(scene: Scene, width: int = 400) -> str:
             break
         shown.append(item)
         used += len(item) + 2
-    keys = textwrap.wrap(", ".join(shown), 96, initial_indent="    ", subsequent_indent="    ",
-                         break_long_words=False, break_on_hyphens=False)
-    return "\n".join(lines + keys)
+    return "\n".join(lines + wrapped(shown))
+
+
+def wrapped(items: list[str], lead: str = "    ", width: int = 96) -> list[str]:
+    """Items joined by commas into lines of at most ``width`` characters, the first after
+    ``lead``, the others indented; no item is split (one longer than a line has one to
+    itself). What the reprs use for their lists of keys and measures."""
+    lines: list[str] = []
+    for item in items:
+        if lines and len(lines[-1]) + len(item) + 2 <= width:
+            lines[-1] += ", " + item
+        else:
+            if lines:
+                lines[-1] += ","
+            lines.append((lead if not lines else "    ") + item)
+    return lines
 
 
 def _default(dotted: str) -> Any:
