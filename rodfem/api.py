@@ -110,8 +110,8 @@ class Result:
         steps = f"{self.summary['steps']} steps, " if "steps" in self.summary else ""
         reached = (f"t = {number(self.history['t'][-1])} of {number(self.scene['time.end'])}"
                    if rows else "no step recorded")
-        lines = [f"<rodfem.Result {self.status}: {_title(self)}, {steps}{reached}; history "
-                 f"{rows} × {len(names)} ({', '.join(names[:4])}, …)>"]
+        lines = [f"<rodfem.Result {self.status}: {_title(self)}, {steps}{reached}; history of "
+                 f"{rows} rows × {len(names)} columns>"]
         if self.summary.get("error"):
             lines.append(f"    error: {shorten(str(self.summary['error']), 120)}")
         measures = self.measures

@@ -90,8 +90,8 @@ class SweepResult:
         measures = [c for c in self.columns if c not in ("index", "status", "error", *self.axes)]
         lines.append(f"    {len(measures)} measures: {', '.join(measures[:4])}, …")
         if self.coarse_steps:
-            lines.append(f"    {len(self.coarse_steps)} warning(s) of steps coarse for the "
-                         "obstacle: .coarse_steps")
+            lines.append(f"    steps coarse for the obstacle in some scenes: "
+                         f"{len(self.coarse_steps)} warning(s) in .coarse_steps")
         if self.error:
             lines.append(f"    error: {shorten(self.error, 120)}")
         if self.path is not None:
