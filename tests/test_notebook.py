@@ -14,6 +14,7 @@ import rodfem
 import rodfem.api
 import rodfem.output.readers
 from conftest import COMM
+from rodfem.scene import SCHEMA
 from rodfem.scene import load as load_scene
 
 matplotlib.use("Agg")
@@ -52,7 +53,7 @@ def _close_figures():
 def test_a_scene_is_the_mapping_of_the_keys_that_apply():
     scene = load_scene("paper1")
     flat = {f"{section}.{key}": value for section, keys in scene.data().items()
-            for key, value in keys.items()}
+            for key, value in keys.items() if section in SCHEMA}
     assert dict(scene) == flat and list(scene.keys()) == list(flat) and len(scene) == len(flat)
     assert dict(scene.items()) == flat and list(scene.values()) == list(flat.values())
     assert "model.k" in scene and scene["model.k"] == 1.0 and scene.get("model.k") == 1.0
@@ -137,6 +138,16 @@ def test_a_failed_result_s_repr_says_why(shared_dir):
     text = repr(r)
     assert text.startswith("<rodfem.Result failed: ") and "error: " in text
     assert f"path: {shared_dir / 'f'}" in text and len(text) < 600
+
+
+def test_a_result_without_steps_says_so():
+    """A run killed before its first checkpoint (load gives it): no step, no measures."""
+    scene = load_scene("paper1")
+    empty = rodfem.api.Result(scene, {"status": "gone"},
+                              rodfem.api.named_history(np.zeros((0, 7))))
+    assert repr(empty) == ("<rodfem.Result gone: paper1, no step recorded; history of 0 rows × "
+                           "7 columns>")
+    assert len(empty.to_pandas()) == 0 and list(empty.to_pandas().columns)[0] == "u_1"
 
 
 def test_to_pandas_is_the_history_indexed_by_t(run):
