@@ -10,6 +10,7 @@ import hashlib
 import json
 import os
 import shutil
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -78,17 +79,16 @@ class SweepResult:
     def __repr__(self) -> str:
         from rodfem.output.frames import span
 
-        statuses = dict.fromkeys(self.columns["status"].tolist(), 0)
-        for status in self.columns["status"].tolist():
-            statuses[status] += 1
-        counts = ", ".join(f"{n} {status}" for status, n in statuses.items())
+        counts = ", ".join(f"{n} {status}"
+                           for status, n in Counter(self.columns["status"].tolist()).items())
         lines = [f"<rodfem.SweepResult {self.status}: {len(self)} scenes"
                  f"{' (' + counts + ')' if counts else ''}>"]
         lines += [f"    {key}: {span(self.columns[key])}" for key in self.axes[:6]]
         if len(self.axes) > 6:
             lines.append(f"    … {len(self.axes) - 6} more swept keys")
         measures = [c for c in self.columns if c not in ("index", "status", "error", *self.axes)]
-        lines.append(f"    {len(measures)} measures: {', '.join(measures[:4])}, …")
+        lines.append(f"    {len(measures)} measures: {', '.join(measures[:4])}"
+                     f"{', …' if len(measures) > 4 else ''}")
         if self.coarse_steps:
             lines.append(f"    steps coarse for the obstacle in some scenes: "
                          f"{len(self.coarse_steps)} warning(s) in .coarse_steps")
