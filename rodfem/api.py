@@ -99,11 +99,11 @@ class Result:
         σ(1, t) and the energy Ê, a panel each. ``columns``: other history columns, a panel
         each; ``ax``: draw them all on that Axes instead. Returns the Axes (an array of them,
         one per panel, without ``ax``)."""
-        from rodfem.post import inline
+        from rodfem import quicklook
 
         meanings = {c.name: c.meaning for c in for_scene(self.scene)}
-        return inline.history(self.history, meanings, _title(self), self.scene["obstacle.gap"],
-                              columns, ax)
+        return quicklook.history(self.history, meanings, _title(self),
+                                 self.scene["obstacle.gap"], columns, ax)
 
     def __repr__(self) -> str:
         rows, names = len(self.history), self.history.dtype.names

@@ -3,6 +3,8 @@ read-only mapping of its dotted keys; the bridges to pandas and xarray, whose va
 arrays they came from, unchanged; and the quick figures of Result.plot and SweepResult.plot."""
 
 import dataclasses
+import subprocess
+import sys
 import tomllib
 import warnings
 
@@ -13,7 +15,7 @@ import pytest
 import rodfem
 import rodfem.api
 import rodfem.output.readers
-from conftest import COMM
+from conftest import COMM, serial_only
 from rodfem.scene import SCHEMA
 from rodfem.scene import load as load_scene
 
@@ -199,6 +201,16 @@ def test_plot_draws_the_history(run):
     np.testing.assert_array_equal(ax.lines[1].get_ydata(), run.history["ut_1"])
     with pytest.raises(KeyError, match="no column 'theta_1'"):
         run.plot(["theta_1"])
+
+
+@serial_only
+def test_the_quick_figures_and_bridges_load_neither_vtk_nor_dolfinx():
+    code = ("import sys, numpy as np, matplotlib; matplotlib.use('Agg'); import rodfem.api as a; "
+            "r = a.Result(a.scene_of('paper1'), {'status': 'gone'}, "
+            "a.named_history(np.zeros((3, 7)))); r.plot(); r.to_pandas(); "
+            "assert not {'vtkmodules', 'pyvista', 'dolfinx'} & set(sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
 
 
 def test_a_missing_library_is_named():

@@ -72,9 +72,9 @@ class SweepResult:
         """The measure against a swept key ``x`` (default: the first) with matplotlib's pyplot,
         a line for each combination of the other swept keys, over the complete scenes; a log
         axis where the key's values span two decades or more. Returns the Axes."""
-        from rodfem.post import inline
+        from rodfem import quicklook
 
-        return inline.measure(self.columns, self.axes, measure, x, ax)
+        return quicklook.measure(self.columns, self.axes, measure, x, ax)
 
     def __repr__(self) -> str:
         from rodfem.output.frames import span

@@ -1,7 +1,8 @@
 """Quick figures for a notebook or a script: a run's history against t (``Result.plot``) and a
 sweep's measure against a swept key (``SweepResult.plot``), on matplotlib's pyplot axes, which a
 notebook shows inline and ``matplotlib.pyplot.show()`` opens elsewhere. ``rodfem plot`` draws
-the finished figures; these are for looking.
+the finished figures (:mod:`rodfem.post`); these are for looking, and need matplotlib alone (not
+VTK, which importing :mod:`rodfem.post` loads).
 """
 
 from __future__ import annotations
