@@ -61,6 +61,8 @@ def test_a_scene_is_the_mapping_of_the_keys_that_apply():
     assert "model.k" in scene and scene["model.k"] == 1.0 and scene.get("model.k") == 1.0
     # a key that applies only to adaptive steps: not among a fixed-step scene's keys
     assert "time.tolerance" not in scene and "time.tolerance" not in scene.keys()
+    assert scene.get("time.tolerance") is None
+    assert scene["time.tolerance"] == SCHEMA["time"]["tolerance"].default  # read all the same
     adaptive = rodfem.api.scene_of("paper1", {"time.adaptive": True})
     assert "time.tolerance" in adaptive and "time.tolerance" in dict(adaptive)
     for missing in ("model", "model.kk", "nope.k", "model.k.x", 3, None):

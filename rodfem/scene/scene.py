@@ -45,6 +45,10 @@ class Scene(Mapping):
         spec = SCHEMA.get(section, {}).get(key)
         return spec is not None and _applies(self, spec)
 
+    def get(self, dotted: str, default: Any = None) -> Any:
+        """The value of a key that applies, else ``default`` (as for a dict)."""
+        return self[dotted] if dotted in self else default
+
     def __repr__(self) -> str:
         return _summary(self)
 
