@@ -16,7 +16,8 @@ _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "SceneError": "rodfem.scene", "OutputError": "rodfem.output.directories",
         "sweep": "rodfem.studies.sweep", "load_sweep": "rodfem.studies.sweep",
         "read_fields": "rodfem.output.readers", "Fields": "rodfem.output.readers",
-        "CoarseStepWarning": "rodfem.model.timescales", "steady": "rodfem.api"}
+        "CoarseStepWarning": "rodfem.model.timescales", "steady": "rodfem.api",
+        "Scene": "rodfem.scene", "SweepResult": "rodfem.studies.sweepfiles"}
 __all__ = [*_API, "__version__"]
 
 

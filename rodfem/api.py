@@ -8,10 +8,9 @@ what both give back (:class:`Result`); a scene's steady states and their stabili
 
 Labelled data are NumPy's own: the history is a structured array (a column per name, e.g.
 ``r.history["u_1"]``, ``r.history.dtype.names``), the fields a small dataclass of arrays with
-their coordinates (:class:`rodfem.output.readers.Fields`). xarray and pandas would add a dependency
-that rodfem's runs do not need (and a second of import time to every ``rodfem`` command) for two
-one-dimensional coordinates; ``xarray.Dataset({"u": (("t", "x"), r.fields.u)}, coords=...)`` is a
-line away for those who use them.
+their coordinates (:class:`rodfem.output.readers.Fields`). The bridges give them to pandas and
+xarray, imported only when called (:mod:`rodfem.output.frames`): ``r.to_pandas()``,
+``r.fields.to_xarray()``; ``r.plot()`` draws the main curves. The reprs are a few lines.
 """
 
 from __future__ import annotations
@@ -27,12 +26,18 @@ from pathlib import Path
 import numpy as np
 
 from rodfem.output.columns import COLUMNS, for_scene
+from rodfem.output.frames import history_frame, number, scene_attrs
 from rodfem.output.measures import measures as _measures
 from rodfem.output.readers import Fields
 from rodfem.scene import Scene, SceneError, read, validate, with_values
 from rodfem.scene import load as load_scene
+from rodfem.scene.expressions import shorten
 from rodfem.scene.files import based
+from rodfem.scene.scene import wrapped
 from rodfem.scene.values import with_changes
+
+# The measures a Result's repr shows (with those the scene declares).
+SHOWN = ("u_1_final", "max_penetration", "contact_fraction", "energy_final")
 
 
 @dataclass(frozen=True)
@@ -65,7 +70,9 @@ class Result:
         default) at every saved step, with ``t``, ``x`` and ``x_cells``
         (:class:`rodfem.output.readers.Fields`); None where none were saved. A run directory's
         are read when first asked for."""
-        return self.saved_fields() if callable(self.saved_fields) else self.saved_fields
+        fields = self.saved_fields() if callable(self.saved_fields) else self.saved_fields
+        return None if fields is None else dataclasses.replace(fields,
+                                                               attrs=scene_attrs(self.scene))
 
     @property
     def status(self) -> str:
@@ -81,6 +88,47 @@ class Result:
             return {}
         columns = {name: self.history[name] for name in self.history.dtype.names}
         return _measures(columns, self.scene, self.summary)
+
+    def to_pandas(self):
+        """The history as a ``pandas.DataFrame`` indexed by t (a row per kept step, as
+        :attr:`history`), a column per other name with the history's own values and dtype
+        (``frame.reset_index()`` makes t a column again); ``frame.attrs`` names the scene
+        (``scene``, ``description``, ``scene_toml``). Needs pandas."""
+        return history_frame(self.history, scene_attrs(self.scene))
+
+    def plot(self, columns=None, ax=None):
+        """The history's main curves against t with matplotlib's pyplot: u(1, t) with the gap,
+        σ(1, t) and the energy Ê, a panel each. ``columns``: other history columns, a panel
+        each; ``ax``: draw them all on that Axes instead. Returns the Axes (an array of them,
+        one per panel, without ``ax``)."""
+        from rodfem import quicklook
+
+        meanings = {c.name: c.meaning for c in for_scene(self.scene)}
+        return quicklook.history(self.history, meanings, _title(self),
+                                 self.scene["obstacle.gap"], columns, ax)
+
+    def __repr__(self) -> str:
+        rows, names = len(self.history), self.history.dtype.names
+        steps = f"{self.summary['steps']} steps, " if "steps" in self.summary else ""
+        reached = (f"t = {number(self.history['t'][-1])} of {number(self.scene['time.end'])}"
+                   if rows else "no step recorded")
+        lines = [f"<rodfem.Result {self.status}: {_title(self)}, {steps}{reached}; history of "
+                 f"{rows} rows × {len(names)} columns>"]
+        if self.summary.get("error"):
+            lines.append(f"    error: {shorten(str(self.summary['error']), 120)}")
+        measures = self.measures
+        shown = [*SHOWN, *(d.name for d in getattr(self.scene, "measures", ()))]
+        if measures:
+            lines += wrapped([f"{name} = {number(measures[name])}" for name in shown[:8]
+                              if name in measures], "    measures: ")
+        if self.path is not None:
+            lines.append(f"    path: {self.path}")
+        return "\n".join(lines)
+
+
+def _title(result: Result) -> str:
+    """The scene a result is of: where it came from (a built-in name, a path)."""
+    return result.scene.source or "(a scene)"
 
 
 def named_history(rows: np.ndarray, columns=COLUMNS) -> np.ndarray:

@@ -23,6 +23,9 @@ APT_PACKAGES=(
   # rodfem plot: pyvista's matplotlib built for Debian's NumPy; VTK's wheel dlopen()s libEGL.so.1
   # at run time (ldd shows no GL library) and Mesa renders off-screen with libgl1-mesa-dri.
   python3-matplotlib libegl1 libgl1-mesa-dri
+  # rodfem's results as tables and labelled arrays (Result.to_pandas, Fields.to_xarray): Debian's,
+  # built for its NumPy (pip's pandas would bring its own NumPy requirement)
+  python3-pandas python3-xarray
 )
 extras=test
 if [ "${1:-}" = docs ]; then

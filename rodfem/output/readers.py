@@ -14,7 +14,7 @@ serial h5py aborts a run under mpirun.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from xml.etree import ElementTree
 
@@ -118,6 +118,9 @@ def read_history(path: Path, empty: bool = False) -> History:
 NODE_FUNCTIONS = ("theta", "u", "velocity")
 CELL_FUNCTIONS = ("sigma", "heat_flux")
 FUNCTIONS = (*NODE_FUNCTIONS, *CELL_FUNCTIONS)
+MEANINGS = {"theta": "temperature θ (physical)", "u": "displacement u",
+            "velocity": "velocity u_t", "sigma": "stress σ = u_x + ζ u_xt − aθ, on each cell",
+            "heat_flux": "heat flux −θ_x, on each cell"}
 
 
 class FieldsError(ValueError):
@@ -138,6 +141,8 @@ class Fields:
         velocity: velocity u_t at the nodes, shape (saves, nodes).
         sigma: stress σ = u_x + ζ u_xt − aθ, constant per cell, shape (saves, cells).
         heat_flux: heat flux −θ_x, constant per cell, shape (saves, cells).
+        attrs: what names the run (its scene), for :meth:`to_xarray`; empty for fields read
+            alone (:func:`read_fields`).
     """
 
     x: np.ndarray
@@ -148,11 +153,36 @@ class Fields:
     sigma: np.ndarray | None = None
     velocity: np.ndarray | None = None
     heat_flux: np.ndarray | None = None
+    attrs: dict[str, str] = field(default_factory=dict, compare=False)
 
     @property
     def names(self) -> tuple[str, ...]:
         """The fields saved, in the order of :data:`FUNCTIONS`."""
         return tuple(name for name in FUNCTIONS if getattr(self, name) is not None)
+
+    def to_xarray(self):
+        """The fields as an ``xarray.Dataset``: a variable per saved field on dims (t, x), the
+        nodes, or (t, x_cells), the cells (σ and the heat flux, constant on each); the
+        coordinates t, x, x_cells; the scene in its attributes (``scene``, ``description``,
+        ``scene_toml``). The values are these arrays, unchanged. Needs xarray."""
+        from rodfem.output.frames import fields_dataset
+
+        return fields_dataset(self, MEANINGS, NODE_FUNCTIONS)
+
+    def __repr__(self) -> str:
+        from rodfem.output.frames import number
+
+        saves = len(self.t)
+        times = f"t = {number(self.t[0])} … {number(self.t[-1])}" if saves else "no save"
+        lines = [f"<rodfem.Fields{' of ' + self.attrs['scene'] if self.attrs.get('scene') else ''}"
+                 f": {saves} saves, {times}; {len(self.x)} nodes on [{number(self.x[0])}, "
+                 f"{number(self.x[-1])}]>"]
+        for where, kind, size in (("nodes", NODE_FUNCTIONS, len(self.x)),
+                                  ("cells", CELL_FUNCTIONS, len(self.x_cells))):
+            names = [name for name in self.names if name in kind]
+            if names:
+                lines.append(f"    {', '.join(names)}: ({saves}, {size}) on the {where}")
+        return "\n".join(lines)
 
 
 class _Reader:

@@ -4,24 +4,53 @@ defaults filled in, and what the rest of rodfem asks of it."""
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterator, Mapping
 from typing import Any
 
-from rodfem.scene.expressions import Expression
+from rodfem.scene.expressions import Expression, shorten
 from rodfem.scene.schema import MODEL_NAMES, SCHEMA, SOURCE_NAMES, Key
-from rodfem.scene.values import _toml_value
+from rodfem.scene.values import _check_value, _toml_value
 
 
 @dataclasses.dataclass(frozen=True)
-class Scene:
-    """A validated scene: ``sections[section][key]`` holds every key, defaults filled in."""
+class Scene(Mapping):
+    """A validated scene: ``sections[section][key]`` holds every key, defaults filled in.
+
+    It is a read-only mapping of the dotted keys that apply to it (those :meth:`data` writes)
+    to their values: ``scene["model.k"]``, ``dict(scene)``, ``scene.keys()``, ``"model.k" in
+    scene``. A key that does not apply (``time.tolerance`` of a fixed-step scene) is none of its
+    keys, though ``scene[key]`` still reads its default.
+    """
 
     sections: dict[str, dict[str, Any]]
     description: str = ""
     source: str = ""
 
     def __getitem__(self, dotted: str) -> Any:
-        section, key = dotted.split(".")
-        return self.sections[section][key]
+        section, _, key = dotted.partition(".") if isinstance(dotted, str) else ("", "", "")
+        try:
+            return self.sections[section][key]
+        except KeyError:
+            raise KeyError(dotted) from None
+
+    def __iter__(self) -> Iterator[str]:
+        return (f"{section}.{key}" for section, keys in SCHEMA.items()
+                for key, spec in keys.items() if _applies(self, spec))
+
+    def __len__(self) -> int:
+        return sum(1 for _ in self)
+
+    def __contains__(self, dotted: object) -> bool:
+        section, _, key = dotted.partition(".") if isinstance(dotted, str) else ("", "", "")
+        spec = SCHEMA.get(section, {}).get(key)
+        return spec is not None and _applies(self, spec)
+
+    def get(self, dotted: str, default: Any = None) -> Any:
+        """The value of a key that applies, else ``default`` (as for a dict)."""
+        return self[dotted] if dotted in self else default
+
+    def __repr__(self) -> str:
+        return _summary(self)
 
     @property
     def steps(self) -> int:
@@ -69,6 +98,46 @@ class Scene:
 def _applies(scene: Scene, spec: Key) -> bool:
     """Whether a key that applies only with another key's value (``Key.only_with``) does here."""
     return spec.only_with is None or spec.applies_with(scene[spec.only_with[0]])
+
+
+def _summary(scene: Scene, width: int = 400) -> str:
+    """A few lines on a scene, as ``repr`` shows it: where it comes from, its description, and
+    the keys whose values are not the defaults (as many as fit in about ``width`` characters)."""
+    changed = [f"{key} = {shorten(_toml_value(value), 40)}" for key, value in scene.items()
+               if value != _default(key)]
+    head = f"<rodfem.Scene {scene.source or '(no source)'}: {len(scene)} keys, " \
+           f"{len(changed)} not the default>"
+    lines = [head] + ([shorten(scene.description, 90)] if scene.description else [])
+    shown, used = [], sum(map(len, lines))
+    for item in changed:
+        if used + len(item) > width:
+            shown.append(f"… {len(changed) - len(shown)} more")
+            break
+        shown.append(item)
+        used += len(item) + 2
+    return "\n".join(lines + wrapped(shown))
+
+
+def wrapped(items: list[str], lead: str = "    ", width: int = 96) -> list[str]:
+    """Items joined by commas into lines of at most ``width`` characters, the first after
+    ``lead``, the others indented; no item is split (one longer than a line has one to
+    itself). What the reprs use for their lists of keys and measures."""
+    lines: list[str] = []
+    for item in items:
+        if lines and len(lines[-1]) + len(item) + 2 <= width:
+            lines[-1] += ", " + item
+        else:
+            if lines:
+                lines[-1] += ","
+            lines.append((lead if not lines else "    ") + item)
+    return lines
+
+
+def _default(dotted: str) -> Any:
+    """A key's default as a scene holds it (a list as a list, say, not the schema's tuple)."""
+    section, key = dotted.split(".")
+    spec = SCHEMA[section][key]
+    return _check_value(dotted, spec, spec.default)
 
 
 def _is_zero(text: str) -> bool:

@@ -10,6 +10,7 @@ import hashlib
 import json
 import os
 import shutil
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +22,7 @@ from rodfem.output.atomic import replacing
 from rodfem.output.columns import NAMES as HISTORY_COLUMNS
 from rodfem.output.columns import for_scene, named
 from rodfem.scene import SceneError
+from rodfem.scene.expressions import shorten
 from rodfem.studies import design
 from rodfem.studies.design import Sweep
 
@@ -57,6 +59,44 @@ class SweepResult:
 
     def __len__(self) -> int:
         return len(self.columns["index"])
+
+    def to_pandas(self):
+        """The table as a ``pandas.DataFrame`` indexed by the scenes' ``index``: the swept keys,
+        status, the measures and error as columns, in results.csv's order, with its values
+        (``frame.attrs["axes"]``: the swept keys). Needs pandas."""
+        from rodfem.output.frames import results_frame
+
+        return results_frame(self.columns, self.axes)
+
+    def plot(self, measure: str, x: str | None = None, ax=None):
+        """The measure against a swept key ``x`` (default: the first) with matplotlib's pyplot,
+        a line for each combination of the other swept keys, over the complete scenes; a log
+        axis where the key's values span two decades or more. Returns the Axes."""
+        from rodfem import quicklook
+
+        return quicklook.measure(self.columns, self.axes, measure, x, ax)
+
+    def __repr__(self) -> str:
+        from rodfem.output.frames import span
+
+        counts = ", ".join(f"{n} {status}"
+                           for status, n in Counter(self.columns["status"].tolist()).items())
+        lines = [f"<rodfem.SweepResult {self.status}: {len(self)} scenes"
+                 f"{' (' + counts + ')' if counts else ''}>"]
+        lines += [f"    {key}: {span(self.columns[key])}" for key in self.axes[:6]]
+        if len(self.axes) > 6:
+            lines.append(f"    … {len(self.axes) - 6} more swept keys")
+        measures = [c for c in self.columns if c not in ("index", "status", "error", *self.axes)]
+        lines.append(f"    {len(measures)} measures: {', '.join(measures[:4])}"
+                     f"{', …' if len(measures) > 4 else ''}")
+        if self.coarse_steps:
+            lines.append(f"    steps coarse for the obstacle in some scenes: "
+                         f"{len(self.coarse_steps)} warning(s) in .coarse_steps")
+        if self.error:
+            lines.append(f"    error: {shorten(self.error, 120)}")
+        if self.path is not None:
+            lines.append(f"    path: {self.path}")
+        return "\n".join(lines)
 
     def history(self, index: int) -> np.ndarray:
         """The history of scene ``index`` as a structured array (as :attr:`rodfem.Result.history`).
