@@ -163,7 +163,8 @@ def richardson(values: Sequence[float]) -> tuple[float, float, str]:
     refining the one before by 2: p = log2(|m₁ − m₀| / |m₂ − m₁|) and (m₂ − m₁)/(2^p − 1), the
     estimate of m_∞ − m₂ (the correction the finest run's value needs). Where there is no order
     the note says why (then both are nan): a value not finite, too few runs, an integer
-    measure, a value the same in every run, differences at round-off (:data:`ROUNDOFF`),
+    measure, a value the same in every run, differences (or one) at round-off (:data:`ROUNDOFF`:
+    a measure that counts steps, say, can stop changing),
     differences of opposite signs (not monotone) or a difference that does not shrink.
 
     Returns:
@@ -181,7 +182,9 @@ def richardson(values: Sequence[float]) -> tuple[float, float, str]:
         return math.nan, math.nan, "the same in every run"
     floor = ROUNDOFF * max(abs(m0), abs(m1), abs(m2))
     if abs(d1) <= floor or abs(d2) <= floor:
-        return math.nan, math.nan, "differences at round-off"
+        which = "differences" if abs(d1) <= floor and abs(d2) <= floor else \
+            "the last difference" if abs(d2) <= floor else "the first difference"
+        return math.nan, math.nan, f"{which} at round-off"
     if (d1 > 0) != (d2 > 0):
         return math.nan, math.nan, "not monotone"
     if abs(d2) >= abs(d1):

@@ -143,6 +143,8 @@ def markdown(data: dict) -> str:
                   for r in data["rejected"]]
         lines.append("")
     spread = data["method_spread"]
+    if all(r["scene"] in data.get("user", []) for r in data["orders"]):
+        return "\n".join(lines)  # one method a scene file: no spread to tell
     lines += ["Largest relative difference of a method's error from the direct method's at the "
               "same point: " + ", ".join(f"{LABELS[m]} {spread[m]:.2g}" for m in cv.MEASURES)
               + ".", ""]
