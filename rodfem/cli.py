@@ -238,7 +238,7 @@ def _verify(sub) -> None:
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     for command, default, methods in (
-            (verify, "results/verify", "the direct method only"),
+            (verify, "results/verify", "the built-in scenes with the direct method only"),
             (work, "results/work-precision", "the direct method only on paper1 and paper5")):
         _output(command, default, "output directory",
                 "replace an earlier result of this command in --out")

@@ -208,6 +208,20 @@ def test_mixed_with_built_in_scenes(scene_file):
     assert refine.parse_scenes(None) == (verify.available_scenes(), ())
 
 
+def test_a_failed_rung_keeps_its_place():
+    """A rung without measures (its run failed) is a nan in its place, not skipped: the orders
+    are of consecutive rungs or none."""
+    head = {"scene": "s", "refined": "dt", "method": "direct", "scheme": "paper", "cells": 8,
+            "tolerance": None}
+    records = [{**head, "dt": dt} for dt in (0.4, 0.2, 0.1, 0.05)]
+    measured = [{**head, "dt": dt, "status": "complete", "measure": "m", "value": v}
+                for dt, v in ((0.4, 1.0), (0.1, 1.2), (0.05, 1.21))]
+    row, = refine.measure_orders(measured, records)
+    assert row["note"] == "a run without a value" and row["runs"] == 4
+    row, = refine.measure_orders(measured, records[:1] + records[2:])
+    assert row["order"] == pytest.approx(math.log2(0.2 / 0.01), abs=1e-12)
+
+
 def test_adaptive_ladder_in_the_tolerance(scene_file, tmp_path):
     """With adaptive steps the second ladder refines the tolerance (the scheme's default,
     halved), at the scene's cells."""
@@ -227,6 +241,8 @@ BAD = [
     (["--scenes", "paper1", "--set", "mesh.cells=32"], "--set: applies to a scene file"),
     (["--set", "mesh.cells=32"], "--set: applies to a scene file"),
     (["--scenes", "SCENE,SCENE"], "has the name 'soft' of another scene"),
+    (["--scenes", "SCENE", "--set", "mesh.cells=400000"],
+     "its h ladder's run at cells 12800000, dt 0.005: mesh.cells"),  # the reference: 32 c
 ]
 
 

@@ -83,10 +83,12 @@ class UserScene:
         return load(self.path, [*self.overrides, *sizes])
 
 
-def parse_scenes(text: str | None, overrides: list[str] | tuple[str, ...] = ()
+def parse_scenes(text: str | None, overrides: list[str] | tuple[str, ...] = (),
+                 ladders: Ladders | None = None
                  ) -> tuple[tuple[str, ...], tuple[UserScene, ...]]:
     """``"paper1,my.toml"`` → the built-in scenes (in their standard order) and the scene files
-    (in the given order), each file loaded with ``overrides`` to check it.
+    (in the given order), each file loaded with ``overrides`` to check it, and every run of its
+    ``ladders`` (default :data:`DEFAULT`).
 
     Raises:
         VerifyError: an unknown name, a file that cannot be read or a bad value (one line), or
@@ -115,10 +117,24 @@ def parse_scenes(text: str | None, overrides: list[str] | tuple[str, ...] = ()
         except SceneError as err:
             raise verify.VerifyError(f"--scenes: {name}: {err}") from None
         users.append(UserScene(key, name, tuple(overrides)))
+        _check_ladders(users[-1], ladders or DEFAULT)
     if overrides and not users:
         raise verify.VerifyError("--set: applies to a scene file given in --scenes; the "
                                  "built-in scenes are verified as they are")
     return tuple(a for a in allowed if a in names), tuple(users)
+
+
+def _check_ladders(user: UserScene, ladders: Ladders) -> None:
+    """Every run of a scene file's ladders is a valid scene."""
+    for group in user_groups((user,)):
+        for sizes in ladder(user, group.refined, ladders):
+            try:
+                user.at(**sizes)
+            except SceneError as err:
+                told = ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}"
+                                 for k, v in sizes.items() if v is not None)
+                raise verify.VerifyError(f"--scenes: {user.path}: its {group.refined} ladder's "
+                                         f"run at {told}: {err}") from None
 
 
 def tolerance(scene: Scene) -> float:
@@ -208,14 +224,17 @@ def run_user_group(group: UserGroup, ladders: Ladders) -> tuple[list[dict], list
     return records, measured, {**ref, "seconds": seconds}
 
 
-def measure_orders(measured: list[dict]) -> list[dict]:
+def measure_orders(measured: list[dict], records: list[dict]) -> list[dict]:
     """Each ladder's measures: the order from the last three rungs and the Richardson estimate
-    (:func:`rodfem.studies.convergence.richardson`), or the note that says why there is none."""
+    (:func:`rodfem.studies.convergence.richardson`), or the note that says why there is none.
+    A rung that did not complete has no measures: nan in its place (``records``, the rungs)."""
     rows = []
     key = lambda r: (r["scene"], r["refined"], r["method"], r["scheme"], r["measure"])  # noqa: E731
+    rung = lambda r: (r["cells"], r["dt"], r["tolerance"])  # noqa: E731
     for k in dict.fromkeys(map(key, measured)):
-        mine = [r for r in measured if key(r) == k]
-        values = [r["value"] if r["status"] == "complete" else math.nan for r in mine]
+        found = {rung(r): r["value"] for r in measured if key(r) == k}
+        values = [found.get(rung(r), math.nan) for r in records
+                  if (r["scene"], r["refined"], r["method"], r["scheme"]) == k[:4]]
         order, estimate, note = cv.richardson(values)
         rows.append({**dict(zip(("scene", "refined", "method", "scheme", "measure"), k,
                                 strict=True)), "runs": len(values),
@@ -315,7 +334,7 @@ def run_verify(out: Path, plan: verify.Plan, scenes: tuple[str, ...], force: boo
         "reference_method": "direct", "references": references,
         "orders": verify.orders(records),
         "method_spread": verify.method_spread([r for r in records if r["scene"] not in keys]),
-        "measures": measured, "measure_orders": measure_orders(measured),
+        "measures": measured, "measure_orders": measure_orders(measured, records),
         "rejected": rejected, "points": records, "seconds": seconds, "machine": machine(comm),
     }
     if comm.rank == 0:
