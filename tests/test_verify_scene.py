@@ -11,6 +11,7 @@ and for Crank–Nicolson (2.00-2.02).
 """
 
 import csv
+import importlib.util
 import json
 import math
 
@@ -253,3 +254,29 @@ def test_bad_input(args, message, scene_file, tmp_path_factory, capsys):
     args = [a.replace("SCENE", str(scene_file)) for a in args]
     message = message.replace("SCENE", str(scene_file))
     assert_refused(["verify", "--quick", *args, "--out", str(out)], out, message, capsys)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("rodfem.scene.measures") is None,
+                    reason="this rodfem declares no measures in a scene")
+def test_declared_measures(scene_file, tmp_path_factory, capsys):
+    """The measures a scene declares are measured on every rung: the peak contact force and the
+    mean energy late in the run (smooth: P1's order in h, the paper's in Δt, ±0.1 as above), and
+    the time in contact, which starts at a step and so has no order of its own."""
+    root = tmp_path_factory.mktemp("declared") if COMM.rank == 0 else None
+    root = COMM.bcast(root, root=0)
+    declared = root / "declared.toml"
+    if COMM.rank == 0:
+        declared.write_text(SCENE + """
+[measures]
+peak_force = { column = "contact_force", reduce = "max" }
+late_energy = { column = "energy", reduce = "mean", window = [0.2, 0.4] }
+""", encoding="utf-8")
+    COMM.barrier()
+    out = root / "out"
+    assert main(["verify", "--quick", "--scenes", str(declared), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "peak_force" in printed or COMM.rank > 0
+    measured = _csv(out / "measure_orders.csv")
+    for m in ("peak_force", "late_energy"):
+        assert float(_order(measured, "h", m)["order"]) == pytest.approx(2.0, abs=0.1), m
+        assert float(_order(measured, "dt", m)["order"]) == pytest.approx(1.0, abs=0.1), m
