@@ -53,8 +53,9 @@ class Ladders:
 
 # The reference's own error, relative to the finest rung's, is 8⁻² (order 2 in h) and 16⁻¹ (order
 # 1 in Δt): it moves the errors' slopes by 0.035 at most (Δt, three rungs; the measures' orders
-# need no reference). Three rungs cost 1 + 2 + 4 runs of the scene a ladder, and the references 32 (h) and 64 (Δt): about 110 runs of
-# the scene in all (paper5's file, T = 8: 13 s; four rungs, 26 s; docs/accuracy.md).
+# need no reference). Three rungs cost 1 + 2 + 4 runs of the scene a ladder, and the references
+# 32 (h) and 64 (Δt): about 110 runs of the scene in all (paper5's file, T = 8: 13 s; four
+# rungs, 26 s; docs/accuracy.md).
 QUICK = Ladders(rungs=3, h_reference=8, dt_reference=16)
 DEFAULT = Ladders(rungs=4, h_reference=8, dt_reference=16)
 FILES = (*verify.FILES, "measures.csv", "measure_orders.csv")
