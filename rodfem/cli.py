@@ -8,7 +8,8 @@
                 [--window T0,T1] [--labels A,B,...] [--colour-by KEY]   (runs, or one sweep)
     rodfem stability [--out DIR] [--scene S] [--methods M,...] [--dt LIST] [--epsilon LIST]
                      [--zeta LIST] [--a LIST] [--end T] [--force] [--progress]
-    rodfem verify [--out DIR] [--scenes S,...] [--force] [--quick] [--progress]
+    rodfem verify [--out DIR] [--scenes S,FILE.toml,...] [--set section.key=value ...]
+                  [--force] [--quick] [--progress]
     rodfem work-precision [--out DIR] [--force] [--quick] [--progress]
     rodfem steady SCENE [--out DIR] [--set section.key=value ...] [--continue KEY=a:b:n]
                   [--force]
@@ -219,8 +220,10 @@ def _verify(sub) -> None:
         "without contact (and the manufactured solutions), for every method and time scheme, "
         "against finer reference runs, and a ladder refining h = Δt together of the impact "
         "benchmark against its exact solution, and write orders.csv, orders.md, orders.json, "
-        "errors.csv and figures/orders_<scene>.png (log-log, with reference slopes). Ladders are "
-        "dealt among MPI ranks, the costliest first.",
+        "errors.csv and figures/orders_<scene>.png (log-log, with reference slopes). A scene "
+        "file in --scenes gets ladders of its own, with its method and time scheme, and the "
+        "orders and Richardson estimates of its measures: measures.csv, measure_orders.csv and "
+        "figures/measures_<scene>.png. Ladders are dealt among MPI ranks, the costliest first.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     work = sub.add_parser(
@@ -235,7 +238,7 @@ def _verify(sub) -> None:
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     for command, default, methods in (
-            (verify, "results/verify", "the direct method only"),
+            (verify, "results/verify", "the built-in scenes with the direct method only"),
             (work, "results/work-precision", "the direct method only on paper1 and paper5")):
         _output(command, default, "output directory",
                 "replace an earlier result of this command in --out")
@@ -244,7 +247,10 @@ def _verify(sub) -> None:
         _progress(command, "a line per ladder even when output is not a terminal")
     verify.add_argument("--scenes", help="scenes to verify (default: paper1, paper5, no-contact, "
                         "manufactured and manufactured-gap where rodfem.model.manufactured exists, "
-                        "and impact)")
+                        "and impact), and scene files (.toml): each refined from its own cells "
+                        "and Δt (or tolerance) by 2, 3 rungs with --quick and 4 without, "
+                        "against a finer run, with the orders of its measures")
+    _overrides(verify, "override a value of the scene files in --scenes (repeatable)")
 
 
 def _steady(sub) -> None:

@@ -147,17 +147,19 @@ def verify(args: argparse.Namespace) -> int:
     comm = MPI.COMM_WORLD
     if args.command == "verify":
         from rodfem.post.verify import plot_orders as draw
-        from rodfem.studies import verify as task
+        from rodfem.studies import refine as task
+        from rodfem.studies import verify
 
-        plan = task.QUICK if args.quick else task.DEFAULT
+        plan = verify.QUICK if args.quick else verify.DEFAULT
+        ladders = task.QUICK if args.quick else task.DEFAULT
         try:
-            scenes = task.parse_scenes(args.scenes)
-        except task.VerifyError as err:
+            scenes, users = task.parse_scenes(args.scenes, args.overrides, ladders)
+        except verify.VerifyError as err:
             say(f"rodfem: error: {err}")
             return EXIT_INPUT
 
         def start(out, plan, force, progress, comm):
-            return task.run_verify(out, plan, scenes, force, progress, comm)
+            return task.run_verify(out, plan, scenes, force, progress, comm, users, ladders)
     else:
         from rodfem.post.verify import plot_work_precision as draw
         from rodfem.studies import workprecision as task

@@ -1,9 +1,12 @@
 """Log–log figures of ``rodfem verify`` and ``rodfem work-precision``, from their JSON files.
 
 ``orders_<scene>.png``: a row per error measure, the error against h (left) and against Δt
-(right), a line per (method, time scheme), with reference slopes 1 and 2; for a scene whose
+(right; for a scene file of adaptive steps, against their tolerance, slopes 1/2 and 1), a line
+per (method, time scheme), with reference slopes 1 and 2; for a scene whose
 ladder refines h and Δt together (the impact), one column, against h = Δt, with slopes 1/2 and 1
 (its solution has kinks: orders below 1).
+``measures_<scene>.png`` (a scene file's): a row per measure that changes from run to run, the
+difference between successive runs of each ladder against the step, with slopes 1 and 2.
 ``workprecision_<scene>.png``: the error of u(1, ·) against the wall time of the run, a line per
 (method, time scheme); for the impact, whose ladders also differ in the mass matrix, a line per
 (mass, time scheme, method): the colour the mass, the line style the scheme, the marker the
@@ -30,9 +33,13 @@ LABELS = {"u1_max": r"$\max_t \vert u(1,t) - u_{ref}(1,t)\vert$",
           "theta_T": r"$\Vert\theta(\cdot,T) - \theta_{ref}(\cdot,T)\Vert_{L^2}$"}
 ROWS = ("u1_max", "u1_l1", "u_T", "theta_T")
 # The ladders' directions, in the order of the figure's columns, and their axes.
-DIRECTIONS = ("h", "dt", "h=dt")
-X_LABELS = {"h": "$h$", "dt": r"$\Delta t$", "h=dt": r"$h = \Delta t$"}
-NAMES = {"h": "h", "dt": "Δt", "h=dt": "h = Δt"}
+DIRECTIONS = ("h", "dt", "h=dt", "tol")
+X_LABELS = {"h": "$h$", "dt": r"$\Delta t$", "h=dt": r"$h = \Delta t$",
+            "tol": "tolerance of the adaptive steps"}
+NAMES = {"h": "h", "dt": "Δt", "h=dt": "h = Δt", "tol": "the tolerance"}
+# Reference slopes other than 1 and 2: the impact's kinks (h = Δt), and a tolerance (the errors
+# of paper5's soft obstacle fall as its power 0.4 to 0.6, docs/accuracy.md).
+SLOPES = {"h=dt": (0.5, 1), "tol": (0.5, 1)}
 LINE_STYLES = {"paper": "-", "crank-nicolson": "--"}
 # The methods solve the same scheme, so their lines coincide: their markers differ in shape and
 # size, the largest below, so that all show.
@@ -46,7 +53,8 @@ def read(path: Path) -> dict:
         data = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError, UnicodeDecodeError) as err:
         raise PlotError(f"cannot read {path}: {err}") from None
-    for p in data.get("points", []):
+    for p in (*data.get("points", []), *data.get("measures", []),
+              *data.get("measure_orders", [])):
         for k, v in p.items():
             if v is None:
                 p[k] = math.nan
@@ -108,11 +116,17 @@ def _slopes(chart: pv.Chart2D, x_range: tuple[float, float], anchor: float,
                    label=f"slope {'1/2' if p == 0.5 else f'{p:g}'}")
 
 
+def _step(point: dict, refined: str) -> float:
+    """The step a ladder refines at a point: h, Δt, or the tolerance of adaptive steps."""
+    if refined == "tol":
+        return point["tolerance"]
+    return point["dt"] if refined == "dt" else 1.0 / point["cells"]
+
+
 def _panel(points: list[dict], measure: str, refined: str, legend: bool, title: str,
            exact: bool) -> pv.Chart2D | None:
     points = [p for p in points if p["refined"] == refined]
-    steps = lambda ps: np.array([p["dt"] if refined == "dt" else 1.0 / p["cells"]  # noqa: E731
-                                 for p in ps])
+    steps = lambda ps: np.array([_step(p, refined) for p in ps])  # noqa: E731
     y_range = _range([p[measure] for p in points], 3.0)
     if not points or y_range is None:
         return None
@@ -129,7 +143,7 @@ def _panel(points: list[dict], measure: str, refined: str, legend: bool, title: 
     coarsest = [p[measure] for p in points if steps([p])[0] == x_all.max()
                 and math.isfinite(p[measure])]
     if coarsest:
-        _slopes(chart, x_range, 1.5 * max(coarsest), (0.5, 1) if refined == "h=dt" else (1, 2))
+        _slopes(chart, x_range, 1.5 * max(coarsest), SLOPES.get(refined, (1, 2)))
     _log_axis(chart.x_axis, *x_range)
     _log_axis(chart.y_axis, *y_range)
     chart.legend_visible = legend
@@ -149,7 +163,9 @@ def orders_figure(data: dict, scene: str, path: Path) -> Path:
                          off_screen=True)
     plan = data["plan"]
     exact = scene in data.get("exact", ["manufactured"])
-    if exact and scene != "impact":  # a manufactured solution's ladders
+    if scene in data.get("user", []):  # a scene file's own ladders
+        fixed = _user_fixed(data["scenes"][scene])
+    elif exact and scene != "impact":  # a manufactured solution's ladders
         fixed = {"h": f"Δt = {plan['mms_h_dt']:g}", "dt": f"{plan['mms_dt_cells']} cells"}
     else:
         fixed = {"h": f"Δt = {plan['h_dt']:g}", "dt": f"{plan['dt_cells']} cells"}
@@ -158,6 +174,72 @@ def orders_figure(data: dict, scene: str, path: Path) -> Path:
         for j, refined in enumerate(columns):
             title = f"{scene}: refining {NAMES[refined]}, {fixed[refined]}"
             chart = _panel(points, measure, refined, (i, j) == (0, 0), title, exact)
+            if chart is not None:
+                plotter.subplot(i, j)
+                plotter.add_chart(chart)
+    backend.save_image(plotter, path)
+    plotter.close()
+    return path
+
+
+def _user_fixed(s: dict) -> dict[str, str]:
+    """What a scene file's ladders keep fixed, for the panels' titles."""
+    return {"h": f"tolerance {s['tolerance']:g}" if s["adaptive"] else f"Δt = {s['dt']:g}",
+            "dt": f"{s['cells']} cells", "tol": f"{s['cells']} cells"}
+
+
+def _differences(rows: list[dict], refined: str) -> tuple[np.ndarray, np.ndarray]:
+    """A ladder's |m_k+1 − m_k| against the step of run k (nan where a run has no value)."""
+    x = np.array([_step(r, refined) for r in rows[:-1]])
+    values = np.array([r["value"] if r["status"] == "complete" else math.nan for r in rows],
+                      float)
+    return x, np.abs(np.diff(values))
+
+
+def _measure_panel(rows: list[dict], order: dict, refined: str, title: str,
+                   legend: bool) -> pv.Chart2D | None:
+    """One measure's differences between successive runs of a ladder, log-log, with slopes."""
+    x, d = _differences(rows, refined)
+    y_range = _range(list(d), 3.0)
+    if x.size == 0 or y_range is None:
+        return None
+    x_range = (float(x.min()) / 1.3, float(x.max()) * 1.3)
+    told = f"order {order['order']:.2f}" if math.isfinite(order["order"]) else \
+        f"no order ({order['note']})"
+    chart = style.chart(f"{order['measure']}: {told}", f"{X_LABELS[refined]} ({title})",
+                        r"$\vert m_{k+1} - m_k\vert$")
+    style.use_font(chart.GetTitleProperties())
+    _series(chart, x, d, 0, rows[0]["method"], rows[0]["scheme"],
+            f"{rows[0]['method']}, {rows[0]['scheme']}")
+    if np.isfinite(d[0]) and d[0] > 0:
+        _slopes(chart, x_range, 1.5 * float(d[0]), SLOPES.get(refined, (1, 2)))
+    _log_axis(chart.x_axis, *x_range)
+    _log_axis(chart.y_axis, *y_range)
+    chart.legend_visible = legend
+    return chart
+
+
+def measures_figure(data: dict, scene: str, path: Path) -> Path | None:
+    """A scene file's measures: for each measure that changes from run to run (a row) and each
+    ladder (a column), the difference between successive runs against the step, log-log, with
+    slopes 1 and 2: a measure of order p falls along slope p. None if no measure changes."""
+    orders = [r for r in data.get("measure_orders", []) if r["scene"] == scene]
+    measured = [r for r in data.get("measures", []) if r["scene"] == scene]
+    columns = [d for d in DIRECTIONS if any(r["refined"] == d for r in orders)]
+    rows = [m for m in dict.fromkeys(r["measure"] for r in orders)
+            if any(r["measure"] == m and r["note"] not in ("integer", "the same in every run")
+                   for r in orders)]
+    if not rows or not columns:
+        return None
+    plotter = pv.Plotter(shape=(len(rows), len(columns)),
+                         window_size=(len(columns) * PANEL[0], len(rows) * PANEL[1]),
+                         off_screen=True)
+    fixed = _user_fixed(data["scenes"][scene])
+    for i, measure in enumerate(rows):
+        for j, refined in enumerate(columns):
+            mine = [r for r in measured if (r["measure"], r["refined"]) == (measure, refined)]
+            order = next(r for r in orders if (r["measure"], r["refined"]) == (measure, refined))
+            chart = _measure_panel(mine, order, refined, fixed[refined], (i, j) == (0, 0))
             if chart is not None:
                 plotter.subplot(i, j)
                 plotter.add_chart(chart)
@@ -259,8 +341,14 @@ def _figures(directory: Path, name: str, draw, prefix: str) -> list[Path]:
 
 
 def plot_orders(directory: Path) -> list[Path]:
-    """orders_<scene>.png for every scene in ``directory``/orders.json, into figures/."""
-    return _figures(directory, "orders.json", orders_figure, "orders")
+    """orders_<scene>.png for every scene in ``directory``/orders.json, into figures/, and
+    measures_<scene>.png for every scene file's measures."""
+    written = _figures(directory, "orders.json", orders_figure, "orders")
+    data = read(Path(directory) / "orders.json")
+    for scene in data.get("user", []):
+        path = measures_figure(data, scene, Path(directory) / "figures" / f"measures_{scene}.png")
+        written += [path] if path is not None else []
+    return written
 
 
 def plot_work_precision(directory: Path) -> list[Path]:

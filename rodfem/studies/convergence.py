@@ -153,6 +153,46 @@ def rate(steps: Sequence[float], errors: Sequence[float]) -> float:
     return float(np.polyfit(np.log(s[keep]), np.log(e[keep]), 1)[0])
 
 
+# Differences of a measure between runs within this fraction of its size are round-off (or a
+# solver's tolerance): they give no order.
+ROUNDOFF = 1e-10
+
+
+def richardson(values: Sequence[float]) -> tuple[float, float, str]:
+    """The observed order and Richardson estimate of a measure from its last three runs, each
+    refining the one before by 2: p = log2(|m₁ − m₀| / |m₂ − m₁|) and (m₂ − m₁)/(2^p − 1), the
+    estimate of m_∞ − m₂ (the correction the finest run's value needs). Where there is no order
+    the note says why (then both are nan): a value not finite, too few runs, an integer
+    measure, a value the same in every run, differences (or one) at round-off (:data:`ROUNDOFF`:
+    a measure that counts steps, say, can stop changing),
+    differences of opposite signs (not monotone) or a difference that does not shrink.
+
+    Returns:
+        (order, estimate, note); the note is "" where there is an order.
+    """
+    if len(values) < 3:
+        return math.nan, math.nan, "fewer than three runs"
+    m0, m1, m2 = (float(v) for v in values[-3:])
+    if not all(math.isfinite(v) for v in (m0, m1, m2)):
+        return math.nan, math.nan, "a run without a value"
+    if all(isinstance(v, int | np.integer) for v in values[-3:]):
+        return math.nan, math.nan, "integer"
+    d1, d2 = m1 - m0, m2 - m1
+    if d1 == 0.0 and d2 == 0.0:
+        return math.nan, math.nan, "the same in every run"
+    floor = ROUNDOFF * max(abs(m0), abs(m1), abs(m2))
+    if abs(d1) <= floor or abs(d2) <= floor:
+        which = "differences" if abs(d1) <= floor and abs(d2) <= floor else \
+            "the last difference" if abs(d2) <= floor else "the first difference"
+        return math.nan, math.nan, f"{which} at round-off"
+    if (d1 > 0) != (d2 > 0):
+        return math.nan, math.nan, "not monotone"
+    if abs(d2) >= abs(d1):
+        return math.nan, math.nan, "not converging"
+    p = math.log2(abs(d1) / abs(d2))
+    return p, d2 / (2.0 ** p - 1.0), ""
+
+
 def errors_against(run: RunResult, reference: RunResult,
                    interpolated: bool = False) -> dict[str, float]:
     """The measures (:data:`MEASURES`) of a run against a finer reference run. ``interpolated``:
@@ -224,8 +264,11 @@ def point(scene: Scene, errors: Callable[[RunResult], dict[str, float]], repeats
                  steps=int(s.get("steps", 0)))
 
 
-def step(refined: str, cells: int, dt: float) -> float:
-    """The step a ladder refines: h for "h" and "h=dt" (h and Δt together), Δt for "dt"."""
+def step(refined: str, cells: int, dt: float, tolerance: float | None = None) -> float:
+    """The step a ladder refines: h for "h" and "h=dt" (h and Δt together), Δt for "dt", the
+    adaptive steps' tolerance for "tol"."""
+    if refined == "tol":
+        return math.nan if tolerance is None else tolerance
     return dt if refined == "dt" else 1.0 / cells
 
 

@@ -13,10 +13,10 @@ from pathlib import Path
 
 from rodfem.studies import convergence as cv
 
-DIRECTIONS = ("h", "dt", "h=dt")
+DIRECTIONS = ("h", "dt", "h=dt", "tol")
 # How a direction is written: in the tables, and padded in the printed lines.
-HEADINGS = {"h": "h", "dt": "Δt", "h=dt": "h = Δt"}
-SHORT = {"h": "h", "dt": "Δt", "h=dt": "h=Δt"}
+HEADINGS = {"h": "h", "dt": "Δt", "h=dt": "h = Δt", "tol": "tolerance"}
+SHORT = {"h": "h", "dt": "Δt", "h=dt": "h=Δt", "tol": "tol"}
 
 
 def _g(value: float, digits: int = 3) -> str:
@@ -34,7 +34,8 @@ def _exact(data: dict) -> list[str]:
 
 def _plan_lines(data: dict) -> list[str]:
     plan, lines = data["plan"], []
-    if any(k not in _exact(data) for k in data.get("scenes", {"paper1": None})):
+    built_in = [k for k in data.get("scenes", {"paper1": None}) if k not in data.get("user", [])]
+    if any(k not in _exact(data) for k in built_in):
         lines += [f"T = {plan['end']:g}. h ladder: cells {', '.join(map(str, plan['h_cells']))} "
                   f"at Δt = {plan['h_dt']:g}, against {plan['h_reference']} cells at the same Δt. "
                   f"Δt ladder: Δt = T/{', T/'.join(map(str, plan['dt_steps']))} on "
@@ -54,6 +55,44 @@ def _plan_lines(data: dict) -> list[str]:
                   f"{', '.join(f'{h:g}' for h in plan['impact_h'])}; its orders are slopes "
                   "against log h = log Δt. u(1,·) L¹(0,T) is GetFEM's measure of this benchmark; "
                   "u(1,·) max leaves out t = 0.", ""]
+    for key in data.get("user", []):
+        lines += [_user_plan(key, data["scenes"][key]), ""]
+    return lines
+
+
+def _user_plan(key: str, s: dict) -> str:
+    """How a scene file's ladders were made."""
+    rungs = [2 ** k for k in range(s["rungs"])]
+    if s["adaptive"]:
+        tolerances = ", ".join(f"{s['tolerance'] / k:g}" for k in rungs)
+        second = (f"tolerance ladder: {tolerances} on "
+                  f"{s['cells']} cells, against {s['tolerance'] / rungs[-1] / s['dt_reference']:g}")
+        fixed = f"its tolerance {s['tolerance']:g}"
+    else:
+        steps = ", ".join(f"{s['dt'] / k:g}" for k in rungs)
+        second = (f"Δt ladder: Δt = {steps} on "
+                  f"{s['cells']} cells, against Δt = {s['dt'] / rungs[-1] / s['dt_reference']:g}")
+        fixed = f"Δt = {s['dt']:g}"
+    return (f"{key} ({s['scene']}{''.join(f' --set {o}' for o in s['overrides'])}; T = "
+            f"{s['end']:g}, {s['method']}, {s['scheme']}): h ladder: cells "
+            f"{', '.join(str(s['cells'] * k) for k in rungs)} at {fixed}, against "
+            f"{s['cells'] * rungs[-1] * s['h_reference']} cells; {second}. References: the "
+            "scene's own method and scheme. Measures: the order p = log2(|m₁ − m₀| / |m₂ − m₁|) "
+            "of the last three runs and the Richardson estimate (m₂ − m₁)/(2^p − 1) of m_∞ − m₂.")
+
+
+def _measure_lines(data: dict, scene: str) -> list[str]:
+    """A scene file's measures: each ladder's finest value, order and Richardson estimate."""
+    rows = [r for r in data.get("measure_orders", []) if r["scene"] == scene]
+    if not rows:
+        return []
+    lines = ["", "Measures (finest run, order from the last three, Richardson estimate):", "",
+             "| ladder | measure | finest | order | m_∞ − finest |", "|---|---|---|---|---|"]
+    for r in rows:
+        order = _g(r["order"]) if math.isfinite(r["order"]) else f"no order ({r['note']})"
+        finest = r["finest"] if isinstance(r["finest"], int) else _g(r["finest"], 6)
+        lines.append(f"| {HEADINGS[r['refined']]} | {r['measure']} | {finest} | "
+                     f"{order} | {_g(r['richardson'])} |")
     return lines
 
 
@@ -83,11 +122,13 @@ def markdown(data: dict) -> str:
             if not points:
                 continue
             lines += ["", f"Errors, {HEADINGS[refined]} ladder{against}:", "",
-                      "| method | scheme | cells | Δt | status | "
+                      f"| method | scheme | cells | {'tolerance' if refined == 'tol' else 'Δt'} "
+                      "| status | "
                       + " | ".join(LABELS[m] for m in cv.MEASURES) + " | seconds |",
                       "|---|---|---|---|---|" + "---|" * (len(cv.MEASURES) + 1)]
             for r in points:
-                lines.append(f"| {r['method']} | {r['scheme']} | {r['cells']} | {r['dt']:.4g} | "
+                size = r["tolerance"] if refined == "tol" else r["dt"]
+                lines.append(f"| {r['method']} | {r['scheme']} | {r['cells']} | {size:.4g} | "
                              f"{r['status']} | " + " | ".join(_g(r[m]) for m in cv.MEASURES)
                              + f" | {r['seconds']:.3f} |")
             failed = [r for r in points if r["status"] != "complete"]
@@ -95,13 +136,15 @@ def markdown(data: dict) -> str:
                 lines.append("")
             lines += [f"- {r['method']}, {r['scheme']}, {r['cells']} cells, Δt = {r['dt']:.4g}: "
                       f"{r['status']}: {r['message']}" for r in failed]
-        lines.append("")
+        lines += [*_measure_lines(data, scene), ""]
     if data["rejected"]:
         lines += ["Choices the scene rejects:", ""]
         lines += [f"- {r['scene']}: {r['method']}, {r['scheme']}: {r['message']}"
                   for r in data["rejected"]]
         lines.append("")
     spread = data["method_spread"]
+    if all(r["scene"] in data.get("user", []) for r in data["orders"]):
+        return "\n".join(lines)  # one method a scene file: no spread to tell
     lines += ["Largest relative difference of a method's error from the direct method's at the "
               "same point: " + ", ".join(f"{LABELS[m]} {spread[m]:.2g}" for m in cv.MEASURES)
               + ".", ""]
@@ -120,4 +163,11 @@ def summary_lines(data: dict, out: Path) -> list[str]:
         against = " (exact solution)" if r["scene"] in exact else ""
         lines.append(f"{r['scene']:<{width}} {SHORT[r['refined']]:<4} {r['method']:<6} "
                      f"{r['scheme']:<14} orders{against}: {rates}")
+    ladders = dict.fromkeys((r["scene"], r["refined"]) for r in data.get("measure_orders", []))
+    for scene, refined in ladders:
+        rows = [r for r in data["measure_orders"] if (r["scene"], r["refined"]) == (scene, refined)]
+        told = "; ".join(f"{r['measure']} {_g(r['order'])} (m_∞ − finest {_g(r['richardson'], 2)})"
+                         if math.isfinite(r["order"]) else f"{r['measure']} no order ({r['note']})"
+                         for r in rows)
+        lines.append(f"{scene:<{width}} {SHORT[refined]:<4} measures: {told}")
     return lines

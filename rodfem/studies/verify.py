@@ -21,8 +21,9 @@ not separate, and its one ladder refines both together, h = Δt (the direction "
 period, T = 3; every run is measured against the exact u(1, ·) and u(·, T), with no reference run.
 
 Ladders (a scene, a direction, a time scheme: the reference and every method's runs) are dealt
-to the MPI ranks, the costliest first, each run on ``MPI.COMM_SELF``; the records do not depend
-on the number of ranks, except the timings.
+to the MPI ranks with those of the user's scene files by :mod:`rodfem.studies.refine`, the
+costliest first, each run on ``MPI.COMM_SELF``; the records do not depend on the number of ranks,
+except the timings.
 """
 
 from __future__ import annotations
@@ -30,22 +31,15 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import math
-import sys
-import time
 from collections.abc import Callable
-from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rodfem.model import impact
 from rodfem.scene import METHODS, SCHEMA, Scene, SceneError, load
 from rodfem.studies import convergence as cv
-from rodfem.studies.common import deal, machine, parse_choices, prepare, write_csv
-from rodfem.studies.orders import markdown, summary_lines  # noqa: F401 (summary_lines: the command prints it)
+from rodfem.studies.common import parse_choices
 
-if TYPE_CHECKING:
-    from mpi4py import MPI
 
 # Scene keys → (built-in scene, overrides). T is set by the plan.
 SCENES: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -305,7 +299,7 @@ def orders(records: list[dict]) -> list[dict]:
         mine = [r for r in records if (r["scene"], r["refined"], r["method"], r["scheme"])
                 == (scene, refined, method, scheme)]
         done = [r for r in mine if r["status"] == "complete"]
-        steps = [cv.step(refined, r["cells"], r["dt"]) for r in done]
+        steps = [cv.step(refined, r["cells"], r["dt"], r.get("tolerance")) for r in done]
         row = {"scene": scene, "refined": refined, "method": method, "scheme": scheme,
                "points": f"{len(done)}/{len(mine)}"}
         for m in cv.MEASURES:
@@ -329,71 +323,3 @@ def method_spread(records: list[dict]) -> dict[str, float]:
             if math.isfinite(d[m]) and d[m] > 0:
                 spread[m] = max(spread[m], abs(r[m] - d[m]) / d[m])
     return spread
-
-
-def sweep(plan: Plan, scenes: tuple[str, ...], comm: MPI.Comm,
-          report: Callable[[str], None] | None = None
-          ) -> tuple[list[dict], list[dict], dict] | None:
-    """Every group of ``scenes``, dealt round-robin over ``comm``'s ranks; the records on every
-    rank in group order (None on every rank if a run was interrupted)."""
-    todo = groups(scenes)
-    mine, stopped = [], False
-    for index in deal([cost(g, plan) for g in todo], comm.size)[comm.rank]:
-        g = todo[index]
-        started = time.perf_counter()
-        records, rejected, reference = run_group(g, plan)
-        mine.append((index, records, rejected, reference))
-        if any(r["status"] == "interrupted" for r in records):
-            stopped = True
-            break
-        if report is not None:
-            report(f"[{index + 1}/{len(todo)}] {g.scene}, {g.refined} ladder, {g.scheme}: "
-                   f"{len(records)} runs in {time.perf_counter() - started:.1f} s")
-    gathered = comm.allgather((stopped, mine))
-    if any(s for s, _ in gathered):
-        return None
-    parts = sorted((part for _, rank in gathered for part in rank), key=lambda p: p[0])
-    records = [r for _, rs, _, _ in parts for r in rs]
-    rejected = list({(r["scene"], r["method"], r["scheme"]): r
-                     for _, _, rs, _ in parts for r in rs}.values())
-    references = {f"{todo[i].scene}/{todo[i].refined}/{todo[i].scheme}": ref
-                  for i, _, _, ref in parts if ref}
-    return records, rejected, references
-
-
-def run_verify(out: Path, plan: Plan, scenes: tuple[str, ...], force: bool, progress: bool,
-               comm: MPI.Comm) -> dict | None:
-    """Prepare ``out``, run every ladder, write the tables (rank 0); return the data (None if
-    interrupted: then nothing is written). Raises OutputError (nothing written) on a bad
-    ``out``."""
-    from rodfem.output.files import write_json, write_text
-    prepare(out, force, comm, FILES, "verify")
-
-    def report(line: str) -> None:
-        print(line, file=sys.stderr, flush=True)
-
-    started = time.perf_counter()
-    swept = sweep(plan, scenes, comm, report if progress else None)
-    seconds = max(comm.allgather(time.perf_counter() - started))
-    if swept is None:
-        return None
-    records, rejected, references = swept
-    data = {
-        "plan": plan.as_dict(),
-        "scenes": {**{k: {"scene": b, "overrides": list(o)} for k, (b, o) in SCENES.items()
-                      if k in scenes},
-                   **({IMPACT: {"scene": IMPACT, "overrides": []}} if IMPACT in scenes else {})},
-        "schemes": list(schemes()), "methods": list(plan.methods),
-        "manufactured": any(k in scenes for k in MANUFACTURED_SCENES), "impact": IMPACT in scenes,
-        "exact": [k for k in EXACT if k in scenes],  # against an exact solution
-        "reference_method": "direct", "references": references,
-        "orders": orders(records), "method_spread": method_spread(records),
-        "rejected": rejected, "points": records, "seconds": seconds, "machine": machine(comm),
-    }
-    if comm.rank == 0:
-        write_csv(out / "errors.csv", ERROR_COLUMNS, records)
-        write_csv(out / "orders.csv", ORDER_COLUMNS, data["orders"])
-    write_text(out / "orders.md", markdown(data), comm)
-    write_json(out / "orders.json", data, comm)
-    comm.barrier()
-    return data

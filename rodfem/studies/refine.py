@@ -1,0 +1,352 @@
+"""Convergence of a user's own scene (``rodfem verify --scenes FILE.toml``), and the run of
+every verify ladder, the built-in scenes' (:mod:`rodfem.studies.verify`) and the user's.
+
+A scene file (its ``--set`` values applied) gets ladders of its own sizes, refined by 2 from them,
+with the scene's own method and time scheme:
+
+* in h: cells c, 2c, 4c (… with more rungs) at the scene's Δt (adaptive steps: its tolerance),
+  against a run on :attr:`Ladders.h_reference` times the finest rung's cells;
+* in Δt: Δt, Δt/2, Δt/4 … on the scene's cells, against a run with the finest Δt over
+  :attr:`Ladders.dt_reference`; with adaptive steps (``time.adaptive``) the tolerance is refined
+  in its place (the scheme's default where the scene gives 0), against a run at the finest
+  tolerance over the same factor.
+
+Each rung's errors against the reference are those of the built-in scenes
+(:data:`rodfem.studies.convergence.MEASURES`; adaptive runs compared at their own times), and
+every run's measures (:func:`rodfem.output.measures.measures`, but the wall time) are kept: the
+order of each measure from the last three rungs and its Richardson estimate
+(:func:`rodfem.studies.convergence.richardson`) need no reference at all.
+
+Each scene's ladders are tasks dealt with the built-in ones to the MPI ranks, the costliest first,
+each run on ``MPI.COMM_SELF``: the tables do not depend on the number of ranks, but the timings.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from rodfem.scene import Scene, SceneError, load
+from rodfem.scene.schema import TOLERANCES
+from rodfem.studies import convergence as cv
+from rodfem.studies import verify
+from rodfem.studies.common import deal, machine, prepare, write_csv
+from rodfem.studies.orders import markdown, summary_lines  # noqa: F401 (the command prints them)
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+
+@dataclasses.dataclass(frozen=True)
+class Ladders:
+    """The ladders of a user's scene."""
+
+    rungs: int  # runs per ladder, each refining the one before by 2 (3 at least: an order)
+    h_reference: int  # the h reference: this many times the finest rung's cells
+    dt_reference: int  # the Δt (tolerance) reference: the finest rung's over this
+
+
+# The reference's own error, relative to the finest rung's, is 8⁻² (order 2 in h) and 16⁻¹ (order
+# 1 in Δt): it moves the errors' slopes by 0.035 at most (Δt, three rungs; the measures' orders
+# need no reference). Three rungs cost 1 + 2 + 4 runs of the scene a ladder, and the references
+# 32 (h) and 64 (Δt): about 110 runs of the scene in all (paper5's file, T = 8: 13 s; four
+# rungs, 26 s; docs/accuracy.md).
+QUICK = Ladders(rungs=3, h_reference=8, dt_reference=16)
+DEFAULT = Ladders(rungs=4, h_reference=8, dt_reference=16)
+FILES = (*verify.FILES, "measures.csv", "measure_orders.csv")
+# errors.csv: verify's columns, and the tolerance of an adaptive run (empty for fixed steps)
+ERROR_COLUMNS = (*verify.ERROR_COLUMNS[:verify.ERROR_COLUMNS.index("dt") + 1], "tolerance",
+                 *verify.ERROR_COLUMNS[verify.ERROR_COLUMNS.index("dt") + 1:])
+MEASURE_COLUMNS = ("scene", "refined", "method", "scheme", "cells", "dt", "tolerance", "status",
+                   "measure", "value")
+MEASURE_ORDER_COLUMNS = ("scene", "refined", "method", "scheme", "measure", "runs", "finest",
+                         "order", "richardson", "note")
+
+
+@dataclasses.dataclass(frozen=True)
+class UserScene:
+    """A scene file to verify, its ``--set`` values and its name in the tables."""
+
+    key: str
+    path: str
+    overrides: tuple[str, ...]
+
+    def at(self, cells: int | None = None, dt: float | None = None,
+           tolerance: float | None = None) -> Scene:
+        """The scene, with other cells, Δt or tolerance where given."""
+        sizes = [*([f"mesh.cells={cells}"] if cells else []),
+                 *([f"time.dt={dt!r}"] if dt else []),
+                 *([f"time.tolerance={tolerance!r}"] if tolerance else [])]
+        return load(self.path, [*self.overrides, *sizes])
+
+
+def parse_scenes(text: str | None, overrides: list[str] | tuple[str, ...] = (),
+                 ladders: Ladders | None = None
+                 ) -> tuple[tuple[str, ...], tuple[UserScene, ...]]:
+    """``"paper1,my.toml"`` → the built-in scenes (in their standard order) and the scene files
+    (in the given order), each file loaded with ``overrides`` to check it, and every run of its
+    ``ladders`` (default :data:`DEFAULT`).
+
+    Raises:
+        VerifyError: an unknown name, a file that cannot be read or a bad value (one line), or
+            ``--set`` without a scene file.
+    """
+    allowed = verify.available_scenes()
+    if text is None:
+        if overrides:
+            raise verify.VerifyError("--set: applies to a scene file given in --scenes; the "
+                                     "built-in scenes are verified as they are")
+        return allowed, ()
+    names = [item.strip() for item in text.split(",")]
+    users = []
+    for name in names:
+        if name in allowed:
+            continue
+        if not name.endswith(".toml"):
+            raise verify.VerifyError(f"--scenes: unknown scene {name!r}; allowed: "
+                                     f"{', '.join(allowed)}, or a scene file (.toml)")
+        key = Path(name).stem
+        if key in allowed or key in (u.key for u in users):
+            raise verify.VerifyError(f"--scenes: the scene file {name!r} has the name {key!r} "
+                                     "of another scene; rename the file")
+        try:
+            load(name, overrides)
+        except SceneError as err:
+            raise verify.VerifyError(f"--scenes: {name}: {err}") from None
+        users.append(UserScene(key, name, tuple(overrides)))
+        _check_ladders(users[-1], ladders or DEFAULT)
+    if overrides and not users:
+        raise verify.VerifyError("--set: applies to a scene file given in --scenes; the "
+                                 "built-in scenes are verified as they are")
+    return tuple(a for a in allowed if a in names), tuple(users)
+
+
+def _check_ladders(user: UserScene, ladders: Ladders) -> None:
+    """Every run of a scene file's ladders is a valid scene."""
+    for group in user_groups((user,)):
+        for sizes in ladder(user, group.refined, ladders):
+            try:
+                user.at(**sizes)
+            except SceneError as err:
+                told = ", ".join(f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}"
+                                 for k, v in sizes.items() if v is not None)
+                raise verify.VerifyError(f"--scenes: {user.path}: its {group.refined} ladder's "
+                                         f"run at {told}: {err}") from None
+
+
+def tolerance(scene: Scene) -> float:
+    """The adaptive steps' tolerance of a scene: its own, or its scheme's default (0)."""
+    return scene["time.tolerance"] or TOLERANCES[scene["time.scheme"]]
+
+
+def ladder(user: UserScene, refined: str, ladders: Ladders) -> list[dict]:
+    """The sizes of each rung of a ladder (cells, dt, tolerance), then the reference's."""
+    scene = user.at()
+    cells, dt = scene["mesh.cells"], scene["time.dt"]
+    tol = tolerance(scene) if scene.adaptive else None
+    halves = [2 ** k for k in range(ladders.rungs)]
+    if refined == "h":
+        rungs = [dict(cells=cells * k, dt=dt, tolerance=tol) for k in halves]
+        return [*rungs, dict(cells=rungs[-1]["cells"] * ladders.h_reference, dt=dt, tolerance=tol)]
+    if refined == "tol":
+        rungs = [dict(cells=cells, dt=dt, tolerance=tol / k) for k in halves]
+        return [*rungs, dict(cells=cells, dt=dt, tolerance=tol / halves[-1] / ladders.dt_reference)]
+    rungs = [dict(cells=cells, dt=dt / k, tolerance=None) for k in halves]
+    return [*rungs, dict(cells=cells, dt=dt / halves[-1] / ladders.dt_reference, tolerance=None)]
+
+
+@dataclasses.dataclass(frozen=True)
+class UserGroup:
+    """One ladder of a user's scene: in h, in Δt, or in the adaptive steps' tolerance."""
+
+    user: UserScene
+    refined: str
+
+    @property
+    def scene(self) -> str:
+        return self.user.key
+
+
+def user_groups(users: tuple[UserScene, ...]) -> list[UserGroup]:
+    return [UserGroup(u, d) for u in users for d in ("h", "tol" if u.at().adaptive else "dt")]
+
+
+def cost(group: UserGroup, ladders: Ladders) -> float:
+    """The work of a ladder in cell-steps (adaptive steps counted at the first step)."""
+    end = group.user.at()["time.end"]
+    return sum(s["cells"] * end / s["dt"] for s in ladder(group.user, group.refined, ladders))
+
+
+def run_measures(result, scene: Scene) -> dict[str, float | int]:
+    """A run's measures by name, but its wall time (:data:`rodfem.output.measures.TIMINGS`)."""
+    from rodfem.output.columns import for_scene
+    from rodfem.output.measures import TIMINGS, measures
+
+    names = (column.name for column in for_scene(scene))
+    values = measures({n: result.history[:, j] for j, n in enumerate(names)}, scene,
+                      result.summary)
+    return {k: v for k, v in values.items() if k not in TIMINGS}
+
+
+def run_user_group(group: UserGroup, ladders: Ladders) -> tuple[list[dict], list[dict], dict]:
+    """A ladder of a user's scene against its reference: the rungs' records (verify's, with
+    the tolerance), their measures (a record per run and measure), the reference's sizes."""
+    *rungs, ref = ladder(group.user, group.refined, ladders)
+    reference, seconds = cv.timed_run(group.user.at(**ref))
+    if reference.status == "interrupted":
+        return [{"status": "interrupted"}], [], {}
+    if reference.status != "complete":
+        raise RuntimeError(f"{group.scene}, {group.refined} ladder: the reference run "
+                           f"{ref} did not complete: {reference.error}")
+    records, measured = [], []
+    for sizes in rungs:
+        scene = group.user.at(**sizes)
+        kept = {}
+
+        def errors(result, scene=scene, kept=kept):
+            kept.update(run_measures(result, scene))
+            return cv.errors_against(result, reference, interpolated=scene.adaptive)
+
+        p = cv.point(scene, errors)
+        head = {"scene": group.scene, "refined": group.refined,
+                "method": scene["solver.method"], "scheme": scene["time.scheme"],
+                "cells": p.cells, "dt": p.dt, "tolerance": sizes["tolerance"]}
+        records.append({**head, "status": p.status, **p.errors, "seconds": p.seconds,
+                        "us_per_step": p.us_per_step, "iterations_mean": p.iterations_mean,
+                        "message": p.message})
+        measured += [{**head, "status": p.status, "measure": k, "value": v}
+                     for k, v in kept.items()]
+        if p.status == "interrupted":
+            break
+    return records, measured, {**ref, "seconds": seconds}
+
+
+def measure_orders(measured: list[dict], records: list[dict]) -> list[dict]:
+    """Each ladder's measures: the order from the last three rungs and the Richardson estimate
+    (:func:`rodfem.studies.convergence.richardson`), or the note that says why there is none.
+    A rung that did not complete has no measures: nan in its place (``records``, the rungs)."""
+    rows = []
+    key = lambda r: (r["scene"], r["refined"], r["method"], r["scheme"], r["measure"])  # noqa: E731
+    rung = lambda r: (r["cells"], r["dt"], r["tolerance"])  # noqa: E731
+    for k in dict.fromkeys(map(key, measured)):
+        found = {rung(r): r["value"] for r in measured if key(r) == k}
+        values = [found.get(rung(r), math.nan) for r in records
+                  if (r["scene"], r["refined"], r["method"], r["scheme"]) == k[:4]]
+        order, estimate, note = cv.richardson(values)
+        rows.append({**dict(zip(("scene", "refined", "method", "scheme", "measure"), k,
+                                strict=True)), "runs": len(values),
+                     "finest": values[-1] if values else math.nan, "order": order,
+                     "richardson": estimate, "note": note})
+    return rows
+
+
+def _run(task, plan: verify.Plan, ladders: Ladders) -> tuple[list, list, list, dict]:
+    if isinstance(task, UserGroup):
+        records, measured, reference = run_user_group(task, ladders)
+        return records, [], measured, reference
+    records, rejected, reference = verify.run_group(task, plan)
+    return records, rejected, [], reference
+
+
+def sweep(plan: verify.Plan, ladders: Ladders, scenes: tuple[str, ...],
+          users: tuple[UserScene, ...], comm: MPI.Comm,
+          report: Callable[[str], None] | None = None) -> tuple | None:
+    """Every ladder of ``scenes`` and ``users``, dealt over ``comm``'s ranks, the costliest
+    first; the records, rejections, measures and references on every rank in ladder order
+    (None on every rank if a run was interrupted)."""
+    todo = [*verify.groups(scenes), *user_groups(users)]
+    costs = [cost(g, ladders) if isinstance(g, UserGroup) else verify.cost(g, plan)
+             for g in todo]
+    mine, stopped = [], False
+    for index in deal(costs, comm.size)[comm.rank]:
+        g = todo[index]
+        started = time.perf_counter()
+        part = _run(g, plan, ladders)
+        mine.append((index, *part))
+        if any(r["status"] == "interrupted" for r in part[0]):
+            stopped = True
+            break
+        if report is not None:
+            scheme = f", {g.scheme}" if hasattr(g, "scheme") else ""
+            report(f"[{index + 1}/{len(todo)}] {g.scene}, {g.refined} ladder{scheme}: "
+                   f"{len(part[0])} runs in {time.perf_counter() - started:.1f} s")
+    gathered = comm.allgather((stopped, mine))
+    if any(s for s, _ in gathered):
+        return None
+    parts = sorted((part for _, rank in gathered for part in rank), key=lambda p: p[0])
+    records = [r for p in parts for r in p[1]]
+    rejected = list({(r["scene"], r["method"], r["scheme"]): r
+                     for p in parts for r in p[2]}.values())
+    measured = [r for p in parts for r in p[3]]
+    references = {f"{todo[p[0]].scene}/{todo[p[0]].refined}"
+                  + (f"/{todo[p[0]].scheme}" if hasattr(todo[p[0]], "scheme") else ""): p[4]
+                  for p in parts if p[4]}
+    return records, rejected, measured, references
+
+
+def _scenes(scenes: tuple[str, ...], users: tuple[UserScene, ...], ladders: Ladders) -> dict:
+    """What each verified scene is: a built-in one and its values, or a file and its ladders."""
+    built = {k: {"scene": b, "overrides": list(o)} for k, (b, o) in verify.SCENES.items()
+             if k in scenes}
+    if verify.IMPACT in scenes:
+        built[verify.IMPACT] = {"scene": verify.IMPACT, "overrides": []}
+    for u in users:
+        scene = u.at()
+        built[u.key] = {"scene": u.path, "overrides": list(u.overrides), "user": True,
+                        "cells": scene["mesh.cells"], "dt": scene["time.dt"],
+                        "end": scene["time.end"], "adaptive": scene.adaptive,
+                        "tolerance": tolerance(scene) if scene.adaptive else None,
+                        "method": scene["solver.method"], "scheme": scene["time.scheme"],
+                        "rungs": ladders.rungs, "h_reference": ladders.h_reference,
+                        "dt_reference": ladders.dt_reference}
+    return built
+
+
+def run_verify(out: Path, plan: verify.Plan, scenes: tuple[str, ...], force: bool,
+               progress: bool, comm: MPI.Comm, users: tuple[UserScene, ...] = (),
+               ladders: Ladders = DEFAULT) -> dict | None:
+    """Prepare ``out``, run every ladder, write the tables (rank 0); return the data (None if
+    interrupted: then nothing is written). Raises OutputError (nothing written) on a bad
+    ``out``."""
+    from rodfem.output.files import write_json, write_text
+    prepare(out, force, comm, FILES, "verify")
+
+    def report(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
+    started = time.perf_counter()
+    swept = sweep(plan, ladders, scenes, users, comm, report if progress else None)
+    seconds = max(comm.allgather(time.perf_counter() - started))
+    if swept is None:
+        return None
+    records, rejected, measured, references = swept
+    keys = [u.key for u in users]  # one method each: no spread
+    data = {
+        "plan": plan.as_dict(), "scenes": _scenes(scenes, users, ladders),
+        "schemes": list(verify.schemes()), "methods": list(plan.methods),
+        "manufactured": any(k in scenes for k in verify.MANUFACTURED_SCENES),
+        "impact": verify.IMPACT in scenes,
+        "exact": [k for k in verify.EXACT if k in scenes],  # against an exact solution
+        "user": keys,  # scene files, with their own ladders
+        "reference_method": "direct", "references": references,
+        "orders": verify.orders(records),
+        "method_spread": verify.method_spread([r for r in records if r["scene"] not in keys]),
+        "measures": measured, "measure_orders": measure_orders(measured, records),
+        "rejected": rejected, "points": records, "seconds": seconds, "machine": machine(comm),
+    }
+    if comm.rank == 0:
+        write_csv(out / "errors.csv", ERROR_COLUMNS,
+                  [{"tolerance": None, **r} for r in records])
+        write_csv(out / "orders.csv", verify.ORDER_COLUMNS, data["orders"])
+        if users:
+            write_csv(out / "measures.csv", MEASURE_COLUMNS, measured)
+            write_csv(out / "measure_orders.csv", MEASURE_ORDER_COLUMNS, data["measure_orders"])
+    write_text(out / "orders.md", markdown(data), comm)
+    write_json(out / "orders.json", data, comm)
+    comm.barrier()
+    return data
