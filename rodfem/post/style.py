@@ -18,7 +18,8 @@ from matplotlib.ticker import MaxNLocator
 from vtkmodules.vtkCommonCore import VTK_FONT_FILE
 from vtkmodules.vtkRenderingCore import vtkTextProperty
 
-from rodfem.post.runs import PARAMETERS, Run
+from rodfem.post import names
+from rodfem.post.runs import Run
 
 WINDOW = (1200, 900)  # pixels, for the still figures
 LINE_WIDTH = 3.0
@@ -63,10 +64,9 @@ def mpl_fonts():
 
 
 def key_label(key: str | None) -> str:
-    """A scene key for a colour bar: its paper's symbol and the key, ``$\\zeta$ (model.zeta)``."""
-    if key in PARAMETERS:
-        return f"${PARAMETERS[key][0]}$ ({key})"
-    return str(key)
+    """A scene key for a colour bar: its paper's symbol and the key, ``$\\zeta$ (model.zeta)``
+    (:func:`rodfem.post.names.key_label`)."""
+    return names.key_label(key) if key is not None else "None"
 
 
 def run_colours(runs: list[Run], key: str | None) -> tuple[list, ScalarMappable | None]:
