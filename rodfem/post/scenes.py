@@ -6,7 +6,9 @@
     sweep_scenes_energy.png    ln(Ê + 0.01) against t
 
 Over one numeric axis the scenes are coloured by its value (a sequential map and a colour bar, on
-a log scale where the values span decades); otherwise each has its colour and a legend entry
+a log scale where the axis is log-spaced or its values span decades); over two, one of them
+numeric and the other of a few values, coloured by the first and drawn in a line style for each
+value of the second (named in the legend); otherwise each scene has its colour and a legend entry
 naming its swept values in symbols (``scene 3: ζ = 0.2, ε = 0.001``).
 """
 
@@ -19,7 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from rodfem.post import curves
-from rodfem.post.runs import PlotError, Run, _flatten, legend_labels
+from rodfem.post.curves import DASHES, Dashes
+from rodfem.post.names import CHOICES
+from rodfem.post.runs import PARAMETERS, PlotError, Run, _flatten, legend_labels
 
 # The file of the histories ``rodfem sweep --histories`` keeps (rodfem.studies.sweepfiles writes
 # it, a layer above the figures; tests/test_sweep_figures.py checks the two names agree).
@@ -35,6 +39,8 @@ class Overlay:
     labels: list[str]
     colour_by: str | None
     window: tuple[float, float] | None
+    colour_log: bool = False
+    dashes: Dashes | None = None
 
 
 def _histories(path: Path) -> dict[int, tuple[np.ndarray, tuple[str, ...]]]:
@@ -73,11 +79,32 @@ def plan(path: Path, sweep, columns: dict[str, np.ndarray],
         raise PlotError(f"--overlay: {path / HISTORIES} holds no scene's history")
     if window is not None and window[0] >= max(float(r.history.t[-1]) for r in runs):
         raise PlotError(f"--window starts at t = {window[0]:g}, after the scenes end")
-    numeric = len(sweep.axes) == 1 and all(
-        isinstance(run.scene[sweep.axes[0]], float) for run in runs) and len(runs) > 1 \
-        and len({run.scene[sweep.axes[0]] for run in runs}) > 1
-    colour_by = sweep.axes[0] if numeric else None
-    return Overlay(runs, [] if numeric else legend_labels(runs), colour_by, window)
+    colour_by, dashes = _encoding(runs, sweep.axes)
+    labels = [] if colour_by is not None else legend_labels(runs)
+    return Overlay(runs, labels, colour_by, window, colour_by in sweep.logs, dashes)
+
+
+def _encoding(runs: list[Run], axes: tuple[str, ...]) -> tuple[str | None, Dashes | None]:
+    """How the scenes are told apart: over one numeric axis, by colour along its values; over
+    two, one numeric, the other of at most as many values as there are line styles, by colour
+    and line style; otherwise by colour and a legend entry each (None, None)."""
+    values = {a: list(dict.fromkeys(run.scene[a] for run in runs)) for a in axes}
+    numeric = [a for a in axes if len(values[a]) > 1
+               and all(isinstance(v, float) for v in values[a])]
+    if len(axes) == 1:
+        return (axes[0], None) if numeric else (None, None)
+    if len(axes) != 2:
+        return None, None
+    for colour, dashed in ((axes[0], axes[1]), (axes[1], axes[0])):
+        if colour in numeric and len(values[dashed]) <= len(DASHES):
+            first = {value: next(r for r in runs if r.scene[dashed] == value)
+                     for value in values[dashed]}
+            styles = [DASHES[values[dashed].index(run.scene[dashed])] for run in runs]
+            legend = [(DASHES[i], first[v].parameter(dashed)) if dashed in PARAMETERS
+                      or dashed in CHOICES else (DASHES[i], f"{dashed} = {v}")
+                      for i, v in enumerate(values[dashed])]
+            return colour, Dashes(styles, legend)
+    return None, None
 
 
 def _value(value):
@@ -91,7 +118,8 @@ def _value(value):
 
 def draw(overlay: Overlay, out: Path) -> list[Path]:
     """The overlaid curves, in ``out``."""
-    shared = dict(window=overlay.window, colour_by=overlay.colour_by)
+    shared = dict(window=overlay.window, colour_by=overlay.colour_by,
+                  colour_log=overlay.colour_log, dashes=overlay.dashes)
     labels = overlay.labels or [run.name for run in overlay.runs]
     return [curves.contact_figure(overlay.runs, labels, out / FIGURES[0], **shared),
             curves.energy_figure(overlay.runs, labels, out / FIGURES[1], **shared)]
