@@ -307,3 +307,18 @@ def test_run_legends_name_the_law(tmp_path, drawn):
     legend = [ax.get_legend() for ax in drawn["c.png"].axes if ax.get_legend()][0]
     assert [t.get_text() for t in legend.get_texts()][:2] == legend_labels([one, two])
     assert path.is_file()
+
+
+def test_run_legends_tell_many_scenes_apart(tmp_path):
+    """Scenes that differ in many keys: at most four values each, chosen so that no two labels
+    are the same (the laws alone would not tell the paper's experiments apart)."""
+    from rodfem.post.runs import LEGEND_KEYS, _flatten
+    from rodfem.scene import load
+
+    scenes = ["paper1", "paper2", "paper3", "paper4", "paper5", "impact", "barber"]
+    runs = [Run(tmp_path, name, None, _flatten(load(name).data()), None) for name in scenes]
+    labels = legend_labels(runs)
+    assert len(set(label.split(": ", 1)[1] for label in labels)) == len(runs), labels
+    assert max(label.count(", ") + 1 for label in labels) <= LEGEND_KEYS
+    assert labels[0] == r"paper1: $\zeta = 0.2$, $k = 1$, $\varepsilon = 0.01$, elastic obstacle"
+    assert labels[5] == r"impact: $\zeta = 0$, $k = 0$, rigid obstacle"

@@ -137,13 +137,25 @@ def load_run(path: Path) -> Run:
 
 def differing(scenes: list[dict[str, Any]]) -> list[str]:
     """The scene keys (of the sections that set a run, not its outputs) whose values differ
-    between the scenes, or that some scenes have and others not, in the scenes' order; at most
-    ``LEGEND_KEYS``, the laws and methods first, then the keys with a symbol in the paper."""
+    between the scenes, or that some scenes have and others not, in the scenes' order: at most
+    ``LEGEND_KEYS``, first those that tell the scenes apart (each time the key that splits them
+    most, a law or a method before a key with a symbol in the paper, before any other key), then
+    the other laws, methods and symbols that differ."""
     keys = list(dict.fromkeys(k for scene in scenes for k in scene))
     keys = [k for k in keys if "." in k and not k.startswith("output.")
             and len({repr(scene.get(k)) for scene in scenes}) > 1]
-    ranked = sorted(keys, key=lambda k: 0 if k in CHOICES else 1 if k in KEYS else 2)
-    chosen = set(ranked[:LEGEND_KEYS])
+    rank = {k: (0 if k in CHOICES else 1 if k in KEYS else 2, i) for i, k in enumerate(keys)}
+
+    def groups(chosen: list[str]) -> int:
+        return len({tuple(repr(scene.get(k)) for k in chosen) for scene in scenes})
+
+    chosen: list[str] = []
+    while len(chosen) < LEGEND_KEYS and groups(chosen) < groups(keys):
+        chosen.append(min((k for k in keys if k not in chosen),
+                          key=lambda k: (-groups([*chosen, k]), rank[k])))
+    for key in sorted(keys, key=rank.__getitem__):
+        if len(chosen) < LEGEND_KEYS and key not in chosen and rank[key][0] < 2:
+            chosen.append(key)
     return [k for k in keys if k in chosen]
 
 
