@@ -322,3 +322,13 @@ def test_run_legends_tell_many_scenes_apart(tmp_path):
     assert max(label.count(", ") + 1 for label in labels) <= LEGEND_KEYS
     assert labels[0] == r"paper1: $\zeta = 0.2$, $k = 1$, $\varepsilon = 0.01$, elastic obstacle"
     assert labels[5] == r"impact: $\zeta = 0$, $k = 0$, rigid obstacle"
+
+
+def test_overlay_of_a_stopped_sweep_says_why(tmp_path):
+    """A sweep run with --histories writes histories.h5 when it is complete: before, the overlay
+    says so (and how to finish it), nothing written."""
+    out = sweep(tmp_path, LOG, histories=True)
+    (out / scenes.HISTORIES).unlink()
+    with pytest.raises(PlotError, match="keeps them when it is complete.*rodfem resume"):
+        plot_sweep(out, overlay=True)
+    assert not (out / "figures").exists()

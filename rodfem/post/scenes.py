@@ -43,12 +43,16 @@ class Overlay:
     dashes: Dashes | None = None
 
 
-def _histories(path: Path) -> dict[int, tuple[np.ndarray, tuple[str, ...]]]:
-    """The rows and column names of every scene's history in histories.h5, by index."""
+def _histories(path: Path, kept: bool) -> dict[int, tuple[np.ndarray, tuple[str, ...]]]:
+    """The rows and column names of every scene's history in histories.h5, by index; ``kept``:
+    whether the sweep was run to keep them (sweep.json's ``histories``)."""
     import h5py  # here: imported before dolfinx, Debian's serial h5py aborts an MPI run
 
     file = path / HISTORIES
     if not file.is_file():
+        if kept:  # written when the sweep is complete
+            raise PlotError(f"--overlay: {path} has no {HISTORIES} yet: the sweep keeps them "
+                            f"when it is complete ('rodfem resume {path}' runs the rest)")
         raise PlotError(f"--overlay: {path} kept no histories (run the sweep with "
                         "--histories)")
     try:
@@ -65,8 +69,8 @@ def plan(path: Path, sweep, columns: dict[str, np.ndarray],
     """Read the scenes' histories and make their runs (checked before anything is drawn)."""
     from rodfem.output.readers import History
 
-    histories = _histories(path)
     meta = json.loads((path / "sweep.json").read_text(encoding="utf-8"))
+    histories = _histories(path, meta.get("histories") is True)
     base = _flatten(meta.get("base") or {})
     runs = []
     for row, index in enumerate(columns["index"]):
