@@ -233,7 +233,7 @@ def plot_sweep(path: Path, out: Path | None = None, force: bool = False,
         PlotError: an unknown measure, no history kept for ``overlay``, or figures in ``out``
             without ``force``.
     """
-    from rodfem.post import scenes
+    from rodfem.post import scenes  # here: the curves load VTK, which the measures never need
 
     path = Path(path)
     sweep, columns = load_sweep(path)
