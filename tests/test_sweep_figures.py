@@ -332,3 +332,19 @@ def test_overlay_of_a_stopped_sweep_says_why(tmp_path):
     with pytest.raises(PlotError, match="keeps them when it is complete.*rodfem resume"):
         plot_sweep(out, overlay=True)
     assert not (out / "figures").exists()
+
+
+@pytest.mark.parametrize("options", [["--measures", "u_1_final"], ["--overlay"]])
+def test_sweep_options_are_refused_for_runs(tmp_path, options, capsys):
+    run = tmp_path / "run"
+    run.mkdir()
+    assert_refused(["plot", str(run), "--out", str(tmp_path / "f"), *options], tmp_path / "f",
+                   f"{options[0]} applies to a sweep directory", capsys)
+
+
+def test_a_sweep_whose_measures_are_all_the_same(tmp_path, capsys):
+    """One scene: no measure tells scenes apart, nothing to draw unless asked for."""
+    out = sweep(tmp_path, '[grid]\n"model.zeta" = [0.2]\n')
+    assert_refused(["plot", str(out)], out / "figures", "no measure differs between the "
+                   "sweep's scenes; --measures NAME,... draws any of t_final, ", capsys)
+    assert [p.name for p in plot_sweep(out, measures=["u_1_final"])] == ["sweep_u_1_final.png"]
