@@ -306,6 +306,11 @@ def test_run_legends_name_the_law(tmp_path, drawn):
     path = curves.contact_figure([one, two], legend_labels([one, two]), tmp_path / "c.png")
     legend = [ax.get_legend() for ax in drawn["c.png"].axes if ax.get_legend()][0]
     assert [t.get_text() for t in legend.get_texts()][:2] == legend_labels([one, two])
+    panels = drawn["c.png"].axes[:4]
+    assert [ax.get_ylabel() for ax in panels] == ["$u(1, t)$ [$L$]", "$u(0.5, t)$ [$L$]",
+                                                  "$u_t(1, t)$ [$L/t_0$]",
+                                                  r"$\sigma(1, t)$ [$E$]"]
+    assert {ax.get_xlabel() for ax in panels} == {"$t$ [$t_0$]"}
     assert path.is_file()
 
 

@@ -19,15 +19,16 @@ from matplotlib.patches import Patch
 
 from rodfem.output.atomic import replacing
 from rodfem.post import style
+from rodfem.post.names import TIME_LABEL, series_label
 from rodfem.post.runs import Run
 
-# The paper's four panels (Figures 1-4): title, y label and history column.
-PANELS = (
-    ("displacement of the end", "$u(1, t)$", "u_1"),
-    ("displacement of the midpoint", "$u(0.5, t)$", "u_half"),
-    ("velocity of the end", "$u_t(1, t)$", "ut_1"),
-    ("stress at the end", r"$\sigma(1, t)$", "sigma_1"),
-)
+# The paper's four panels (Figures 1-4): title, y label (rodfem.post.names) and history column.
+PANELS = tuple((title, series_label(column), column) for title, column in (
+    ("displacement of the end", "u_1"),
+    ("displacement of the midpoint", "u_half"),
+    ("velocity of the end", "ut_1"),
+    ("stress at the end", "sigma_1"),
+))
 ENERGY_FLOOR = 0.01
 # Line styles that tell runs apart beside their colours (never the gap's dashes "--").
 DASHES = ("-", ":", "-.", (0, (6, 2, 1, 2, 1, 2)))
@@ -174,7 +175,7 @@ def contact_figure(runs: list[Run], labels: list[str], path: Path,
                     ax.axhline(gap, color="black", ls="--", lw=1.5)
                     curves.append((np.array(t_range), np.array([gap, gap])))
             ax.set_title(title)
-            ax.set_xlabel("$t$")
+            ax.set_xlabel(TIME_LABEL)
             ax.set_ylabel(y_label)
             ax.grid(True, color="0.9")
             _limits(ax, curves, t_range)
@@ -219,7 +220,7 @@ def energy_figure(runs: list[Run], labels: list[str], path: Path,
             ax.plot(t, y, color=colour, ls=ls, lw=style.MPL_LINE_WIDTH)
             curves.append((t, y))
         ax.set_title(energy_title(runs) + "\n" + r"$\hat{E}$: the discrete energy of Remark 4.4")
-        ax.set_xlabel("$t$")
+        ax.set_xlabel(TIME_LABEL)
         ax.set_ylabel(r"$\ln(\hat{E} + 0.01)$")
         ax.grid(True, color="0.9")
         _limits(ax, curves, t_range)

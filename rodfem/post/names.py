@@ -114,6 +114,17 @@ def column_symbol(column: str) -> tuple[str, str]:
     return r"\mathrm{" + column.replace("_", r"\_") + "}", ""
 
 
+def series_label(column: str) -> str:
+    """A history column drawn against t, for an axis: ``$\\sigma(1, t)$ [$E$]``."""
+    symbol, unit = column_symbol(column)
+    if symbol.endswith(")"):
+        symbol = symbol[:-1] + ", t)"
+    return with_unit(f"${symbol}$", unit)
+
+
+TIME_LABEL = with_unit("$t$", "t_0")
+
+
 def declared_label(name: str, column: str, reduce: str, window=None) -> str:
     """A declared measure's axis label: its name, what it reduces and its unit, e.g.
     ``peak_force: max $p$ [$E$]``."""
