@@ -158,7 +158,8 @@ def _plot(sub) -> None:
     plot.add_argument("--no-animation", dest="animation", action="store_false",
                       help="no rod.gif (the slowest figure)")
     plot.add_argument("--window", metavar="T0,T1",
-                      help="draw the times T0 <= t <= T1 only (curves, maps and animation)")
+                      help="draw the times T0 <= t <= T1 only (curves, maps and animation; a "
+                      "sweep's --overlay)")
     plot.add_argument("--labels", metavar="A,B,...",
                       help="the runs' names in legends and titles, one per DIR, comma-separated "
                       "(default: each directory's name and the values that differ)")
