@@ -353,3 +353,16 @@ def test_a_sweep_whose_measures_are_all_the_same(tmp_path, capsys):
     assert_refused(["plot", str(out)], out / "figures", "no measure differs between the "
                    "sweep's scenes; --measures NAME,... draws any of t_final, ", capsys)
     assert [p.name for p in plot_sweep(out, measures=["u_1_final"])] == ["sweep_u_1_final.png"]
+
+
+def test_overlay_of_laws_and_switches(tmp_path, drawn):
+    """Swept choices (the contact law, adaptive steps): no colour bar, each scene named in words."""
+    out = sweep(tmp_path, '[grid]\n"obstacle.law" = ["linear", "power"]\n'
+                          '"time.adaptive" = [false, true]\n', histories=True)
+    plot_sweep(out, overlay=True)
+    energy = drawn["sweep_scenes_energy.png"]
+    legend = [ax.get_legend() for ax in energy.axes if ax.get_legend() is not None][0]
+    assert [t.get_text() for t in legend.get_texts()] == [
+        "scene 0: contact law linear, fixed steps", "scene 1: contact law linear, adaptive steps",
+        "scene 2: contact law power, fixed steps", "scene 3: contact law power, adaptive steps"]
+    assert len(energy.axes) == 2  # the curves and the legend's strip: no colour bar

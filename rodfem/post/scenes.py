@@ -112,9 +112,10 @@ def _encoding(runs: list[Run], axes: tuple[str, ...]) -> tuple[str | None, Dashe
 
 
 def _value(value):
-    """A swept value from results.csv: numbers as floats, text as it is."""
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
+    """A swept value from results.csv: numbers as floats, true and false (how the table writes
+    a boolean) as booleans, other text as it is."""
+    if isinstance(value, (bool, np.bool_)) or value in ("true", "false"):
+        return value in (True, "true")
     if isinstance(value, (int, float, np.integer, np.floating)):
         return float(value)
     return str(value)
