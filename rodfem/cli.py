@@ -137,7 +137,9 @@ def _plot(sub) -> None:
         "--colour-by) and the per-run figures are named after each run's directory, "
         "e.g. rod_paper2.gif, all in the first directory's figures/ (or FIGDIR). For a sweep "
         "directory, sweep_<measure>.png draws each measure over the swept keys: a line over one, "
-        "a coloured map over two grid axes (and lines, one per value of the second).",
+        "a coloured map over two grid axes (and lines, one per value of the second), for the "
+        "measures that differ between the scenes (--measures chooses); --overlay draws the "
+        "scenes' histories kept by 'rodfem sweep --histories' overlaid.",
     )
     plot.add_argument("dirs", nargs="+", type=Path, metavar="DIR",
                       help="a run directory written by 'rodfem run', or one sweep directory")
@@ -153,17 +155,25 @@ def _plot(sub) -> None:
     plot.add_argument("--only", metavar="KINDS",
                       help="draw only these figures, comma-separated: contact, energy, "
                       "spacetime (every saved field's map), spacetime_<field> (theta, u, "
-                      "velocity, sigma, heat_flux), rod; for a sweep, measures")
+                      "velocity, sigma, heat_flux), rod; for a sweep, its measures (as --measures)")
     plot.add_argument("--no-animation", dest="animation", action="store_false",
                       help="no rod.gif (the slowest figure)")
     plot.add_argument("--window", metavar="T0,T1",
-                      help="draw the times T0 <= t <= T1 only (curves, maps and animation)")
+                      help="draw the times T0 <= t <= T1 only (curves, maps and animation; a "
+                      "sweep's --overlay)")
     plot.add_argument("--labels", metavar="A,B,...",
                       help="the runs' names in legends and titles, one per DIR, comma-separated "
                       "(default: each directory's name and the values that differ)")
     plot.add_argument("--colour-by", metavar="KEY",
                       help="colour overlaid runs by this scene value (e.g. model.zeta) on a "
                       "sequential colour map, with a colour bar instead of a legend")
+    plot.add_argument("--measures", metavar="NAMES",
+                      help="a sweep: draw these measures, comma-separated (default: those that "
+                      "differ between the scenes, timings and iteration counts left out)")
+    plot.add_argument("--overlay", action="store_true",
+                      help="a sweep: draw its scenes' histories overlaid (sweep_scenes_*.png; "
+                      "kept by 'rodfem sweep --histories'), coloured or labelled by the swept "
+                      "values; with --measures, their figures too")
 
 
 def _paper(sub) -> None:

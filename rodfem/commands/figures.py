@@ -57,16 +57,39 @@ def _drawing(args: argparse.Namespace):
         raise PlotError(f"{sweeps[0]} is a sweep: plot it alone (its figures draw every "
                         "scene's measures)")
     if not sweeps:
+        for option, value in (("--measures", args.measures), ("--overlay", args.overlay or None)):
+            if value is not None:
+                raise PlotError(f"{option} applies to a sweep directory; {args.dirs[0]} is a "
+                                "run's")
         options = _plot_options(args)
         return lambda: draw(args.dirs, args.out, options, force=args.force)
+    return _sweep_drawing(args, sweeps[0])
+
+
+def _sweep_drawing(args: argparse.Namespace, sweep):
+    """What draws a sweep's figures: the measures chosen (``--measures``, or ``--only`` as
+    before), the scenes overlaid (``--overlay``, in the ``--window``)."""
+    from rodfem.post import PlotError
+    from rodfem.post.options import parse_window
     from rodfem.post.sweep import plot_sweep
 
-    for option, value in (("--window", args.window), ("--labels", args.labels),
-                          ("--colour-by", args.colour_by)):
+    window = None if args.window is None else parse_window(args.window)
+    for option, value in (("--window", None if args.overlay else args.window),
+                          ("--labels", args.labels), ("--colour-by", args.colour_by)):
         if value is not None:
-            raise PlotError(f"{option} applies to runs; {sweeps[0]} is a sweep")
-    only = None if args.only is None else [m.strip() for m in args.only.split(",")]
-    return lambda: plot_sweep(sweeps[0], args.out, force=args.force, only=only)
+            raise PlotError(f"{option} applies to runs (and --window to a sweep's --overlay); "
+                            f"{sweep} is a sweep")
+    if args.measures is not None and args.only is not None:
+        raise PlotError("--only and --measures both choose a sweep's measures: give one")
+    option, text = ("--only", args.only) if args.only is not None else ("--measures",
+                                                                       args.measures)
+    chosen = None if text is None else [m.strip() for m in text.split(",")]
+    if chosen is not None and not all(chosen):
+        raise PlotError(f"{option} takes a comma-separated list without empty items, "
+                        f"not {text!r}")
+    return lambda: plot_sweep(sweep, args.out, force=args.force, measures=chosen,
+                              overlay=args.overlay, window=window, option=option,
+                              note=lambda line: say(f"rodfem: note: {line}"))
 
 
 def plot(args: argparse.Namespace) -> int:

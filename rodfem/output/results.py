@@ -112,8 +112,10 @@ def parse(content: str, path: str = NAME) -> tuple[tuple[str, ...], dict[str, np
         rows = list(csv.reader(io.StringIO(content, newline="")))
     except csv.Error as err:
         raise ResultsError(f"cannot read {path}: {err}") from None
-    if not rows or rows[0][:1] != ["index"] or "status" not in rows[0] \
-            or rows[0][rows[0].index("status") + 1:] != [*MEASURE_NAMES, "error"]:
+    status_at = rows[0].index("status") if rows and "status" in rows[0] else -1
+    # the built-in measures, then any declared ones, then error
+    if not rows or rows[0][:1] != ["index"] or status_at < 0 or rows[0][-1:] != ["error"] \
+            or rows[0][status_at + 1:status_at + 1 + len(MEASURE_NAMES)] != list(MEASURE_NAMES):
         raise ResultsError(f"{path} is not a sweep's results.csv (its header is not rodfem's)")
     names = rows[0]
     axes = tuple(names[1:names.index("status")])

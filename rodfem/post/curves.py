@@ -10,6 +10,7 @@ value with one colour bar and no per-run legend.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -18,16 +19,27 @@ from matplotlib.patches import Patch
 
 from rodfem.output.atomic import replacing
 from rodfem.post import style
+from rodfem.post.names import TIME_LABEL, series_label
 from rodfem.post.runs import Run
 
-# The paper's four panels (Figures 1-4): title, y label and history column.
-PANELS = (
-    ("displacement of the end", "$u(1, t)$", "u_1"),
-    ("displacement of the midpoint", "$u(0.5, t)$", "u_half"),
-    ("velocity of the end", "$u_t(1, t)$", "ut_1"),
-    ("stress at the end", r"$\sigma(1, t)$", "sigma_1"),
-)
-ENERGY_FLOOR = 0.01  # the paper plots ln(Ê + 0.01)
+# The paper's four panels (Figures 1-4): title, y label (rodfem.post.names) and history column.
+PANELS = tuple((title, series_label(column), column) for title, column in (
+    ("displacement of the end", "u_1"),
+    ("displacement of the midpoint", "u_half"),
+    ("velocity of the end", "ut_1"),
+    ("stress at the end", "sigma_1"),
+))
+ENERGY_FLOOR = 0.01
+# Line styles that tell runs apart beside their colours (never the gap's dashes "--").
+DASHES = ("-", ":", "-.", (0, (6, 2, 1, 2, 1, 2)))
+
+
+class Dashes(NamedTuple):
+    """Runs told apart by their line styles too: one style per run, and the legend's entries
+    (style, label) that say what each style stands for."""
+
+    styles: list
+    legend: list[tuple[object, str]]  # the paper plots ln(Ê + 0.01)
 # The legend's rows at most: the panels keep two thirds of the figure however many runs it shows.
 LEGEND_ROWS = 8
 
@@ -121,19 +133,24 @@ def _colour_bar(fig: Figure, bar_axes, mappable, key: str | None) -> None:
 
 def contact_figure(runs: list[Run], labels: list[str], path: Path,
                    window: tuple[float, float] | None = None,
-                   colour_by: str | None = None) -> Path:
+                   colour_by: str | None = None, colour_log: bool = False,
+                   dashes: Dashes | None = None) -> Path:
     """u(1, t) with the gap g, u(0.5, t), u_t(1, t) and σ(1, t).
 
     For one run the intervals of contact (u(1, t) > g) are shaded in grey across the four
     panels; for several, shadings would pile up, and the gap line shows contact in the first.
+    ``colour_log``: the colours on a log scale (:func:`rodfem.post.style.run_colours`);
+    ``dashes``: the runs' line styles and what they stand for, in the legend.
     """
-    colours, mappable = style.run_colours(runs, colour_by)
+    colours, mappable = style.run_colours(runs, colour_by, colour_log)
     t_range = _t_range(runs, window)
     gaps = sorted({run.gap for run in runs})
     intervals = _contact_intervals(runs[0]) if len(runs) == 1 else []
     handles = [] if mappable else [Line2D([], [], color=c, lw=style.MPL_LINE_WIDTH)
                                    for c in colours]
     names = [] if mappable else list(labels)
+    styles, more = _dashes(dashes, len(runs))
+    handles, names = handles + more[0], names + more[1]
     handles += [Line2D([], [], color="black", ls="--", lw=1.5) for _ in gaps]
     names += [f"gap $g = {gap:g}$" for gap in gaps]
     if intervals:
@@ -148,17 +165,17 @@ def contact_figure(runs: list[Run], labels: list[str], path: Path,
             for start, end in intervals:
                 ax.axvspan(start, end, color=style.CONTACT_SHADE, lw=0, zorder=0)
             curves = []
-            for run, colour in zip(runs, colours, strict=True):
+            for run, colour, ls in zip(runs, colours, styles, strict=True):
                 keep = _in_window(run.history.t, window)
                 t, y = run.history.t[keep], run.history[column][keep]
-                ax.plot(t, y, color=colour, lw=style.MPL_LINE_WIDTH)
+                ax.plot(t, y, color=colour, ls=ls, lw=style.MPL_LINE_WIDTH)
                 curves.append((t, y))
             if panel == 0:
                 for gap in gaps:
                     ax.axhline(gap, color="black", ls="--", lw=1.5)
                     curves.append((np.array(t_range), np.array([gap, gap])))
             ax.set_title(title)
-            ax.set_xlabel("$t$")
+            ax.set_xlabel(TIME_LABEL)
             ax.set_ylabel(y_label)
             ax.grid(True, color="0.9")
             _limits(ax, curves, t_range)
@@ -181,32 +198,45 @@ def energy_title(runs: list[Run]) -> str:
 
 def energy_figure(runs: list[Run], labels: list[str], path: Path,
                   window: tuple[float, float] | None = None,
-                  colour_by: str | None = None) -> Path:
+                  colour_by: str | None = None, colour_log: bool = False,
+                  dashes: Dashes | None = None) -> Path:
     """ln(Ê + 0.01) against t, Ê the discrete energy of Remark 4.4 (values with Ê + 0.01 ≤ 0
-    are left out)."""
-    colours, mappable = style.run_colours(runs, colour_by)
+    are left out); ``colour_log`` and ``dashes`` as :func:`contact_figure`'s."""
+    colours, mappable = style.run_colours(runs, colour_by, colour_log)
     t_range = _t_range(runs, window)
     names = [] if mappable else list(labels)
     handles = [Line2D([], [], color=c, lw=style.MPL_LINE_WIDTH) for c in colours[:len(names)]]
-    handles, names = _fitted(handles, names, len(names))
+    runs_named = len(names)
+    styles, more = _dashes(dashes, len(runs))
+    handles, names = _fitted(handles + more[0], names + more[1], runs_named)
     with style.mpl_fonts():
         fig = Figure(figsize=style.MPL_SIZE, dpi=style.MPL_DPI)
         axes, box, bar = _axes(fig, 1, 1, names, mappable is not None, top=0.91)
         ax, curves = axes[0, 0], []
-        for run, colour in zip(runs, colours, strict=True):
+        for run, colour, ls in zip(runs, colours, styles, strict=True):
             keep = _in_window(run.history.t, window)
             shifted = run.history.energy[keep] + ENERGY_FLOOR
             t, y = run.history.t[keep], np.log(np.where(shifted > 0, shifted, np.nan))
-            ax.plot(t, y, color=colour, lw=style.MPL_LINE_WIDTH)
+            ax.plot(t, y, color=colour, ls=ls, lw=style.MPL_LINE_WIDTH)
             curves.append((t, y))
         ax.set_title(energy_title(runs) + "\n" + r"$\hat{E}$: the discrete energy of Remark 4.4")
-        ax.set_xlabel("$t$")
+        ax.set_xlabel(TIME_LABEL)
         ax.set_ylabel(r"$\ln(\hat{E} + 0.01)$")
         ax.grid(True, color="0.9")
         _limits(ax, curves, t_range)
         _colour_bar(fig, bar, mappable, colour_by)
         _legend(box, handles, names)
         return _save(fig, path)
+
+
+def _dashes(dashes: Dashes | None, runs: int) -> tuple[list, tuple[list, list[str]]]:
+    """The runs' line styles (solid without ``dashes``) and the legend's handles and labels of
+    the styles."""
+    if dashes is None:
+        return ["-"] * runs, ([], [])
+    return list(dashes.styles), ([Line2D([], [], color="0.3", ls=ls, lw=style.MPL_LINE_WIDTH)
+                                  for ls, _ in dashes.legend],
+                                 [label for _, label in dashes.legend])
 
 
 def _save(fig: Figure, path: Path) -> Path:

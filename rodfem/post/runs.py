@@ -22,24 +22,17 @@ from rodfem.output.readers import (  # noqa: F401 (the errors and History are re
     read_fields,
     read_history,
 )
+from rodfem.post.names import CHOICES, KEYS
 from rodfem.scene import BUILTIN, SceneError
 from rodfem.scene import load as load_scene
+from rodfem.scene.expressions import shorten
 
-# Scene values that tell runs apart in a legend, with their symbols in the paper: in mathtext
-# (typeset by matplotlib, for the charts) and in Unicode (for text drawn many times, as in the
-# animation, where typesetting would cost seconds).
-PARAMETERS = {
-    "model.zeta": (r"\zeta", "ζ"),
-    "obstacle.epsilon": (r"\varepsilon", "ε"),
-    "model.k": ("k", "k"),
-    "model.a": ("a", "a"),
-    "model.b": ("b", "b"),
-    "model.theta_A": (r"\theta_A", "θ_A"),
-    "obstacle.gap": ("g", "g"),
-    "time.dt": (r"\Delta t", "Δt"),
-    "mesh.cells": ("s", "s"),
-    "discretisation.mass": (r"\mathrm{mass}", "mass"),
-}
+# The paper's symbols of scene values (rodfem.post.names), in mathtext (typeset by matplotlib, for
+# the charts) and in Unicode (for text drawn many times, as in the animation, where typesetting
+# would cost seconds).
+PARAMETERS = {key: (math, text) for key, (math, text, _) in KEYS.items()}
+# A legend names at most this many of the values in which runs differ.
+LEGEND_KEYS = 4
 PAPER_PARAMETERS = ("model.zeta", "obstacle.epsilon", "model.k")
 # What makes a scene one of the paper's experiments: its equations and data, not how finely or
 # how long it is solved (mesh, time step, end, solver and outputs may differ).
@@ -79,13 +72,22 @@ class Run:
         return None
 
     def parameter(self, key: str, math: bool = True) -> str:
-        """``symbol = value``, e.g. ``$\\zeta = 0.2$`` in mathtext or ``ζ = 0.2`` in Unicode."""
+        """``symbol = value``, e.g. ``$\\zeta = 0.2$`` in mathtext or ``ζ = 0.2`` in Unicode; a law
+        or a method in words (``contact law power``); another key as ``key = value``."""
+        value = self.scene[key]
         if key == "obstacle.epsilon" and self.scene.get("obstacle.kind") == "rigid":
             return "rigid obstacle"  # ε is not used
+        if key == "obstacle.kind":
+            return f"{value} obstacle"
+        if key in CHOICES:
+            if isinstance(value, bool):
+                return f"{'adaptive' if value else 'fixed'} steps"
+            return f"{CHOICES[key]} {value}"
+        text = shorten(value, 24) if isinstance(value, str) else f"{value:g}"
+        if key not in PARAMETERS:
+            return (f"{key} = {text}".replace("$", r"\$") if math else f"{key} = {text}")
         math_symbol, symbol = PARAMETERS[key]
-        value = self.scene[key]
-        value = value if isinstance(value, str) else f"{value:g}"
-        return f"${math_symbol} = {value}$" if math else f"{symbol} = {value}"
+        return f"${math_symbol} = {text}$" if math else f"{symbol} = {text}"
 
 
 def _flatten(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -133,17 +135,43 @@ def load_run(path: Path) -> Run:
     return Run(path, path.resolve().name, history, scene, fields)
 
 
+def differing(scenes: list[dict[str, Any]]) -> list[str]:
+    """The scene keys (of the sections that set a run, not its outputs) whose values differ
+    between the scenes, or that some scenes have and others not, in the scenes' order: at most
+    ``LEGEND_KEYS``, first those that tell the scenes apart (each time the key that splits them
+    most, a law or a method before a key with a symbol in the paper, before any other key), then
+    the other laws, methods and symbols that differ."""
+    keys = list(dict.fromkeys(k for scene in scenes for k in scene))
+    keys = [k for k in keys if "." in k and not k.startswith("output.")
+            and len({repr(scene.get(k)) for scene in scenes}) > 1]
+    rank = {k: (0 if k in CHOICES else 1 if k in KEYS else 2, i) for i, k in enumerate(keys)}
+
+    def groups(chosen: list[str]) -> int:
+        return len({tuple(repr(scene.get(k)) for k in chosen) for scene in scenes})
+
+    chosen: list[str] = []
+    while len(chosen) < LEGEND_KEYS and groups(chosen) < groups(keys):
+        chosen.append(min((k for k in keys if k not in chosen),
+                          key=lambda k: (-groups([*chosen, k]), rank[k])))
+    for key in sorted(keys, key=rank.__getitem__):
+        if len(chosen) < LEGEND_KEYS and key not in chosen and rank[key][0] < 2:
+            chosen.append(key)
+    return [k for k in keys if k in chosen]
+
+
 def legend_labels(runs: list[Run], math: bool = True) -> list[str]:
-    """One label per run: its name and the scene values that set it apart from the others (the
-    paper's ζ, ε, k for a single run, or when nothing differs); in mathtext or in Unicode."""
-    differing = [key for key in PARAMETERS
-                 if all(key in run.scene for run in runs)
-                 and len({run.scene[key] for run in runs}) > 1]
-    keys = differing or [key for key in PAPER_PARAMETERS if all(key in r.scene for r in runs)]
+    """One label per run: its name and the scene values that set it apart from the others
+    (:func:`differing`: the law or the method included where it differs; the paper's ζ, ε, k
+    for a single run, or when nothing differs); in mathtext or in Unicode."""
+    keys = differing([run.scene for run in runs]) \
+        or [key for key in PAPER_PARAMETERS if all(key in r.scene for r in runs)]
     # A "$" in a directory name would start mathtext: escape it.
     names = [run.name.replace("$", r"\$") if math else run.name for run in runs]
-    return [f"{name}: " + ", ".join(run.parameter(key, math) for key in keys)
-            for name, run in zip(names, runs, strict=True)]
+    labels = []
+    for name, run in zip(names, runs, strict=True):
+        parts = [run.parameter(key, math) for key in keys if key in run.scene]
+        labels.append(f"{name}: " + ", ".join(dict.fromkeys(parts)))
+    return labels
 
 
 def file_suffixes(runs: list[Run]) -> list[str]:

@@ -13,14 +13,13 @@ from matplotlib.lines import Line2D
 
 from rodfem.output.atomic import replacing
 from rodfem.post import style
-from rodfem.post.runs import PARAMETERS, PlotError
+from rodfem.post.names import KEYS
+from rodfem.post.runs import PlotError
 
 FLAGS = ("contact", "stable", "tangential")
 FIGURE = "branches.png"
-# The symbols of the keys a continuation most often runs over, beside the paper's.
-SYMBOLS = {**{key: symbol for key, (_, symbol) in PARAMETERS.items()},
-           "obstacle.temperature": "θ_O", "heat_exchange.k1": "k₁",
-           "heat_exchange.exponent": "m", "heat_exchange.length": "ℓ"}
+# The symbols of the keys a continuation runs over (rodfem.post.names).
+SYMBOLS = {key: symbol for key, (_, symbol, _) in KEYS.items()}
 
 
 def read_branches(path: Path) -> list[dict]:

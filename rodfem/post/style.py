@@ -18,7 +18,9 @@ from matplotlib.ticker import MaxNLocator
 from vtkmodules.vtkCommonCore import VTK_FONT_FILE
 from vtkmodules.vtkRenderingCore import vtkTextProperty
 
-from rodfem.post.runs import PARAMETERS, Run
+from rodfem.post import names
+from rodfem.post.choice import logarithmic
+from rodfem.post.runs import Run
 
 WINDOW = (1200, 900)  # pixels, for the still figures
 LINE_WIDTH = 3.0
@@ -63,21 +65,22 @@ def mpl_fonts():
 
 
 def key_label(key: str | None) -> str:
-    """A scene key for a colour bar: its paper's symbol and the key, ``$\\zeta$ (model.zeta)``."""
-    if key in PARAMETERS:
-        return f"${PARAMETERS[key][0]}$ ({key})"
-    return str(key)
+    """A scene key for a colour bar: its paper's symbol and the key, ``$\\zeta$ (model.zeta)``
+    (:func:`rodfem.post.names.key_label`)."""
+    return names.key_label(key) if key is not None else "None"
 
 
-def run_colours(runs: list[Run], key: str | None) -> tuple[list, ScalarMappable | None]:
+def run_colours(runs: list[Run], key: str | None,
+                log: bool = False) -> tuple[list, ScalarMappable | None]:
     """The runs' line colours: tab10 in turn, or (``key``) the sequential map over the runs'
-    values of that scene key, on a log scale when they are positive and span a factor of 100 or
-    more, with the mappable its colour bar draws."""
+    values of that scene key, on a log scale where they are positive and laid out so (``log``:
+    a sweep's log-spaced axis) or span two decades or more, with the mappable its colour bar
+    draws."""
     if key is None:
         return [colour(i) for i in range(len(runs))], None
     values = np.array([float(run.scene[key]) for run in runs])
     lo, hi = float(values.min()), float(values.max())
-    if lo > 0 and hi / lo >= 100:
+    if logarithmic(values, log) and hi > lo:
         norm = LogNorm(lo, hi)
     else:
         if lo == hi:  # one value: the middle of the map

@@ -1,11 +1,11 @@
 """Figures of a sweep directory (``rodfem sweep``): one per measure, from ``results.csv``.
 
-``sweep_<measure>.png`` for every measure of :mod:`rodfem.output.measures` (``t_final`` only
-when the scenes did not all reach the same time), drawn by how the sweep was swept
-(``sweep.json``):
+``sweep_<measure>.png`` for every informative measure of the table (the built-in ones of
+:mod:`rodfem.output.measures` and those declared, chosen by :mod:`rodfem.post.choice`), or those
+asked for, drawn by how the sweep was swept (``sweep.json``), axes named by their symbols and
+units (:mod:`rodfem.post.names`), on a log scale where the design or the values call for one:
 
-* one axis (grid, zip or sample): the measure against the axis, a line with markers, the axis
-  on a log scale when its values are positive and span a factor of 100 or more;
+* one axis (grid, zip or sample): the measure against the axis, a line with markers;
 * two grid axes or more: a map over the first two grid axes, one cell per pair of values, each
   coloured by the measure (and labelled with it), with a colour bar; with further axes, at their
   first values, which the title states. With exactly two axes, also ``sweep_<measure>_lines.png``:
@@ -14,7 +14,8 @@ when the scenes did not all reach the same time), drawn by how the sweep was swe
   axes, coloured by the measure.
 
 A scene that failed or was interrupted, or whose measure is nan, is left out of lines and shown
-as a hatched grey cell in maps (a grey cross among points). Reads the sweep's files only and
+as a hatched grey cell in maps (a grey cross among points). The scenes' histories themselves, kept
+with ``--histories``, are overlaid by :mod:`rodfem.post.scenes`. Reads the sweep's files only and
 draws with matplotlib, off-screen (its figures are not pyplot's: nothing to close, no backend).
 """
 
@@ -25,12 +26,13 @@ import json
 from pathlib import Path
 
 import numpy as np
+from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
 from rodfem.output import journal, results
 from rodfem.output.atomic import replacing
-from rodfem.output.measures import MEASURES
+from rodfem.post import choice, names
 from rodfem.post.runs import PlotError
 
 SIZE, DPI = (6.4, 4.8), 100
@@ -40,11 +42,14 @@ MISSING = dict(facecolor="lightgrey", edgecolor="grey", hatch="//", linewidth=0)
 @dataclasses.dataclass(frozen=True)
 class Layout:
     """What sweep.json says of a sweep's axes: their order, how each was swept ("grid", "zip",
-    "sample"), and the grid's values per grid axis."""
+    "sample"), the grid's values per grid axis, the axes laid out logarithmically, and the
+    measures declared (name → column, reduce, window)."""
 
     axes: tuple[str, ...]
     design: dict[str, str]
     grid: dict[str, list]
+    logs: frozenset[str] = frozenset()
+    declared: dict = dataclasses.field(default_factory=dict)
 
 
 class SweepDirectoryError(PlotError):
@@ -56,7 +61,8 @@ def load_sweep(path: Path) -> tuple[Layout, dict[str, np.ndarray]]:
     try:
         meta = json.loads((path / "sweep.json").read_text(encoding="utf-8"))
         sweep = Layout(tuple(meta["axes"]), dict(meta["design"]),
-                       {key: list(values) for key, values in meta["grid"].items()})
+                       {key: list(values) for key, values in meta["grid"].items()},
+                       choice.log_design(meta), choice.declared(meta))
         if journal.exists(path):  # a stopped sweep: its rows so far
             records = journal.read(path)
             axes, columns = results.parse(results.text(
@@ -104,12 +110,22 @@ def _shown(value) -> str:
     return f"{value:.6g}" if isinstance(value, float) else str(value)
 
 
-def _scale(ax, which: str, values: np.ndarray, labels: list | None, name: str) -> None:
-    getattr(ax, f"set_{which}label")(name)
+def _scale(ax, which: str, values: np.ndarray, labels: list | None, key: str,
+           log: bool = False) -> None:
+    """An axis of a swept key: its symbol and unit, categories as ticks, or a log scale where
+    the design or the values call for one (:func:`rodfem.post.choice.logarithmic`)."""
+    getattr(ax, f"set_{which}label")(names.key_label(key))
     if labels is not None:
         getattr(ax, f"set_{which}ticks")(range(len(labels)), [_shown(v) for v in labels])
-    elif values.size and values.min() > 0 and values.max() / values.min() >= 100:
+    elif choice.logarithmic(values, log):
         getattr(ax, f"set_{which}scale")("log")
+
+
+def _norm(values: np.ndarray):
+    """The colour scale of a measure: logarithmic where its values span decades."""
+    finite = values[np.isfinite(values)]
+    low, high = (finite.min(), finite.max()) if finite.size else (0.0, 1.0)
+    return LogNorm(low, high) if choice.logarithmic(finite) else Normalize(low, high)
 
 
 def _save(fig: Figure, path: Path) -> Path:
@@ -118,48 +134,52 @@ def _save(fig: Figure, path: Path) -> Path:
     return path
 
 
-def _lines(ax, x, labels, xname, y, ok, groups) -> None:
-    """The measure against x, one line per (label, rows) of ``groups``, valid rows only."""
+def _lines(ax, x, labels, key, log, y, ok, groups) -> None:
+    """The measure against x, one line per (label, rows) of ``groups``, valid rows only; y on a
+    log scale where the drawn values span decades."""
     for label, rows in groups:
         keep = rows & ok
         order = np.argsort(x[keep], kind="stable") if labels is None else slice(None)
         ax.plot(x[keep][order], y[keep][order], marker="o", label=label)
-    _scale(ax, "x", x, labels, xname)
+    _scale(ax, "x", x, labels, key, log)
+    if choice.logarithmic(y[ok]):
+        ax.set_yscale("log")
+    ax.grid(True, color="0.9")
     if not ok.any():
         ax.text(0.5, 0.5, "no complete scene", transform=ax.transAxes, ha="center")
 
 
-def _map(ax, fig, sweep, columns, name, y, ok, rows) -> None:
+def _map(ax, fig, sweep, columns, label, y, ok, rows) -> None:
     """The measure over the first two grid axes, at the rows ``rows``."""
     first, second = [a for a in sweep.axes if sweep.design[a] == "grid"][:2]
     xs, ys = ([_key(v) for v in sweep.grid[a]] for a in (first, second))
     grid = np.full((len(ys), len(xs)), np.nan)
     for r in np.flatnonzero(rows & ok):
         grid[ys.index(_key(columns[second][r])), xs.index(_key(columns[first][r]))] = y[r]
-    finite = grid[np.isfinite(grid)]
-    low, high = (finite.min(), finite.max()) if finite.size else (0.0, 1.0)
-    image = ax.imshow(np.ma.masked_invalid(grid), origin="lower", aspect="auto",
-                      vmin=low, vmax=high, cmap="viridis")
+    norm = _norm(grid)
+    image = ax.imshow(np.ma.masked_invalid(grid), origin="lower", aspect="auto", norm=norm,
+                      cmap="viridis")
     for j, i in np.argwhere(~np.isfinite(grid)):
         ax.add_patch(Rectangle((i - 0.5, j - 0.5), 1, 1, **MISSING))
     if grid.size <= 100:
         for (j, i), value in np.ndenumerate(grid):
             if np.isfinite(value):
-                light = (value - low) / ((high - low) or 1) > 0.6
+                light = norm(value) > 0.6
                 ax.text(i, j, f"{value:.3g}", ha="center", va="center", fontsize=8,
                         color="black" if light else "white")
-    for which, axis, values in (("x", first, sweep.grid[first]), ("y", second, sweep.grid[second])):
-        _scale(ax, which, np.array([]), values, axis)
-    fig.colorbar(image, ax=ax, label=name)
+    for which, axis in (("x", first), ("y", second)):
+        _scale(ax, which, np.array([]), sweep.grid[axis], axis)
+    fig.colorbar(image, ax=ax, label=label)
 
 
-def _scatter(ax, fig, sweep, columns, name, y, ok) -> None:
+def _scatter(ax, fig, sweep, columns, label, y, ok) -> None:
     (x, xl), (z, zl) = (_positions(columns[a]) for a in sweep.axes[:2])
-    points = ax.scatter(x[ok], z[ok], c=y[ok], cmap="viridis", edgecolors="black")
+    points = ax.scatter(x[ok], z[ok], c=y[ok], cmap="viridis", norm=_norm(y[ok]),
+                        edgecolors="black")
     ax.scatter(x[~ok], z[~ok], marker="x", color="grey", label="failed or nan")
-    _scale(ax, "x", x, xl, sweep.axes[0])
-    _scale(ax, "y", z, zl, sweep.axes[1])
-    fig.colorbar(points, ax=ax, label=name)
+    _scale(ax, "x", x, xl, sweep.axes[0], sweep.axes[0] in sweep.logs)
+    _scale(ax, "y", z, zl, sweep.axes[1], sweep.axes[1] in sweep.logs)
+    fig.colorbar(points, ax=ax, label=label)
     if (~ok).any():
         ax.legend(loc="best")
 
@@ -171,8 +191,25 @@ def _figure(title: str) -> tuple[Figure, object]:
     return fig, ax
 
 
+def _symbol(key: str) -> str:
+    """A swept key in a title: its symbol, or the key."""
+    symbol = names.key_symbol(key)
+    return f"${symbol}$" if symbol else key
+
+
+def _where(columns, others: list[str]) -> str:
+    return ", ".join(f"{_symbol(a)} = {_shown(columns[a][0])}" for a in others)
+
+
+def _files(out: Path, drawn: list[str], lines: bool) -> list[Path]:
+    return [out / f for name in drawn
+            for f in (f"sweep_{name}.png", *((f"sweep_{name}_lines.png",) if lines else ()))]
+
+
 def plot_sweep(path: Path, out: Path | None = None, force: bool = False,
-               only: list[str] | None = None) -> list[Path]:
+               measures: list[str] | None = None, overlay: bool = False,
+               window: tuple[float, float] | None = None, note=None,
+               option: str = "--measures") -> list[Path]:
     """Draw the figures of a sweep directory (``results.csv`` and ``sweep.json``).
 
     Args:
@@ -180,74 +217,80 @@ def plot_sweep(path: Path, out: Path | None = None, force: bool = False,
         out: the figure directory, created if need be (default: ``path/figures``, whose
             figures are drawn again; in ``out`` only with ``force``).
         force: replace figures of the same names in ``out`` (no other file is touched).
-        only: the measures to draw (default: every one).
+        measures: the measures to draw (default: the informative ones; with ``overlay``, none).
+        overlay: also draw the scenes' histories overlaid (:mod:`rodfem.post.scenes`), from
+            the histories the sweep kept (``--histories``).
+        window: the time window of the overlaid histories.
+        note: called with a line naming the measures left out by default, if any.
+        option: the option that chose ``measures``, as its errors name it.
 
     Returns:
         The files written: per measure (in the table's order) ``sweep_<measure>.png``, then
-        ``sweep_<measure>_lines.png`` if there is one.
+        ``sweep_<measure>_lines.png`` if there is one; then the overlays.
 
     Raises:
         SweepDirectoryError: the directory is not a readable sweep directory (nothing written).
-        PlotError: an unknown measure in ``only``, or figures in ``out`` without ``force``.
+        PlotError: an unknown measure, no history kept for ``overlay``, or figures in ``out``
+            without ``force``.
     """
+    from rodfem.post import scenes  # here: the curves load VTK, which the measures never need
+
     path = Path(path)
     sweep, columns = load_sweep(path)
-    names = [measure.name for measure in MEASURES]
-    unknown = [name for name in only or () if name not in names]
-    if unknown or (only is not None and not only):
-        raise PlotError(f"--only: unknown measure {(unknown or [''])[0]!r}; the measures are "
-                        f"{', '.join(names)}")
+    drawn, skipped = ([], None) if overlay and measures is None \
+        else choice.choose(columns, measures, option)
+    overlaid = scenes.plan(path, sweep, columns, window) if overlay else None
     given = out is not None
     out = Path(out) if given else path / "figures"
-    complete = columns["status"] == "complete"
     axes, grid_axes = sweep.axes, [a for a in sweep.axes if sweep.design[a] == "grid"]
     lines = len(axes) == 2 and len(grid_axes) == 2
-    drawn = []
-    for name in names:
-        y = np.asarray(columns[name], dtype=float)
-        if only is not None and name not in only:
-            continue
-        if name == "t_final" and len(np.unique(y[np.isfinite(y)])) <= 1:
-            continue
-        drawn.append(name)
-    files = [out / f for name in drawn
-             for f in (f"sweep_{name}.png", *((f"sweep_{name}_lines.png",) if lines else ()))]
+    files = _files(out, drawn, lines) + ([out / f for f in scenes.FIGURES] if overlay else [])
     existing = [file for file in files if file.exists()]
     if given and existing and not force:
         more = f" (and {len(existing) - 1} more)" if len(existing) > 1 else ""
         raise PlotError(f"{existing[0]} exists{more}: --force replaces the figures rodfem "
                         "draws there")
+    if skipped and note is not None:
+        note(skipped)
     out.mkdir(parents=True, exist_ok=True)  # an OSError is a write error (exit code 4)
+    written = [_measure(out, sweep, columns, name) for name in drawn]
+    written = [file for pair in written for file in pair]
+    return written + (scenes.draw(overlaid, out) if overlay else [])
+
+
+def _measure(out: Path, sweep: Layout, columns, name: str) -> list[Path]:
+    """The figures of one measure: ``sweep_<name>.png`` (and ``_lines`` over two grid axes)."""
+    axes, grid_axes = sweep.axes, [a for a in sweep.axes if sweep.design[a] == "grid"]
     others = [a for a in axes if a not in grid_axes[:2]]
-    at = np.ones(len(complete), dtype=bool)
+    at = np.ones(len(columns["status"]), dtype=bool)
     for axis in others if len(grid_axes) >= 2 else ():
         at &= np.array([_key(v) == _key(columns[axis][0]) for v in columns[axis]])
-    where = ", ".join(f"{a} = {_shown(columns[a][0])}" for a in others)
-    written = []
-    for name in drawn:
-        y = np.asarray(columns[name], dtype=float)
-        ok = complete & np.isfinite(y)
-        if len(axes) == 1:
-            fig, ax = _figure(f"{name} against {axes[0]}")
-            _lines(ax, *_positions(columns[axes[0]]), axes[0], y, ok, [(None, at)])
-            ax.set_ylabel(name)
-        elif len(grid_axes) >= 2:
-            fig, ax = _figure(f"{name} over {grid_axes[0]} and {grid_axes[1]}"
-                              + (f"\nat {where}" if others else ""))
-            _map(ax, fig, sweep, columns, name, y, ok, at)
-        else:
-            fig, ax = _figure(f"{name} over {axes[0]} and {axes[1]}")
-            _scatter(ax, fig, sweep, columns, name, y, ok)
-        written.append(_save(fig, out / f"sweep_{name}.png"))
-        if lines:
-            fig, ax = _figure(f"{name} against {axes[0]}")
-            keys = [_key(v) for v in columns[axes[1]]]
-            groups = [(f"{axes[1]} = {_shown(v)}", np.array([k == _key(v) for k in keys]))
-                      for v in sweep.grid[axes[1]]]
-            _lines(ax, *_positions(columns[axes[0]]), axes[0], y, ok, groups)
-            ax.set_ylabel(name)
-            # beside the axes, not over them: "best" still covers lines where every corner has one
-            ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
-                      fontsize="small")
-            written.append(_save(fig, out / f"sweep_{name}_lines.png"))
+    y = np.asarray(columns[name], dtype=float)
+    ok = (columns["status"] == "complete") & np.isfinite(y)
+    label = names.measure_label(name, sweep.declared)
+    title = names.measure_title(name, sweep.declared)
+    first = axes[0]
+    if len(axes) == 1:
+        fig, ax = _figure(f"{title} against {_symbol(first)}")
+        _lines(ax, *_positions(columns[first]), first, first in sweep.logs, y, ok, [(None, at)])
+        ax.set_ylabel(label)
+    elif len(grid_axes) >= 2:
+        fig, ax = _figure(f"{title} over {_symbol(grid_axes[0])} and {_symbol(grid_axes[1])}"
+                          + (f"\nat {_where(columns, others)}" if others else ""))
+        _map(ax, fig, sweep, columns, label, y, ok, at)
+    else:
+        fig, ax = _figure(f"{title} over {_symbol(first)} and {_symbol(axes[1])}")
+        _scatter(ax, fig, sweep, columns, label, y, ok)
+    written = [_save(fig, out / f"sweep_{name}.png")]
+    if len(axes) == 2 and len(grid_axes) == 2:
+        fig, ax = _figure(f"{title} against {_symbol(first)}")
+        keys = [_key(v) for v in columns[axes[1]]]
+        groups = [(f"{_symbol(axes[1])} = {_shown(v)}", np.array([k == _key(v) for k in keys]))
+                  for v in sweep.grid[axes[1]]]
+        _lines(ax, *_positions(columns[first]), first, first in sweep.logs, y, ok, groups)
+        ax.set_ylabel(label)
+        # beside the axes, not over them: "best" still covers lines where every corner has one
+        ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
+                  fontsize="small")
+        written.append(_save(fig, out / f"sweep_{name}_lines.png"))
     return written
