@@ -22,6 +22,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from rodfem.scene.measures import point  # noqa: F401 (re-exported)
 from rodfem.solver.record import RAW, RAW_INDEX  # noqa: F401 (re-exported)
 
 
@@ -44,12 +45,6 @@ class Column:
     compute: Callable[[dict[str, np.ndarray], Context], np.ndarray]
     integer: bool = False
     reads: tuple[tuple[str, float], ...] = ()  # the readings (field, x) it needs
-
-
-def point(x: float) -> str:
-    """x as a column name writes it: the shortest text that reads back as x, without ".0"."""
-    text = repr(float(x))
-    return text[:-2] if text.endswith(".0") else text
 
 
 def reading_name(field: str, x: float) -> str:

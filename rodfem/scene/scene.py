@@ -7,17 +7,20 @@ import dataclasses
 from typing import Any
 
 from rodfem.scene.expressions import Expression
+from rodfem.scene.measures import Declared, toml_lines
 from rodfem.scene.schema import MODEL_NAMES, SCHEMA, SOURCE_NAMES, Key
 from rodfem.scene.values import _toml_value
 
 
 @dataclasses.dataclass(frozen=True)
 class Scene:
-    """A validated scene: ``sections[section][key]`` holds every key, defaults filled in."""
+    """A validated scene: ``sections[section][key]`` holds every key, defaults filled in;
+    ``measures``, the measures it declares (:mod:`rodfem.scene.measures`), in the file's order."""
 
     sections: dict[str, dict[str, Any]]
     description: str = ""
     source: str = ""
+    measures: tuple[Declared, ...] = ()
 
     def __getitem__(self, dotted: str) -> Any:
         section, key = dotted.split(".")
@@ -49,9 +52,13 @@ class Scene:
 
     def data(self) -> dict[str, dict[str, Any]]:
         """The resolved scene as TOML data (a fresh copy): every key that applies, so that
-        :func:`validate` of it gives this scene again."""
-        return {section: {key: self.sections[section][key] for key, spec in keys.items()
+        :func:`validate` of it gives this scene again; a ``measures`` table where it declares
+        any."""
+        data = {section: {key: self.sections[section][key] for key, spec in keys.items()
                           if _applies(self, spec)} for section, keys in SCHEMA.items()}
+        if self.measures:
+            data["measures"] = {m.name: m.data() for m in self.measures}
+        return data
 
     def to_toml(self) -> str:
         """The resolved scene as TOML: loading it gives the same scene."""
@@ -59,11 +66,13 @@ class Scene:
         if self.description:
             lines += [f"description = {_toml_value(self.description)}", ""]
         for section, keys in self.data().items():
+            if section == "measures":
+                continue
             lines.append(f"[{section}]")
             for key, value in keys.items():
                 lines.append(f"{key} = {_toml_value(value)}")
             lines.append("")
-        return "\n".join(lines)
+        return "\n".join([*lines, *toml_lines(self.measures)])
 
 
 def _applies(scene: Scene, spec: Key) -> bool:
