@@ -129,11 +129,15 @@ PROBES = (
 
 def for_scene(scene) -> tuple[Column, ...]:
     """The columns of a scene's history.h5: the default ones, the quantities its
-    output.history names, then per probe x the columns of :data:`PROBES`."""
+    output.history names, per probe x the columns of :data:`PROBES`, then the columns its
+    declared measures name that are none of these (a measure's column is recorded)."""
     chosen = {column.name: column for column in QUANTITIES}
     adaptive = ADAPTIVE if scene["time.adaptive"] else ()
-    return (*COLUMNS, *adaptive, *(chosen[name] for name in scene["output.history"]),
-            *(make(x) for x in scene["output.probes"] for _, _, make in PROBES))
+    columns = (*COLUMNS, *adaptive, *(chosen[name] for name in scene["output.history"]),
+               *(make(x) for x in scene["output.probes"] for _, _, make in PROBES))
+    have = {column.name for column in columns}
+    wanted = dict.fromkeys(m.column for m in scene.measures if m.column not in have)
+    return (*columns, *named(wanted))
 
 
 def named(names) -> tuple[Column, ...]:
