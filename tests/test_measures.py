@@ -248,3 +248,32 @@ def test_results_csv_of_an_earlier_rodfem_still_reads():
                    + ",Peak,error", "index,status," + ",".join(BUILT_IN) + ",t_final,error"):
         with pytest.raises(table.ResultsError, match="header is not rodfem's"):
             table.parse(header + "\n")
+
+
+@pytest.mark.parametrize("window", [None, (0.25, 0.75), (0.3, 5.0), (0.0, 0.5)])
+def test_reductions_of_uneven_rows_in_any_blocks(window):
+    """Rows at uneven times (some a window's end exactly), in blocks of any sizes: the same
+    values bit for bit as in one block, each its value recomputed from the rows."""
+    from rodfem.output.reductions import Reductions
+    from rodfem.scene.measures import Declared
+
+    rng = np.random.default_rng(7)
+    t = np.concatenate([[0.0], np.cumsum(rng.uniform(1e-3, 2e-2, 120))])
+    t[40] = 0.25  # a row at a window's end
+    t = np.sort(t)
+    f = np.sin(40 * t) + 0.1 * rng.standard_normal(t.size)
+    declared = [Declared(f"m_{r}", "f", r, window) for r in REDUCTIONS]
+    whole = Reductions(declared)
+    whole.update(t, {"f": f})
+    for _ in range(5):
+        cuts = np.sort(rng.choice(np.arange(1, t.size), size=rng.integers(1, 20), replace=False))
+        blocks = Reductions(declared)
+        for rows in np.split(np.arange(t.size), cuts):
+            # a resumed run's reductions: from the state a checkpoint keeps, through JSON
+            blocks = Reductions(declared, json.loads(json.dumps(blocks.saved())))
+            blocks.update(t[rows], {"f": f[rows]})
+        assert blocks.values() == whole.values()
+    for m in declared:
+        value = whole.values()[m.name]
+        assert abs(value - recomputed(t, f, m.reduce, window)) <= tolerance(t, f, m.reduce,
+                                                                            window), m.name

@@ -29,6 +29,7 @@ import math
 import numpy as np
 
 NAN = math.nan
+EXTREMES = ("max", "min", "max_abs", "time_of_max_abs")  # of the points of the interpolant
 
 
 @dataclasses.dataclass
@@ -38,6 +39,7 @@ class Reduction:
 
     t0: float = 0.0
     t1: float = math.inf
+    reduce: str = "final"  # what is computed: only what this reduction needs
     t: float | None = None  # the last row seen
     f: float | None = None
     covered: bool = False
@@ -74,8 +76,15 @@ class Reduction:
             return
         start, end, a, b = start[kept], end[kept], a[kept], b[kept]
         fs, fe = values[:-1][kept], values[1:][kept]
+        if self.reduce == "final":  # f at the last point covered
+            self.last = float(_at(b[-1:], start[-1:], end[-1:], fs[-1:], fe[-1:])[0])
+            self.covered = True
+            return
         fa, fb = _at(a, start, end, fs, fe), _at(b, start, end, fs, fe)
-        self._points(np.column_stack([a, b]).ravel(), np.column_stack([fa, fb]).ravel())
+        if self.reduce in EXTREMES:
+            self._points(np.column_stack([a, b]).ravel(), np.column_stack([fa, fb]).ravel())
+            return
+        self.covered = True
         width = b - a
         self.integral = _sum(self.integral, width * ((fa + fb) * 0.5))
         self.length = _sum(self.length, width)
@@ -134,7 +143,7 @@ class Reductions:
         for m in self.declared:
             window = m.window or (0.0, math.inf)
             self.states[m.name] = Reduction(**{**state.get(m.name, {}), "t0": window[0],
-                                               "t1": window[1]})
+                                               "t1": window[1], "reduce": m.reduce})
 
     def update(self, t: np.ndarray, columns: dict[str, np.ndarray]) -> None:
         """Count a block of rows of every step: their times and columns by name."""
@@ -143,7 +152,8 @@ class Reductions:
 
     def saved(self) -> dict:
         """The state, as a checkpoint keeps it (JSON: the window is the scene's)."""
-        return {name: {k: v for k, v in dataclasses.asdict(s).items() if k not in ("t0", "t1")}
+        return {name: {k: v for k, v in dataclasses.asdict(s).items()
+                       if k not in ("t0", "t1", "reduce")}
                 for name, s in self.states.items()}
 
     def values(self) -> dict[str, float]:
