@@ -377,7 +377,7 @@ class Simulation:
     def measures(self, summary: dict) -> dict:
         """The run's measures (:func:`rodfem.output.measures.measures`): the declared ones
         reduced over every step; the built-in ones of the history's last row kept and the
-        summary's records (of contact, over every step). None without a row."""
+        summary's records (of contact, over every step). Empty without a row."""
         if self.last_row is None:
             return {}
         names = [column.name for column in self.history.columns]
