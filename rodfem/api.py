@@ -82,8 +82,9 @@ class Result:
 
     @property
     def measures(self) -> dict[str, float | int]:
-        """The run's measures by name (:mod:`rodfem.output.measures`), as a sweep records
-        them; empty for a run with no step on the disk."""
+        """The run's measures by name, as a sweep records them (the built-in ones of
+        :mod:`rodfem.output.measures`, then those the scene declares, :mod:`rodfem.scene.measures`);
+        empty for a run with no step on the disk."""
         if len(self.history) == 0:
             return {}
         columns = {name: self.history[name] for name in self.history.dtype.names}

@@ -19,9 +19,10 @@ from rodfem.output.directories import finish
 from rodfem.output.fields import FieldFile
 from rodfem.output.files import write_json, write_text
 from rodfem.output.history import History
-from rodfem.output.measures import Contact
+from rodfem.output.measures import Contact, measures
 from rodfem.output.pointwise import Pointwise
 from rodfem.output.progress import Progress
+from rodfem.output.reductions import Reductions
 from rodfem.output.sizes import frame, save_every, save_interval
 from rodfem.output.summary import EnergyMonitor, Iterations, run_summary
 from rodfem.scene import Scene
@@ -139,6 +140,9 @@ class Simulation:
         self.energy = EnergyMonitor(**meta.get("energy", {}))
         self.iterations = Iterations(**meta.get("iterations", {}))
         self.contact = Contact(**meta.get("contact", {}))  # over every step, whatever rows are kept
+        self.reductions = Reductions(scene.measures, meta.get("reductions"))  # the same
+        last = meta.get("last_row")  # the history's last row kept, for the measures
+        self.last_row = np.array([last]) if last is not None else None
         self.steps, self.every, self.dt = scene.steps, save_every(scene), scene["time.dt"]
         self.io_error: list[str] = []
         # the last step whose fields are saved (a resumed run's, from its checkpoint), and with
@@ -194,13 +198,20 @@ class Simulation:
         event = rows[:, names.index("event")] if "event" in names else None
         self.contact.update(steps_of, rows[:, INDEX["u_1"]], rows[:, INDEX["sigma_1"]],
                             self.scene["obstacle.gap"], t=rows[:, INDEX["t"]], event=event)
-        self.rows_out.append(rows[steps_of % self.scene["output.history_every"] == 0])
+        self.reductions.update(rows[:, INDEX["t"]], {name: rows[:, j] for j, name in
+                                                     enumerate(names)})
+        kept = rows[steps_of % self.scene["output.history_every"] == 0]
+        if len(kept):
+            self.last_row = kept[-1:].copy()
+        self.rows_out.append(kept)
 
     def state_meta(self) -> dict:
         return {"step": self.method.n, "scene": self.scene.data(), "source": self.scene.source,
                 "mpi_ranks": self.comm.size, "energy": dataclasses.asdict(self.energy),
                 "iterations": dataclasses.asdict(self.iterations),
                 "contact": dataclasses.asdict(self.contact),
+                "reductions": self.reductions.saved(),
+                "last_row": None if self.last_row is None else self.last_row[0].tolist(),
                 "loop_seconds": self.loop_before + time.perf_counter() - self.loop_started,
                 **({} if self.stepper is None else
                    {"adaptive": {"rejected": self.stepper.rejected,
@@ -348,6 +359,7 @@ class Simulation:
                            setup_seconds, loop_seconds, self.comm, resumed=self.resumed,
                            dolfinx=self.library_version)
         summary["contact"] = dataclasses.asdict(self.contact)
+        summary["measures"] = self.measures(summary)
         if self.stepper is not None:
             summary["adaptive"] = self.stepper.counts()
         if files is not None:
@@ -361,6 +373,16 @@ class Simulation:
                          self.rows_out.rows_so_far() if files is None else None,
                          io_error[0] if io_error else None, interrupts.signal_received(),
                          kept.kept() if kept is not None else None)
+
+    def measures(self, summary: dict) -> dict:
+        """The run's measures (:func:`rodfem.output.measures.measures`): the declared ones
+        reduced over every step; the built-in ones of the history's last row kept and the
+        summary's records (of contact, over every step). Empty without a row."""
+        if self.last_row is None:
+            return {}
+        names = [column.name for column in self.history.columns]
+        last = {name: self.last_row[:, j] for j, name in enumerate(names)}
+        return measures(last, self.scene, {**summary, "measures": self.reductions.values()})
 
     def write_summary(self, summary: dict, status: str) -> None:
         """summary.json and the marker's final status (a write error is kept; every rank

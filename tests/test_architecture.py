@@ -100,6 +100,19 @@ def test_recorded_quantities_agree_with_the_schema():
     assert set(SCHEMA["output"]["fields"].default) <= set(FIELDS)
 
 
+def test_the_columns_and_names_measures_may_name_agree_with_the_output_layer():
+    """The scene layer keeps the history's column names and the built-in measures' names that
+    a declared measure may (and may not) use: they are the output layer's."""
+    from rodfem.output import columns
+    from rodfem.output.measures import NAMES as BUILTIN
+    from rodfem.scene import measures
+
+    assert measures.DEFAULT_COLUMNS == columns.NAMES
+    assert measures.ADAPTIVE_COLUMNS == tuple(c.name for c in columns.ADAPTIVE)
+    assert measures.PROBE_FIELDS == tuple(p.split("@")[0] for p, _, _ in columns.PROBES)
+    assert measures.BUILTIN_NAMES == BUILTIN
+
+
 def test_history_header():
     assert ",".join(NAMES) == "t,u_1,u_half,ut_1,sigma_1,energy,iterations"
 

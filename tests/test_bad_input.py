@@ -299,3 +299,55 @@ def test_python_sweep_keys_with_spaces_are_refused(tmp_path):
         rodfem.sweep({"scene": "paper1", "grid": {"model.k": [1, 2], "model.k ": [3, 4]}},
                      out=tmp_path / "out", comm=MPI.COMM_SELF)
     assert not (tmp_path / "out").exists()
+
+
+MEASURES = {
+    "column": ('p = { column = "u_2", reduce = "max" }',
+               "measures.p: unknown column 'u_2'; allowed: t, u_1,"),
+    "reduce": ('p = { column = "u_1", reduce = "maxx" }',
+               "measures.p: unknown reduce 'maxx'; allowed: max, min, max_abs,"),
+    "key": ('p = { column = "u_1", reduce = "max", when = 1 }',
+            "measures.p: unknown key 'when'; allowed: column, reduce, window"),
+    "window": ('p = { column = "u_1", reduce = "max", window = [0.5, 0.1] }',
+               "measures.p: window [0.5, 0.1] must have 0 <= t0 < t1"),
+    "window after the end": ('p = { column = "u_1", reduce = "max", window = [9, 10] }',
+                             "measures.p: window starts at 9.0, at or after time.end = 8.0"),
+    "probe": ('p = { column = "u@2", reduce = "max" }', "the point x of u@x must be a number"),
+    "adaptive only": ('p = { column = "dt", reduce = "max" }',
+                      "column 'dt' is recorded only with time.adaptive = true"),
+    "built-in name": ('t_final = { column = "t", reduce = "final" }',
+                      "measures.t_final: 't_final' is a built-in measure"),
+    "name": ('Peak = { column = "t", reduce = "final" }',
+             "measures.Peak: a measure's name must be lower-case letters"),
+    "missing": ('p = { reduce = "max" }', "measures.p: needs a column"),
+}
+
+
+@pytest.mark.parametrize("command", ["run", "sweep"])
+@pytest.mark.parametrize("case", sorted(MEASURES))
+def test_bad_measures_are_refused(command, case, shared_dir, capsys):
+    """A scene's or a sweep's [measures]: one line naming the measure and what is allowed,
+    nothing written."""
+    entry, message = MEASURES[case]
+    path = shared_dir / "file.toml"
+    if COMM.rank == 0:
+        head = 'scene = "paper1"\n[grid]\n"model.k" = [1, 2]\n' if command == "sweep" else ""
+        path.write_text(f"{head}[measures]\n{entry}\n")
+    COMM.barrier()
+    out = shared_dir / "out"
+    code, err = _run([command, str(path), "--out", str(out)], capsys)
+    _one_line(code, err, message)
+    assert not out.exists()
+
+
+def test_a_sweep_may_not_declare_a_measure_its_scene_declares(shared_dir, capsys):
+    if COMM.rank == 0:
+        (shared_dir / "base.toml").write_text('[measures]\np = { column = "t", reduce = "max" }\n')
+        (shared_dir / "sweep.toml").write_text(
+            'scene = "base.toml"\n[grid]\n"model.k" = [1, 2]\n'
+            '[measures]\np = { column = "u_1", reduce = "max" }\n')
+    COMM.barrier()
+    out = shared_dir / "out"
+    code, err = _run(["sweep", str(shared_dir / "sweep.toml"), "--out", str(out)], capsys)
+    _one_line(code, err, "sweep.toml: measures.p is declared by the base scene too")
+    assert not out.exists()

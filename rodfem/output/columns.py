@@ -22,6 +22,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from rodfem.scene.measures import point  # noqa: F401 (re-exported)
 from rodfem.solver.record import RAW, RAW_INDEX  # noqa: F401 (re-exported)
 
 
@@ -44,12 +45,6 @@ class Column:
     compute: Callable[[dict[str, np.ndarray], Context], np.ndarray]
     integer: bool = False
     reads: tuple[tuple[str, float], ...] = ()  # the readings (field, x) it needs
-
-
-def point(x: float) -> str:
-    """x as a column name writes it: the shortest text that reads back as x, without ".0"."""
-    text = repr(float(x))
-    return text[:-2] if text.endswith(".0") else text
 
 
 def reading_name(field: str, x: float) -> str:
@@ -134,11 +129,15 @@ PROBES = (
 
 def for_scene(scene) -> tuple[Column, ...]:
     """The columns of a scene's history.h5: the default ones, the quantities its
-    output.history names, then per probe x the columns of :data:`PROBES`."""
+    output.history names, per probe x the columns of :data:`PROBES`, then the columns its
+    declared measures name that are none of these (a measure's column is recorded)."""
     chosen = {column.name: column for column in QUANTITIES}
     adaptive = ADAPTIVE if scene["time.adaptive"] else ()
-    return (*COLUMNS, *adaptive, *(chosen[name] for name in scene["output.history"]),
-            *(make(x) for x in scene["output.probes"] for _, _, make in PROBES))
+    columns = (*COLUMNS, *adaptive, *(chosen[name] for name in scene["output.history"]),
+               *(make(x) for x in scene["output.probes"] for _, _, make in PROBES))
+    have = {column.name for column in columns}
+    wanted = dict.fromkeys(m.column for m in scene.measures if m.column not in have)
+    return (*columns, *named(wanted))
 
 
 def named(names) -> tuple[Column, ...]:

@@ -29,6 +29,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from rodfem.output.reductions import reduce
+from rodfem.scene.measures import Declared
+
 
 @dataclasses.dataclass(frozen=True)
 class Measure:
@@ -78,8 +81,16 @@ def _change_times(t: np.ndarray, events: np.ndarray, states: np.ndarray,
     return np.where(events[:-1][changed], t[:-1][changed], t[1:][changed])
 
 
-def _final(name: str):
-    return lambda history, scene, summary: float(history[name][-1])
+# The built-in measures that are a reduction of a column (rodfem.output.reductions): of the
+# history's rows, as they always were (its last row, whatever rows it keeps).
+BUILT_IN = (Declared("t_final", "t", "final"), Declared("u_1_final", "u_1", "final"),
+            Declared("sigma_1_final", "sigma_1", "final"),
+            Declared("energy_final", "energy", "final"))
+
+
+def _reduced(name: str):
+    declared = next(m for m in BUILT_IN if m.name == name)
+    return lambda history, scene, summary: reduce((declared,), history)[name]
 
 
 @dataclasses.dataclass
@@ -206,9 +217,10 @@ def _last_contact_change(history, scene, summary) -> float:
 
 
 MEASURES = (
-    Measure("t_final", "the time the run reached: T if it is complete", _final("t")),
-    Measure("u_1_final", "u(1, t) at the last step", _final("u_1")),
-    Measure("sigma_1_final", "the contact stress σ(1, t) at the last step", _final("sigma_1")),
+    Measure("t_final", "the time the run reached: T if it is complete", _reduced("t_final")),
+    Measure("u_1_final", "u(1, t) at the last step", _reduced("u_1_final")),
+    Measure("sigma_1_final", "the contact stress σ(1, t) at the last step",
+            _reduced("sigma_1_final")),
     Measure("max_penetration", "max over the steps of [u(1, tⁿ) − g]₊ (the rigid obstacle: "
             "round-off)", _max_penetration),
     Measure("contact_fraction", "the fraction of the steps in contact (an adaptive run: of the "
@@ -218,7 +230,7 @@ MEASURES = (
     Measure("last_contact_change", "the time tⁿ of the last step whose contact state differs "
             "from the step before's, or of the contact event before it (nan if it never "
             "changes; a run starting in contact counts as a change at t¹)", _last_contact_change),
-    Measure("energy_final", "the discrete energy Êⁿ at the last step", _final("energy")),
+    Measure("energy_final", "the discrete energy Êⁿ at the last step", _reduced("energy_final")),
     Measure("iterations_max", "the most iterations any step took (a failed step's included)",
             lambda history, scene, summary: int(summary["iterations_max"]), integer=True),
     Measure("loop_seconds", "wall time of the time loop, s (a timing: it varies from run to "
@@ -229,6 +241,18 @@ TIMINGS = ("loop_seconds",)  # the measures that are not reproducible bit for bi
 
 
 def measures(history: dict[str, np.ndarray], scene, summary: dict) -> dict[str, float | int]:
-    """Every measure of a run, by name. ``history``: its columns by name (at least the row of
-    n = 0)."""
-    return {m.name: m.compute(history, scene, summary) for m in MEASURES}
+    """Every measure of a run, by name: the built-in ones, then those the scene declares
+    (``scene.measures``). ``history``: its columns by name (at least the row of n = 0).
+
+    A run reduces its declared measures over every step as it goes, into its summary's
+    ``measures``; where the summary has none (a run killed before it wrote it), they are
+    reduced from the history's rows (the same values where it keeps every row)."""
+    values = {m.name: m.compute(history, scene, summary) for m in MEASURES}
+    declared = getattr(scene, "measures", ())  # a Scene's (a mapping of its keys has none)
+    kept = summary.get("measures")
+    kept = kept if isinstance(kept, dict) else {}
+    if any(m.name not in kept for m in declared):
+        kept = {**reduce(declared, history), **kept}
+    # summary.json writes NaN (a window the run never reached) as null
+    return {**values, **{m.name: float("nan") if kept[m.name] is None else float(kept[m.name])
+                         for m in declared}}

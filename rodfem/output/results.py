@@ -1,8 +1,10 @@
 """A sweep's ``results.csv``: one row per scene, in the sweep's order.
 
 Columns: ``index`` (the scene's place in the sweep, from 0), the swept keys (named by the key,
-e.g. ``model.k``), ``status`` (complete | failed | interrupted), the measures of
-:mod:`rodfem.output.measures` and ``error`` (why a scene failed; empty otherwise). Numbers are
+e.g. ``model.k``), ``status`` (complete | failed | interrupted), the built-in measures of
+:mod:`rodfem.output.measures`, the measures the scenes declare (:mod:`rodfem.scene.measures`:
+the same for every scene of a sweep) and ``error`` (why a scene failed; empty otherwise).
+:func:`measure_names` gives the measures of a header. Numbers are
 written to round-trip precision (``repr``), so the table of a sweep is the same text whatever the
 number of ranks and however often it was stopped and resumed — but for ``loop_seconds``, a
 timing. Importing this module needs NumPy only.
@@ -13,6 +15,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -29,8 +32,18 @@ class ResultsError(ValueError):
     """A results.csv that is not rodfem's, or cannot be read."""
 
 
-def header(axes: tuple[str, ...]) -> list[str]:
-    return ["index", *axes, "status", *MEASURE_NAMES, "error"]
+DECLARED = re.compile(r"[a-z_][a-z0-9_]*")  # a declared measure's name (rodfem.scene.measures)
+
+
+def header(axes: tuple[str, ...], declared: tuple[str, ...] = ()) -> list[str]:
+    """The names of the columns: ``declared``, the names of the measures the scenes declare."""
+    return ["index", *axes, "status", *MEASURE_NAMES, *declared, "error"]
+
+
+def measure_names(names: list[str] | tuple[str, ...]) -> tuple[str, ...]:
+    """The measures of a header (its names): every column between status and error."""
+    names = list(names)
+    return tuple(names[names.index("status") + 1:names.index("error")])
 
 
 def _text(value: Any) -> str:
@@ -43,20 +56,20 @@ def _text(value: Any) -> str:
 
 
 def line(index: int, point: dict[str, Any], axes: tuple[str, ...], status: str,
-         measures: dict[str, Any], error: str = "") -> str:
-    """One row of results.csv, without its newline."""
+         measures: dict[str, Any], error: str = "", declared: tuple[str, ...] = ()) -> str:
+    """One row of results.csv, without its newline (``declared``: as for :func:`header`)."""
     cells = [index, *(point[a] for a in axes), status,
-             *(measures.get(name, math.nan) for name in MEASURE_NAMES), error]
+             *(measures.get(name, math.nan) for name in (*MEASURE_NAMES, *declared)), error]
     buffer = io.StringIO()
     # the terminator is the writer's, dropped after: a cell with a newline is quoted for it
     csv.writer(buffer, lineterminator="\r\n").writerow([_text(c) for c in cells])
     return buffer.getvalue().removesuffix("\r\n")
 
 
-def text(axes: tuple[str, ...], lines: list[str]) -> str:
+def text(axes: tuple[str, ...], lines: list[str], declared: tuple[str, ...] = ()) -> str:
     """The whole file: the header and the rows (in the order given)."""
     buffer = io.StringIO()
-    csv.writer(buffer, lineterminator="\n").writerow(header(axes))
+    csv.writer(buffer, lineterminator="\n").writerow(header(axes, declared))
     return buffer.getvalue() + "".join(f"{row}\n" for row in lines)
 
 
@@ -106,18 +119,25 @@ def status(line: str, axes: tuple[str, ...]) -> str:
     return row[1 + len(axes)]
 
 
+def _measures_of(names: list[str]) -> bool:
+    """Whether the names after status are the built-in measures, then declared ones (none in
+    the tables of an earlier rodfem), then error."""
+    after = names[names.index("status") + 1:-1]
+    built_in, declared = after[:len(MEASURE_NAMES)], after[len(MEASURE_NAMES):]
+    return (tuple(built_in) == MEASURE_NAMES and len(set(declared)) == len(declared)
+            and all(DECLARED.fullmatch(name) and name not in MEASURE_NAMES for name in declared))
+
+
 def parse(content: str, path: str = NAME) -> tuple[tuple[str, ...], dict[str, np.ndarray]]:
     """:func:`read` of a results.csv's text."""
     try:
         rows = list(csv.reader(io.StringIO(content, newline="")))
     except csv.Error as err:
         raise ResultsError(f"cannot read {path}: {err}") from None
-    status_at = rows[0].index("status") if rows and "status" in rows[0] else -1
-    # the built-in measures, then any declared ones, then error
-    if not rows or rows[0][:1] != ["index"] or status_at < 0 or rows[0][-1:] != ["error"] \
-            or rows[0][status_at + 1:status_at + 1 + len(MEASURE_NAMES)] != list(MEASURE_NAMES):
+    names = rows[0] if rows else []
+    if names[:1] != ["index"] or "status" not in names or names[-1:] != ["error"] \
+            or not _measures_of(names):
         raise ResultsError(f"{path} is not a sweep's results.csv (its header is not rodfem's)")
-    names = rows[0]
     axes = tuple(names[1:names.index("status")])
     body = rows[1:]
     if any(len(r) != len(names) for r in body):

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from rodfem.output.results import measure_names
 from rodfem.post.names import COMPUTING
 from rodfem.post.runs import PlotError
 
@@ -25,10 +26,9 @@ DECADES = 2  # positive values spanning this many decades or more are drawn on a
 
 
 def measure_columns(columns: dict[str, np.ndarray]) -> list[str]:
-    """The measures of a results.csv's columns (read in the header's order): every column
-    between ``status`` and ``error``."""
-    names = list(columns)
-    return names[names.index("status") + 1:names.index("error")]
+    """The measures of a results.csv's columns (read in the header's order): the built-in ones
+    and those the sweep declares (:func:`rodfem.output.results.measure_names`)."""
+    return list(measure_names(tuple(columns)))
 
 
 def log_design(meta: dict[str, Any]) -> frozenset[str]:

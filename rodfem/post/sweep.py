@@ -66,7 +66,8 @@ def load_sweep(path: Path) -> tuple[Layout, dict[str, np.ndarray]]:
         if journal.exists(path):  # a stopped sweep: its rows so far
             records = journal.read(path)
             axes, columns = results.parse(results.text(
-                sweep.axes, [records[i].line for i in sorted(records)]))
+                sweep.axes, [records[i].line for i in sorted(records)],
+                tuple(meta.get("measures", ()))))
         else:
             axes, columns = results.read(path / results.NAME)
     except (OSError, ValueError) as err:  # ResultsError and json's are ValueErrors

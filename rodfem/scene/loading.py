@@ -16,6 +16,7 @@ import numpy as np
 
 from rodfem.scene.expressions import shorten
 from rodfem.scene.files import _parse_toml, read  # noqa: F401 (re-exported)
+from rodfem.scene.measures import parse as parse_measures
 from rodfem.scene.scene import Scene, _applies
 from rodfem.scene.schema import (  # noqa: F401 (re-exported)
     BIG,
@@ -64,7 +65,9 @@ def validate(data: dict[str, Any], source: str = "") -> Scene:
             key: _check_value(f"{section}.{key}", spec, given.get(key, spec.default))
             for key, spec in keys.items()
         }
-    scene = Scene(values, description, source)
+    measures = parse_measures(data.get("measures", {}), values["time"]["adaptive"],
+                              values["time"]["end"])
+    scene = Scene(values, description, source, measures)
     for section, keys in SCHEMA.items():
         for key, spec in keys.items():
             if key in data.get(section, {}) and not _applies(scene, spec):

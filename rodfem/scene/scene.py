@@ -8,6 +8,7 @@ from collections.abc import Iterator, Mapping
 from typing import Any
 
 from rodfem.scene.expressions import Expression, shorten
+from rodfem.scene.measures import Declared, toml_lines
 from rodfem.scene.schema import MODEL_NAMES, SCHEMA, SOURCE_NAMES, Key
 from rodfem.scene.values import _check_value, _toml_value
 
@@ -19,12 +20,14 @@ class Scene(Mapping):
     It is a read-only mapping of the dotted keys that apply to it (those :meth:`data` writes)
     to their values: ``scene["model.k"]``, ``dict(scene)``, ``scene.keys()``, ``"model.k" in
     scene``. A key that does not apply (``time.tolerance`` of a fixed-step scene) is none of its
-    keys, though ``scene[key]`` still reads its default.
+    keys, though ``scene[key]`` still reads its default. ``measures``: the measures it declares
+    (:mod:`rodfem.scene.measures`), in the file's order.
     """
 
     sections: dict[str, dict[str, Any]]
     description: str = ""
     source: str = ""
+    measures: tuple[Declared, ...] = ()
 
     def __getitem__(self, dotted: str) -> Any:
         section, _, key = dotted.partition(".") if isinstance(dotted, str) else ("", "", "")
@@ -78,9 +81,13 @@ class Scene(Mapping):
 
     def data(self) -> dict[str, dict[str, Any]]:
         """The resolved scene as TOML data (a fresh copy): every key that applies, so that
-        :func:`validate` of it gives this scene again."""
-        return {section: {key: self.sections[section][key] for key, spec in keys.items()
+        :func:`validate` of it gives this scene again; a ``measures`` table where it declares
+        any."""
+        data = {section: {key: self.sections[section][key] for key, spec in keys.items()
                           if _applies(self, spec)} for section, keys in SCHEMA.items()}
+        if self.measures:
+            data["measures"] = {m.name: m.data() for m in self.measures}
+        return data
 
     def to_toml(self) -> str:
         """The resolved scene as TOML: loading it gives the same scene."""
@@ -88,11 +95,13 @@ class Scene(Mapping):
         if self.description:
             lines += [f"description = {_toml_value(self.description)}", ""]
         for section, keys in self.data().items():
+            if section == "measures":
+                continue
             lines.append(f"[{section}]")
             for key, value in keys.items():
                 lines.append(f"{key} = {_toml_value(value)}")
             lines.append("")
-        return "\n".join(lines)
+        return "\n".join([*lines, *toml_lines(self.measures)])
 
 
 def _applies(scene: Scene, spec: Key) -> bool:

@@ -189,7 +189,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
                           "the last one; 0: at every field save"),
     },
 }
-TOP_LEVEL = {"description": ""}
+TOP_LEVEL = {"description": "", "measures": {}}
 MODEL_NAMES = tuple(SCHEMA["model"])
 SOURCE_NAMES = (*MODEL_NAMES, "t")
 BUILTIN = tuple(f"paper{i}" for i in range(1, 6))  # the paper's experiments

@@ -70,13 +70,13 @@ def run_scene(sweep: Sweep, index: int, setups, keep_history: bool) -> Outcome:
             np.linalg.LinAlgError) as err:  # a set-up that fails: this scene's, not the sweep's
         message = " ".join(f"{type(err).__name__}: {err}".split())
         return Outcome(index, "failed", table.line(index, point, sweep.axes, "failed", {},
-                                                   message), None)
+                                                   message, sweep.declared), None)
     rows = result.history
     summary = result.summary
     names = (column.name for column in for_scene(scene))  # an adaptive run's t, dt and event too
     values = measures({name: rows[:, j] for j, name in enumerate(names)}, scene, summary)
     error = " ".join(summary.get("error", "").split())
-    line = table.line(index, point, sweep.axes, result.status, values, error)
+    line = table.line(index, point, sweep.axes, result.status, values, error, sweep.declared)
     return Outcome(index, result.status, line, rows if keep_history else None)
 
 

@@ -20,10 +20,14 @@ A sweep file is TOML::
     [sample.ranges]
     "model.a" = [0.0, 0.1]              # uniform in [0, 0.1]
     "model.k" = {log = [0.1, 100]}      # log-uniform
+    [measures]                          # measures of every scene (rodfem.scene.measures)
+    peak_force = { column = "contact_force", reduce = "max" }
 
 Any scene key can be set or swept. The scenes are the product of the grid's axes (in the file's
 order, the last fastest), then the zipped lists, then the samples; each scene's index is its
-place in that order, which is the order of ``results.csv``. Samples are drawn with NumPy's PCG64
+place in that order, which is the order of ``results.csv``. The sweep's ``[measures]`` are added
+to the base scene's own; a name both declare is refused (a sweep does not silently change what
+its scene measures). Samples are drawn with NumPy's PCG64
 from the seed: the same file gives the same scenes on every machine.
 
 Every mistake is a :class:`SceneError` of one line that names the file and the key (for a value
@@ -43,8 +47,9 @@ import numpy as np
 from rodfem.scene import SCHEMA, Scene, SceneError, read, split_key, validate, with_values
 from rodfem.scene.files import read_file
 from rodfem.scene.loading import _suggest, _toml_value
+from rodfem.scene.measures import merged
 
-SECTIONS = ("scene", "description", "set", "grid", "zip", "sample")
+SECTIONS = ("scene", "description", "set", "grid", "zip", "sample", "measures")
 SAMPLE_KEYS = ("method", "count", "seed", "ranges")
 SAMPLERS = ("random", "latin-hypercube")
 MAX_SCENES = 1_000_000
@@ -63,6 +68,7 @@ class Sweep:
         design: per axis, "grid", "zip" or "sample".
         grid: the grid's values per grid axis (for maps).
         points: per scene, its swept values by key.
+        measures: the measures of every scene, raw: the base scene's, then the sweep's.
     """
 
     name: str
@@ -74,6 +80,12 @@ class Sweep:
     design: dict[str, str]
     grid: dict[str, list]
     points: list[dict[str, Any]]
+    measures: dict = dataclasses.field(default_factory=dict)
+
+    @property
+    def declared(self) -> tuple[str, ...]:
+        """The names of the measures every scene declares (results.csv's columns of them)."""
+        return tuple(self.measures)
 
     def __len__(self) -> int:
         return len(self.points)
@@ -82,8 +94,10 @@ class Sweep:
         """The validated scene of ``index`` (SceneError naming it if a value is refused)."""
         point = self.points[index]
         try:
-            return validate(with_values(self.base, {**self.fixed, **point}, self.name),
-                            self.source)
+            data = with_values(self.base, {**self.fixed, **point}, self.name)
+            if self.measures:
+                data["measures"] = self.measures
+            return validate(data, self.source)
         except SceneError as err:
             raise SceneError(f"{self.name}: scene {index + 1} of {len(self)} "
                              f"({describe(point)}): {err}") from None
@@ -258,6 +272,7 @@ def parse(data: dict, name: str, directory: Path | None = None,
     if scene not in BUILTIN + EXTRA and directory is not None and not Path(scene).is_absolute():
         scene = str(directory / scene)
     base, source = base if base is not None else read(scene)
+    measures = merged(base.get("measures"), data.get("measures"), name)
     tables = {}
     for section in ("set", "grid", "zip"):
         table = data.get(section, {})
@@ -302,7 +317,7 @@ def parse(data: dict, name: str, directory: Path | None = None,
         for part in combination:
             point.update(dict(part) if isinstance(part[0], tuple) else [part])
         points.append(point)
-    return Sweep(name, data, base, source, fixed, tuple(design), design, axes, points)
+    return Sweep(name, data, base, source, fixed, tuple(design), design, axes, points, measures)
 
 
 def load(path: str | Path) -> Sweep:

@@ -121,9 +121,11 @@ class SweepResult:
             return named_history(data[...], named(str(names).split(",")))
 
 
-def result_from(lines: dict[int, str], axes, status, path=None, histories=None) -> SweepResult:
-    """The result of a sweep's results lines by index (from journals, or in memory)."""
-    _, columns = table.parse(table.text(axes, [lines[i] for i in sorted(lines)]))
+def result_from(lines: dict[int, str], axes, status, path=None, histories=None,
+                declared: tuple[str, ...] = ()) -> SweepResult:
+    """The result of a sweep's results lines by index (from journals, or in memory);
+    ``declared``: the names of the measures its scenes declare."""
+    _, columns = table.parse(table.text(axes, [lines[i] for i in sorted(lines)], declared))
     return SweepResult(columns, tuple(axes), status, path, histories)
 
 
@@ -137,7 +139,7 @@ def write_table(out: Path, sweep: Sweep, histories: bool, ran: int, seconds: flo
     for record in records.values():
         counts[table.status(record.line, sweep.axes)] += 1
     complete = (len(records) == len(sweep) and counts["interrupted"] == 0 and not failed_write)
-    text = table.text(sweep.axes, lines).encode("utf-8")
+    text = table.text(sweep.axes, lines, sweep.declared).encode("utf-8")
     with replacing(out / table.NAME, "wb") as file:
         file.write(text)
     if complete and histories:
@@ -209,10 +211,10 @@ def load_sweep(path: str | Path) -> SweepResult:
     path = Path(path)
     if journal.exists(path):  # stopped: its rows are in the journal
         written = read_meta(path)
-        axes = parsed(path, written).axes
+        sweep = parsed(path, written)
         records = journal.read(path, tag(written))
-        return result_from({i: r.line for i, r in records.items()}, axes,
-                           state(path) or "interrupted", path)
+        return result_from({i: r.line for i, r in records.items()}, sweep.axes,
+                           state(path) or "interrupted", path, declared=sweep.declared)
     axes, columns = table.read(path / table.NAME)
     return SweepResult(columns, axes, state(path) or "complete", path)
 
@@ -222,7 +224,9 @@ def meta(sweep: Sweep, histories: bool) -> dict[str, Any]:
     their digest. SceneError (nothing written) if a value is not one JSON keeps as it is."""
     data = {"format": FORMAT, "name": sweep.name, "sweep": sweep.data, "base": sweep.base,
             "source": sweep.source, "axes": list(sweep.axes), "design": sweep.design,
-            "grid": sweep.grid, "histories": histories, "scenes": len(sweep)}
+            "grid": sweep.grid, "histories": histories, "scenes": len(sweep),
+            # the declared measures' names (the figures read them); none: as before
+            **({"measures": list(sweep.declared)} if sweep.declared else {})}
     try:
         json.dumps(data, allow_nan=False)  # as write_json writes it, or not at all
     except (TypeError, ValueError) as err:
