@@ -47,8 +47,9 @@ COMM.barrier()
 # The scene file starts from the paper's experiment (`scene = "paper1"`) and sets only what
 # differs. Its `[measures]` table names the quantities of the study, each a column of the run's
 # history reduced over the run (or a window of it): the peak of the obstacle's force
-# p = −σ(1), the time p is positive (the time in contact), the time of the largest |σ(1)|, and
-# the mean energy over the run's second half. rodfem records a column a measure names even where
+# p = −σ(1); the time the end is past the obstacle's face, u(1) − g > 0 (the time in contact,
+# each touch's start and end located within its step); the time of the largest |σ(1)|; and the
+# mean energy over the run's second half. rodfem records a column a measure names even where
 # the scene's output does not, and reduces it over every step as the run goes: the measures do
 # not depend on which rows the history keeps.
 
@@ -66,7 +67,7 @@ method = "direct"
 
 [measures]
 peak_force = {{ column = "contact_force", reduce = "max" }}
-contact_time = {{ column = "contact_force", reduce = "time_positive" }}
+contact_time = {{ column = "penetration", reduce = "time_positive" }}
 peak_time = {{ column = "sigma_1", reduce = "time_of_max_abs" }}
 late_energy = {{ column = "energy", reduce = "mean", window = [{END / 2}, {END}] }}
 '''
@@ -79,16 +80,24 @@ say(run)
 # -
 
 # A result prints as a few lines. Its scene is a read-only mapping of its keys, and its history
-# a table: each measure is its column's reduction, which NumPy recomputes from the history here
-# (the time in contact: the length of the times where the piecewise-linear p is positive).
+# a table (`to_pandas()`, indexed by t): each measure is its column's reduction over every step,
+# which NumPy recomputes from the history here.
 
 # +
 scene = dict(run.scene)
 say(f"{len(scene)} keys; ζ = {scene['model.zeta']}, ε = {scene['obstacle.epsilon']}, "
     f"Δt = {scene['time.dt']}")
 history = run.to_pandas()
-p, t = history["contact_force"].to_numpy(), history.index.to_numpy()
+p = history["contact_force"].to_numpy()
 assert run.measures["peak_force"] == p.max()
+# the time in contact: on each step, the part where the straight line between its two rows
+# of u(1) − g is positive
+d, dt = history["penetration"].to_numpy(), np.diff(history.index.to_numpy())
+a, b = d[:-1], d[1:]
+crossing = (a > 0) != (b > 0)
+part = np.where(a > 0, 1.0, 0.0) * np.where(b > 0, 1.0, 0.0)
+part[crossing] = np.maximum(a, b)[crossing] / np.abs(b - a)[crossing]
+assert np.isclose(run.measures["contact_time"], np.sum(part * dt), rtol=1e-12)
 say(f"peak force {run.measures['peak_force']:.4f} = max of the history's column; "
     f"in contact for {run.measures['contact_time']:.4f} of {END:g}")
 axes = run.plot(columns=["u_1", "contact_force"])
@@ -110,7 +119,8 @@ if COMM.rank == 0:
 
     orders = pd.read_csv(OUT / "verify" / "measure_orders.csv")
     mine = orders[orders["measure"].isin(["peak_force", "contact_time", "late_energy"])]
-    print(mine[["direction", "measure", "finest", "order", "richardson"]].to_string(index=False))
+    print(mine[["refined", "measure", "finest", "order", "richardson", "note"]].fillna("")
+          .to_string(index=False))
 COMM.barrier()
 # -
 
@@ -153,16 +163,16 @@ rodfem_command(["plot", str(OUT / "sweep"), "--overlay", "--out", str(OUT / "ove
 
 # ## One run's fields as data
 #
-# The fields of a run are an xarray Dataset on (t, x): here the largest temperature along the rod
-# at each save, and where it is.
+# The fields of a run are an xarray Dataset on (t, x), the stress on the cells (t, x_cells):
+# here the rod's mean temperature ∫θ dx and the temperature at the obstacle at a few times, as
+# xarray reduces and selects them.
 
 # +
 if COMM.rank == 0:
     fields = run.fields.to_xarray()
-    hottest = fields["theta"].max("x")
-    where = fields["theta"].idxmax("x")
+    mean = fields["theta"].integrate("x")
     for time in (0.0, END / 2, END):
-        at = float(np.abs(fields["t"] - time).argmin())
-        print(f"t = {float(fields['t'][int(at)]):.2f}: max θ = {float(hottest[int(at)]):.3f} "
-              f"at x = {float(where[int(at)]):.3f}")
+        at = fields.sel(t=time, method="nearest")
+        print(f"t = {float(at['t']):.2f}: ∫θ dx = {float(mean.sel(t=time, method='nearest')):.4f}, "
+              f"θ(1) = {float(at['theta'].sel(x=1.0)):.4f}")
 # -

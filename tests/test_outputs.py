@@ -9,11 +9,13 @@ import subprocess
 import numpy as np
 import pytest
 
+import rodfem.scene
 from conftest import COMM, serial_only
 from rodfem.output.columns import NAMES
 from rodfem.post.fields import read_fields
 
-QUANTITIES = 'output.history=["theta_1", "heat_flux_1", "contact_force", "contact"]'
+QUANTITIES = ('output.history=["theta_1", "heat_flux_1", "contact_force", "contact", '
+              '"penetration"]')
 ALL_FIELDS = 'output.fields=["theta", "u", "sigma", "velocity", "heat_flux"]'
 DEFAULT_HEADER = "t,u_1,u_half,ut_1,sigma_1,energy,iterations"
 
@@ -50,7 +52,7 @@ def test_probes_equal_the_default_columns(simulate, scene, overrides):
     h, header = history(out)
     reference, reference_header = history(plain)
     assert ",".join(reference_header) == DEFAULT_HEADER
-    assert header == [*NAMES, "theta_1", "heat_flux_1", "contact_force", "contact",
+    assert header == [*NAMES, "theta_1", "heat_flux_1", "contact_force", "contact", "penetration",
                       "u@0", "theta@0", "sigma@0", "u@0.5", "theta@0.5", "sigma@0.5",
                       "u@1", "theta@1", "sigma@1", "u@0.3", "theta@0.3", "sigma@0.3"]
     for name in NAMES:
@@ -67,6 +69,8 @@ def test_probes_equal_the_default_columns(simulate, scene, overrides):
     np.testing.assert_array_equal(h["contact"], (h["contact_force"] > 0).astype(float))
     assert h["contact"].any() and not h["contact"].all(), "the run should touch and leave"
     assert np.all(h["contact_force"] >= 0)
+    gap = rodfem.scene.load(scene, base)["obstacle.gap"]
+    np.testing.assert_array_equal(h["penetration"], h["u_1"] - gap)
 
 
 def test_probes_match_the_saved_fields(simulate):

@@ -93,6 +93,9 @@ QUANTITIES = (
            "(the rigid obstacle: its multiplier)", _force),
     Column("contact", "1 while the obstacle pushes on the rod (p > 0), else 0",
            lambda raw, c: (_force(raw, c) > 0.0).astype(float), integer=True),
+    Column("penetration", "u(1, tⁿ) − g, signed: how far the end is past the obstacle's face "
+           "(negative: the gap still open; the rigid obstacle: ≤ 0 to round-off)",
+           lambda raw, c: raw["u_1"] - c.obstacle.gap),
 )
 
 

@@ -57,7 +57,7 @@ MASSES = ("lumped", "consistent", "redistributed", "redistributed-lumped", "disp
 REDISTRIBUTED = ("redistributed", "redistributed-lumped", "dispersion-free")
 # What a run can save and record besides the default history (rodfem.output.columns, .fields).
 FIELDS = ("theta", "u", "sigma", "velocity", "heat_flux")
-QUANTITIES = ("theta_1", "heat_flux_1", "contact_force", "contact")
+QUANTITIES = ("theta_1", "heat_flux_1", "contact_force", "contact", "penetration")
 
 
 SCHEMA: dict[str, dict[str, Key]] = {
