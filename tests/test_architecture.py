@@ -113,6 +113,19 @@ def test_the_columns_and_names_measures_may_name_agree_with_the_output_layer():
     assert measures.BUILTIN_NAMES == BUILTIN
 
 
+def test_every_column_and_measure_has_a_name_in_the_figures():
+    """The figures name each column a measure may reduce, and each built-in measure, by the
+    paper's symbol and unit (rodfem.post.names), never by a fallback."""
+    from rodfem.output import columns
+    from rodfem.output.measures import NAMES as BUILTIN
+    from rodfem.post import names
+
+    written = [c.name for c in (*columns.COLUMNS, *columns.ADAPTIVE, *columns.QUANTITIES)]
+    assert set(written) <= set(names.COLUMNS)
+    assert set(BUILTIN) == set(names.MEASURES)
+    assert {p.split("@")[0] for p, _, _ in columns.PROBES} == set(names.PROBES)
+
+
 def test_history_header():
     assert ",".join(NAMES) == "t,u_1,u_half,ut_1,sigma_1,energy,iterations"
 

@@ -49,10 +49,12 @@ COLUMNS = {
     "energy": (r"\hat{E}", "EL"),
     "iterations": (r"\mathrm{iterations}", ""),
     "dt": (r"\Delta t", "t_0"),
+    "event": (r"\mathrm{event}", ""),
     "theta_1": (r"\theta(1)", ""),
     "heat_flux_1": (r"-\theta_x(1)", ""),
     "contact_force": ("p", "E"),
     "contact": (r"\mathrm{contact}", ""),
+    "penetration": ("u(1) - g", "L"),
 }
 PROBES = {"u": ("u", "L"), "theta": (r"\theta", ""), "sigma": (r"\sigma", "E")}
 # The built-in measures: (what the axis says, unit).
