@@ -299,7 +299,7 @@ def test_adaptive_runs_record_and_save_what_they_choose(simulate, method):
         return
     h, header = history(out)
     assert header == [*NAMES, "dt", "event", "theta_1", "heat_flux_1", "contact_force",
-                      "contact", "u@0", "theta@0", "sigma@0", "u@0.5", "theta@0.5",
+                      "contact", "penetration", "u@0", "theta@0", "sigma@0", "u@0.5", "theta@0.5",
                       "sigma@0.5", "u@1", "theta@1", "sigma@1"]
     np.testing.assert_array_equal(h["u@1"], h["u_1"])
     np.testing.assert_array_equal(h["u@0.5"], h["u_half"])
