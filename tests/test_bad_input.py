@@ -56,6 +56,8 @@ CASES = [
     (["model.zetta=1"], "unknown key 'model.zetta': did you mean 'zeta'?"),
     (["obstacle.gapp=1"], "did you mean 'gap'?"),
     (["modle.zeta=1"], "unknown section 'modle': did you mean 'model'?"),
+    (["measures.peak=1"], "--set measures.peak=1: measures are declared in a [measures] table of a "
+     "scene or sweep file, not set by key"),
     (["initial.u1=20*x*(x-1"], "initial.u1: \"20*x*(x-1\" is not a valid expression"),
     (["initial.u1=y*x"], "initial.u1: \"y*x\" uses unknown name 'y'"),
     (["initial.theta0=__import__('os').getcwd()"], "initial.theta0:"),

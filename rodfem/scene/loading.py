@@ -269,6 +269,9 @@ def split_key(dotted: Any, what: str) -> tuple[str, str]:
         raise SceneError(f"{what}: {_toml_value(dotted)} has a space in it; write the key alone, "
                          f"{_toml_value(''.join(dotted.split()))}")
     section, key = dotted.split(".")
+    if section == "measures":
+        raise SceneError(f"{what}: measures are declared in a [measures] table of a scene or "
+                         "sweep file, not set by key")
     if section not in SCHEMA:
         raise SceneError(f"{what}: unknown section '{section}': {_suggest(section, SCHEMA)}")
     if key not in SCHEMA[section]:

@@ -11,6 +11,7 @@ import dataclasses
 import difflib
 import json
 import math
+import re
 from typing import Any
 
 from rodfem.scene.expressions import Expression, ExpressionError, shorten
@@ -29,19 +30,38 @@ def _toml_value(value: Any) -> str:
     return repr(value)
 
 
-SHOWN_CHANGES = 4  # the keys a description names of those set over a scene
+_ITEM = re.compile(r"([a-z_]+\.[A-Za-z0-9_]+) = ")
+_CLAUSE = " (with "
+
+
+def _clause(description: str) -> tuple[str, dict[str, str]]:
+    """A description split into its own words and the keys its closing "(with key = value,
+    …)" names, with their values as written ({} where it has no such clause)."""
+    bare = description.startswith("with ")
+    at = 0 if bare else description.rfind(_CLAUSE)
+    if not (bare or (at >= 0 and description.endswith(")"))):
+        return description, {}
+    items = description[5:] if bare else description[at + len(_CLAUSE):-1]
+    starts = [m for m in _ITEM.finditer(items) if m.start() == 0
+              or items[:m.start()].endswith(", ")]
+    if not starts or starts[0].start() != 0:
+        return description, {}
+    named = {}
+    for match, after in zip(starts, [*starts[1:], None], strict=True):
+        named[match.group(1)] = items[match.end():after.start() - 2 if after else len(items)]
+    return ("" if bare else description[:at]), named
 
 
 def with_changes(description: str, changes: dict[str, Any]) -> str:
-    """A scene's description after ``changes`` ({"model.zeta": 2}) were set over it, naming them
-    (the first few): "Experiment 1 of the paper (with model.zeta = 2)"."""
+    """A scene's description after ``changes`` ({"model.zeta": 2}) were set over it, naming
+    them: "Experiment 1 of the paper (with model.zeta = 2)". Keys set over a scene whose
+    description names keys already are named in the same list, each once, at its last value."""
     if not changes:
         return description
-    items = [f"{key} = {shorten(_toml_value(value))}" for key, value in changes.items()]
-    shown = ", ".join(items[:SHOWN_CHANGES])
-    if len(items) > SHOWN_CHANGES:
-        shown += f" and {len(items) - SHOWN_CHANGES} more"
-    return f"{description} (with {shown})" if description else f"with {shown}"
+    words, named = _clause(description)
+    named.update({key: shorten(_toml_value(value)) for key, value in changes.items()})
+    shown = ", ".join(f"{key} = {value}" for key, value in named.items())
+    return f"{words} (with {shown})" if words else f"with {shown}"
 
 
 def _suggest(name: str, allowed) -> str:
