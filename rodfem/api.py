@@ -119,9 +119,10 @@ class Result:
             lines.append(f"    error: {shorten(str(self.summary['error']), 120)}")
         measures = self.measures
         shown = [*SHOWN, *(d.name for d in getattr(self.scene, "measures", ()))]
-        if measures:
-            lines += wrapped([f"{name} = {number(measures[name])}" for name in shown[:8]
-                              if name in measures], "    measures: ")
+        shown = [name for name in shown if name in measures]
+        if shown:
+            lines += wrapped([*(f"{name} = {number(measures[name])}" for name in shown[:8]),
+                              *(["…"] if len(shown) > 8 else [])], "    measures: ")
         if self.path is not None:
             lines.append(f"    path: {self.path}")
         return "\n".join(lines)

@@ -144,6 +144,16 @@ def test_a_failed_result_s_repr_says_why(shared_dir):
     assert f"path: {shared_dir / 'f'}" in text and len(text) < 600
 
 
+def test_a_result_s_repr_says_where_its_measures_are_cut(tmp_path):
+    """More measures than the repr shows: the list ends in "…", never cut silently."""
+    declared = "".join(f'm{i} = {{ column = "u_1", reduce = "max" }}\n' for i in range(6))
+    scene = tmp_path / "many.toml"
+    scene.write_text(f'scene = "paper1"\n[measures]\n{declared}', encoding="utf-8")
+    text = repr(rodfem.simulate(scene, {"time.end": 0.02, "mesh.cells": 10}))
+    assert "m3 = " in text and "m4 = " not in text
+    assert text.rstrip().endswith(", …")
+
+
 def test_a_result_without_steps_says_so():
     """A run killed before its first checkpoint (load gives it): no step, no measures."""
     scene = load_scene("paper1")
