@@ -273,3 +273,22 @@ def test_reductions_of_uneven_rows_in_any_blocks(window):
         value = whole.values()[m.name]
         assert abs(value - recomputed(t, f, m.reduce, window)) <= tolerance(t, f, m.reduce,
                                                                             window), m.name
+
+
+def test_a_column_with_nan_gives_nan_in_any_blocks():
+    """A NaN among the rows: every reduction over it is NaN (final, the last value, aside),
+    however the rows come in blocks, never the extremes of the rows on one side of it."""
+    from rodfem.output.reductions import Reductions
+    from rodfem.scene.measures import Declared
+
+    t = np.linspace(0.0, 1.0, 11)
+    f = np.array([0.0, 1.0, 2.0, np.nan, 1.0, 0.0, -1.0, -3.0, 1.0, 0.5, 0.2])
+    declared = [Declared(f"m_{r}", "f", r) for r in REDUCTIONS]
+    for size in (11, 1, 3, 4):
+        blocks = Reductions(declared)
+        for start in range(0, t.size, size):
+            blocks = Reductions(declared, json.loads(json.dumps(blocks.saved())))
+            blocks.update(t[start:start + size], {"f": f[start:start + size]})
+        values = blocks.values()
+        assert values.pop("m_final") == 0.2
+        assert all(math.isnan(v) for v in values.values()), (size, values)
