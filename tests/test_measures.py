@@ -292,3 +292,19 @@ def test_a_column_with_nan_gives_nan_in_any_blocks():
         values = blocks.values()
         assert values.pop("m_final") == 0.2
         assert all(math.isnan(v) for v in values.values()), (size, values)
+
+
+def test_a_history_of_every_nth_step_has_the_final_values_of_the_last_step(shared_dir):
+    """2000 steps, every 7th row kept (the last step's is not): t_final is T and the final
+    values are the last step's, in the run's summary and read back, as a run
+    keeping every row has them."""
+    scene = {"time.end": 0.2, "time.dt": 1e-4, "mesh.cells": 10}
+    whole = rodfem.simulate("paper1", scene)
+    thinned = rodfem.simulate("paper1", {**scene, "output.history_every": 7},
+                              out=shared_dir / "thinned")
+    assert thinned.history["t"][-1] < 0.2 and thinned.measures["t_final"] == 0.2
+    finals = [name for name in BUILT_IN if name.endswith("_final")]
+    for name in finals:
+        assert thinned.summary["measures"][name] == whole.summary["measures"][name], name
+        assert thinned.measures[name] == whole.measures[name], name
+        assert rodfem.load(shared_dir / "thinned").measures[name] == whole.measures[name], name
