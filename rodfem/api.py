@@ -285,7 +285,11 @@ def load(path: str | Path) -> Result:
         summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
         summary = {}
-    summary = {**summary, "status": state(path) or summary.get("status", "gone")}
+    status = state(path) or summary.get("status", "gone")
+    if status in ("running", "gone"):  # summary.json, if any, is of an earlier stop: its
+        # records of every step end there, so the measures are the history's
+        summary = {k: v for k, v in summary.items() if k not in ("measures", "contact")}
+    summary = {**summary, "status": status}
     if isinstance(summary.get("scene"), str):  # the scene it was run from, not scene.toml
         scene = dataclasses.replace(scene, source=summary["scene"])
     iterations = rows[:, names.index("iterations")]

@@ -308,3 +308,21 @@ def test_a_history_of_every_nth_step_has_the_final_values_of_the_last_step(share
         assert thinned.summary["measures"][name] == whole.summary["measures"][name], name
         assert thinned.measures[name] == whole.measures[name], name
         assert rodfem.load(shared_dir / "thinned").measures[name] == whole.measures[name], name
+
+
+@serial_only
+def test_a_killed_resumed_run_reads_its_measures_from_its_history(tmp_path):
+    """A run resumed and then killed (its marker still says running, no process holds it) keeps
+    the summary.json of its earlier stop: its measures are those of the history on the disk, not
+    of that summary."""
+    text = BASE + '[measures]\npeak = { column = "u_1", reduce = "max" }\n'
+    scene = scene_file(tmp_path, text)
+    early = rodfem.simulate(scene, {"time.end": 0.3}, out=tmp_path / "early")
+    run = rodfem.simulate(scene, {"time.end": 0.6}, out=tmp_path / "run")
+    (tmp_path / "run" / "summary.json").write_text(
+        (tmp_path / "early" / "summary.json").read_text())
+    marker = tmp_path / "run" / "rodfem.json"
+    marker.write_text(json.dumps({**json.loads(marker.read_text()), "status": "running"}))
+    killed = rodfem.load(tmp_path / "run")
+    assert killed.status == "gone" and early.measures["t_final"] == 0.3
+    assert killed.measures == {**run.measures, "loop_seconds": killed.measures["loop_seconds"]}
