@@ -257,6 +257,23 @@ def test_sweep_to_pandas_is_the_table(table, shared_dir):
     assert again[measured].equals(frame[measured])
 
 
+def test_sweep_to_pandas_gives_a_boolean_key_as_booleans():
+    """results.csv writes a swept boolean as true and false: the frame has the booleans."""
+    from rodfem.output import results
+    from rodfem.output.frames import results_frame
+    from rodfem.output.measures import NAMES
+
+    header = ["index", "time.adaptive", "solver.method", "status", *NAMES, "error"]
+    rows = [[str(i), adaptive, "direct", "complete", *["0"] * len(NAMES), ""]
+            for i, adaptive in enumerate(("true", "false"))]
+    axes, columns = results.parse("\n".join(",".join(r) for r in [header, *rows]) + "\n")
+    frame = results_frame(columns, axes)
+    assert frame["time.adaptive"].tolist() == [True, False]
+    assert frame["time.adaptive"].dtype == bool
+    assert frame["solver.method"].tolist() == ["direct", "direct"]
+    assert frame["status"].tolist() == ["complete", "complete"]
+
+
 def test_sweep_plot_draws_a_measure_against_a_key(table):
     ax = table.plot("max_penetration")
     assert ax.get_xscale() == "log" and ax.get_xlabel() == "obstacle.epsilon"
