@@ -119,9 +119,10 @@ class Result:
             lines.append(f"    error: {shorten(str(self.summary['error']), 120)}")
         measures = self.measures
         shown = [*SHOWN, *(d.name for d in getattr(self.scene, "measures", ()))]
-        if measures:
-            lines += wrapped([f"{name} = {number(measures[name])}" for name in shown[:8]
-                              if name in measures], "    measures: ")
+        shown = [name for name in shown if name in measures]
+        if shown:
+            lines += wrapped([*(f"{name} = {number(measures[name])}" for name in shown[:8]),
+                              *(["…"] if len(shown) > 8 else [])], "    measures: ")
         if self.path is not None:
             lines.append(f"    path: {self.path}")
         return "\n".join(lines)
@@ -284,7 +285,11 @@ def load(path: str | Path) -> Result:
         summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
         summary = {}
-    summary = {**summary, "status": state(path) or summary.get("status", "gone")}
+    status = state(path) or summary.get("status", "gone")
+    if status in ("running", "gone"):  # summary.json, if any, is of an earlier stop: its
+        # records of every step end there, so the measures are the history's
+        summary = {k: v for k, v in summary.items() if k not in ("measures", "contact")}
+    summary = {**summary, "status": status}
     if isinstance(summary.get("scene"), str):  # the scene it was run from, not scene.toml
         scene = dataclasses.replace(scene, source=summary["scene"])
     iterations = rows[:, names.index("iterations")]

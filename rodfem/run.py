@@ -141,7 +141,7 @@ class Simulation:
         self.iterations = Iterations(**meta.get("iterations", {}))
         self.contact = Contact(**meta.get("contact", {}))  # over every step, whatever rows are kept
         self.reductions = Reductions(scene.measures, meta.get("reductions"))  # the same
-        last = meta.get("last_row")  # the history's last row kept, for the measures
+        last = meta.get("last_row")  # the last step's row, for the measures
         self.last_row = np.array([last]) if last is not None else None
         self.steps, self.every, self.dt = scene.steps, save_every(scene), scene["time.dt"]
         self.io_error: list[str] = []
@@ -200,10 +200,9 @@ class Simulation:
                             self.scene["obstacle.gap"], t=rows[:, INDEX["t"]], event=event)
         self.reductions.update(rows[:, INDEX["t"]], {name: rows[:, j] for j, name in
                                                      enumerate(names)})
-        kept = rows[steps_of % self.scene["output.history_every"] == 0]
-        if len(kept):
-            self.last_row = kept[-1:].copy()
-        self.rows_out.append(kept)
+        if len(rows):  # the last step's row, kept or not, for the final values
+            self.last_row = rows[-1:].copy()
+        self.rows_out.append(rows[steps_of % self.scene["output.history_every"] == 0])
 
     def state_meta(self) -> dict:
         return {"step": self.method.n, "scene": self.scene.data(), "source": self.scene.source,
@@ -376,7 +375,7 @@ class Simulation:
 
     def measures(self, summary: dict) -> dict:
         """The run's measures (:func:`rodfem.output.measures.measures`): the declared ones
-        reduced over every step; the built-in ones of the history's last row kept and the
+        reduced over every step; the built-in ones of the last step's row and the
         summary's records (of contact, over every step). Empty without a row."""
         if self.last_row is None:
             return {}

@@ -273,3 +273,56 @@ def test_reductions_of_uneven_rows_in_any_blocks(window):
         value = whole.values()[m.name]
         assert abs(value - recomputed(t, f, m.reduce, window)) <= tolerance(t, f, m.reduce,
                                                                             window), m.name
+
+
+def test_a_column_with_nan_gives_nan_in_any_blocks():
+    """A NaN among the rows: every reduction over it is NaN (final, the last value, aside),
+    however the rows come in blocks, never the extremes of the rows on one side of it."""
+    from rodfem.output.reductions import Reductions
+    from rodfem.scene.measures import Declared
+
+    t = np.linspace(0.0, 1.0, 11)
+    f = np.array([0.0, 1.0, 2.0, np.nan, 1.0, 0.0, -1.0, -3.0, 1.0, 0.5, 0.2])
+    declared = [Declared(f"m_{r}", "f", r) for r in REDUCTIONS]
+    for size in (11, 1, 3, 4):
+        blocks = Reductions(declared)
+        for start in range(0, t.size, size):
+            blocks = Reductions(declared, json.loads(json.dumps(blocks.saved())))
+            blocks.update(t[start:start + size], {"f": f[start:start + size]})
+        values = blocks.values()
+        assert values.pop("m_final") == 0.2
+        assert all(math.isnan(v) for v in values.values()), (size, values)
+
+
+def test_a_history_of_every_nth_step_has_the_final_values_of_the_last_step(shared_dir):
+    """2000 steps, every 7th row kept (the last step's is not): t_final is T and the final
+    values are the last step's, in the run's summary and read back, as a run
+    keeping every row has them."""
+    scene = {"time.end": 0.2, "time.dt": 1e-4, "mesh.cells": 10}
+    whole = rodfem.simulate("paper1", scene)
+    thinned = rodfem.simulate("paper1", {**scene, "output.history_every": 7},
+                              out=shared_dir / "thinned")
+    assert thinned.history["t"][-1] < 0.2 and thinned.measures["t_final"] == 0.2
+    finals = [name for name in BUILT_IN if name.endswith("_final")]
+    for name in finals:
+        assert thinned.summary["measures"][name] == whole.summary["measures"][name], name
+        assert thinned.measures[name] == whole.measures[name], name
+        assert rodfem.load(shared_dir / "thinned").measures[name] == whole.measures[name], name
+
+
+@serial_only
+def test_a_killed_resumed_run_reads_its_measures_from_its_history(tmp_path):
+    """A run resumed and then killed (its marker still says running, no process holds it) keeps
+    the summary.json of its earlier stop: its measures are those of the history on the disk, not
+    of that summary."""
+    text = BASE + '[measures]\npeak = { column = "u_1", reduce = "max" }\n'
+    scene = scene_file(tmp_path, text)
+    early = rodfem.simulate(scene, {"time.end": 0.3}, out=tmp_path / "early")
+    run = rodfem.simulate(scene, {"time.end": 0.6}, out=tmp_path / "run")
+    (tmp_path / "run" / "summary.json").write_text(
+        (tmp_path / "early" / "summary.json").read_text())
+    marker = tmp_path / "run" / "rodfem.json"
+    marker.write_text(json.dumps({**json.loads(marker.read_text()), "status": "running"}))
+    killed = rodfem.load(tmp_path / "run")
+    assert killed.status == "gone" and early.measures["t_final"] == 0.3
+    assert killed.measures == {**run.measures, "loop_seconds": killed.measures["loop_seconds"]}

@@ -144,6 +144,16 @@ def test_a_failed_result_s_repr_says_why(shared_dir):
     assert f"path: {shared_dir / 'f'}" in text and len(text) < 600
 
 
+def test_a_result_s_repr_says_where_its_measures_are_cut(tmp_path):
+    """More measures than the repr shows: the list ends in "…", never cut silently."""
+    declared = "".join(f'm{i} = {{ column = "u_1", reduce = "max" }}\n' for i in range(6))
+    scene = tmp_path / "many.toml"
+    scene.write_text(f'scene = "paper1"\n[measures]\n{declared}', encoding="utf-8")
+    text = repr(rodfem.simulate(scene, {"time.end": 0.02, "mesh.cells": 10}))
+    assert "m3 = " in text and "m4 = " not in text
+    assert text.rstrip().endswith(", …")
+
+
 def test_a_result_without_steps_says_so():
     """A run killed before its first checkpoint (load gives it): no step, no measures."""
     scene = load_scene("paper1")
@@ -245,6 +255,23 @@ def test_sweep_to_pandas_is_the_table(table, shared_dir):
     assert f"path: {shared_dir / 's'}" in repr(written)
     measured = [c for c in frame.columns if c != "loop_seconds"]
     assert again[measured].equals(frame[measured])
+
+
+def test_sweep_to_pandas_gives_a_boolean_key_as_booleans():
+    """results.csv writes a swept boolean as true and false: the frame has the booleans."""
+    from rodfem.output import results
+    from rodfem.output.frames import results_frame
+    from rodfem.output.measures import NAMES
+
+    header = ["index", "time.adaptive", "solver.method", "status", *NAMES, "error"]
+    rows = [[str(i), adaptive, "direct", "complete", *["0"] * len(NAMES), ""]
+            for i, adaptive in enumerate(("true", "false"))]
+    axes, columns = results.parse("\n".join(",".join(r) for r in [header, *rows]) + "\n")
+    frame = results_frame(columns, axes)
+    assert frame["time.adaptive"].tolist() == [True, False]
+    assert frame["time.adaptive"].dtype == bool
+    assert frame["solver.method"].tolist() == ["direct", "direct"]
+    assert frame["status"].tolist() == ["complete", "complete"]
 
 
 def test_sweep_plot_draws_a_measure_against_a_key(table):

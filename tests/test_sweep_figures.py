@@ -366,3 +366,15 @@ def test_overlay_of_laws_and_switches(tmp_path, drawn):
         "scene 0: contact law linear, fixed steps", "scene 1: contact law linear, adaptive steps",
         "scene 2: contact law power, fixed steps", "scene 3: contact law power, adaptive steps"]
     assert len(energy.axes) == 2  # the curves and the legend's strip: no colour bar
+
+
+def test_a_measure_that_differs_only_by_a_failed_scene_is_not_drawn():
+    """The figures draw the complete scenes: a failed run's shorter t_final does not make
+    t_final informative."""
+    columns = {"index": np.array([0, 1, 2]), "model.zeta": np.array([0.1, 0.2, 0.5]),
+               "status": np.array(["failed", "complete", "complete"]),
+               "t_final": np.array([0.186, 0.3, 0.3]), "u_1_final": np.array([0.1, 0.2, 0.3]),
+               "error": np.array(["did not converge", "", ""])}
+    drawn, skipped = choice.choose(columns, None)
+    assert drawn == ["u_1_final"]
+    assert "t_final (the same in every scene)" in skipped

@@ -39,9 +39,9 @@ FAILING = '[grid]\n"obstacle.epsilon" = [1e-6, 0.1]\n"model.zeta" = [0.2, 0.5]\n
 
 def informative(out) -> list[str]:
     """The measures drawn by default: results.csv's, but the timing and the iteration count,
-    and those with one value (nan aside) in every scene."""
+    and those with one value (nan aside) in every complete scene (the scenes drawn)."""
     with open(out / "results.csv", encoding="utf-8", newline="") as file:
-        rows = list(csv.DictReader(file))
+        rows = [row for row in csv.DictReader(file) if row["status"] == "complete"]
     return [n for n in NAMES if n not in ("loop_seconds", "iterations_max")
             and len({float(r[n]) for r in rows if r[n] != "nan"}) > 1]
 
@@ -112,7 +112,8 @@ def test_failed_scenes_are_left_out(tmp_path):
     assert statuses == ["failed", "failed", "complete", "complete"]
     written = plot_sweep(out)
     names = [f for n in informative(out) for f in (f"sweep_{n}.png", f"sweep_{n}_lines.png")]
-    assert "t_final" in informative(out)  # the failed scenes stop early
+    # the failed scenes stop early, but are not drawn: the complete ones all reach T
+    assert "t_final" not in informative(out) and "u_1_final" in informative(out)
     check(written, out / "figures", names)
     # the failed column (half the map) is grey; a map of complete scenes has no grey cells
     assert grey_pixels(out / "figures" / "sweep_u_1_final.png") > 20_000
@@ -146,7 +147,7 @@ def test_edited_rows_failed_and_nan(tmp_path):
     rows[1][status] = "failed"
     rows[1][status + 1:-1] = ["nan"] * (len(rows[0]) - status - 2)
     rows[2][rows[0].index("u_1_final")] = "nan"
-    for row in rows[3:]:
+    for row in rows[4:]:  # two complete scenes left, whose measures the figures draw
         row[status] = "interrupted"
     with open(path, "w", encoding="utf-8", newline="") as file:
         csv.writer(file, lineterminator="\n").writerows(rows)

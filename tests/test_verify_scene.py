@@ -202,6 +202,34 @@ def test_same_on_any_number_of_ranks(verified, scene_file):
         [[p[m] for m in cv.MEASURES] for p in points]
 
 
+def test_the_rows_a_scene_keeps_change_nothing(verified, scene_file):
+    """The scene keeping every 3rd row of its history (output.history_every = 3): the ladders
+    run every step all the same, to the errors and measures of the scene keeping every row."""
+    _, data, _, _, _ = verified["crank-nicolson"]
+    user = refine.UserScene("soft", str(scene_file),
+                            ("time.scheme=crank-nicolson", "output.history_every=3"))
+    records, measured, _ = refine.run_user_group(refine.UserGroup(user, "dt"), refine.QUICK)
+    points = [p for p in data["points"] if p["refined"] == "dt"]
+    assert [[r[m] for m in cv.MEASURES] for r in records] == \
+        [[p[m] for m in cv.MEASURES] for p in points]
+    theirs = [(r["measure"], r["value"]) for r in data["measures"] if r["refined"] == "dt"]
+    assert [(r["measure"], r["value"]) for r in measured] == theirs
+
+
+def test_a_measure_panel_s_title_fits_its_panel():
+    """A measure without an order says why on a line of its own: on one line with the
+    measure's name, the title of a panel 640 pixels wide was cut at both ends."""
+    from rodfem.post import verify as figures
+
+    rows = [{"method": "direct", "scheme": "paper", "cells": c, "dt": 0.002, "tolerance": None,
+             "status": "complete", "value": v} for c, v in ((10, 0.3), (20, 0.31), (40, 0.31))]
+    order = {"measure": "last_contact_change", "order": math.nan,
+             "note": "the last difference at round-off"}
+    chart = figures._measure_panel(rows, order, "h", "Δt = 0.002", False)
+    assert chart.title.splitlines() == ["last_contact_change: no order",
+                                        "(the last difference at round-off)"]
+
+
 def test_mixed_with_built_in_scenes(scene_file):
     built, users = refine.parse_scenes(f"{scene_file}, no-contact,paper1")
     assert built == ("paper1", "no-contact")  # in verify's order

@@ -50,10 +50,19 @@ def results_frame(columns: dict[str, np.ndarray], axes: tuple[str, ...]):
     keys."""
     pd = require("pandas", "to_pandas()")
     names = [name for name in columns if name != "index"]
-    frame = pd.DataFrame({name: columns[name] for name in names},
+    frame = pd.DataFrame({name: _swept(columns[name]) if name in axes else columns[name]
+                          for name in names},
                          index=pd.Index(columns["index"], name="index"), columns=names)
     frame.attrs["axes"] = list(axes)
     return frame
+
+
+def _swept(values: np.ndarray) -> np.ndarray:
+    """A swept key's values as the scenes have them: true and false (as results.csv writes a
+    boolean key) as booleans."""
+    if values.dtype == object and values.size and all(v in ("true", "false") for v in values):
+        return values == "true"
+    return values
 
 
 def fields_dataset(fields, meanings: dict[str, str], node_names: tuple[str, ...]):

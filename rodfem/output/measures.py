@@ -246,11 +246,15 @@ def measures(history: dict[str, np.ndarray], scene, summary: dict) -> dict[str, 
 
     A run reduces its declared measures over every step as it goes, into its summary's
     ``measures``; where the summary has none (a run killed before it wrote it), they are
-    reduced from the history's rows (the same values where it keeps every row)."""
+    reduced from the history's rows (the same values where it keeps every row). So are the
+    built-in final values, of the last step's row, which a history of every n-th step
+    (``output.history_every``) may not keep."""
     values = {m.name: m.compute(history, scene, summary) for m in MEASURES}
     declared = getattr(scene, "measures", ())  # a Scene's (a mapping of its keys has none)
     kept = summary.get("measures")
     kept = kept if isinstance(kept, dict) else {}
+    values.update({m.name: float(kept[m.name]) for m in BUILT_IN
+                   if isinstance(kept.get(m.name), float)})
     if any(m.name not in kept for m in declared):
         kept = {**reduce(declared, history), **kept}
     # summary.json writes NaN (a window the run never reached) as null

@@ -92,12 +92,16 @@ class Reduction:
 
     def _points(self, t: np.ndarray, f: np.ndarray) -> None:
         """Points of the interpolant inside the window, in the order of time."""
+        # np.min and np.max carry a NaN on, as the sums do (Python's min and max would keep
+        # or drop it by its place, so by how the rows came in blocks)
         low, high = float(np.min(f)), float(np.max(f))
-        self.low = low if not self.covered else min(self.low, low)
-        self.high = high if not self.covered else max(self.high, high)
+        self.low = low if not self.covered else float(np.min([self.low, low]))
+        self.high = high if not self.covered else float(np.max([self.high, high]))
         size = np.abs(f)
-        i = int(np.argmax(size))  # the first of the largest
-        if size[i] > self.top:
+        i = int(np.argmax(size))  # the first of the largest (the first NaN, if any)
+        if math.isnan(size[i]) or math.isnan(self.top):
+            self.top = self.top_t = NAN
+        elif size[i] > self.top:
             self.top, self.top_t = float(size[i]), float(t[i])
         self.last = float(f[-1])
         self.covered = True

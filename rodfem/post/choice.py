@@ -84,8 +84,10 @@ def choose(columns: dict[str, np.ndarray], asked: list[str] | None,
                             f"{', '.join(names)}")
         return [name for name in names if name in asked], None
     computing = [name for name in names if name in COMPUTING]
+    # the figures draw the complete scenes: a failed run's shorter t_final tells none apart
+    complete = np.asarray(columns["status"]) == "complete"
     same = [name for name in names
-            if name not in COMPUTING and constant(columns[name])]
+            if name not in COMPUTING and constant(np.asarray(columns[name])[complete])]
     drawn = [name for name in names if name not in computing and name not in same]
     if not drawn:
         raise PlotError(f"no measure differs between the sweep's scenes; {option} NAME,... "

@@ -205,7 +205,7 @@ def _measure_panel(rows: list[dict], order: dict, refined: str, title: str,
         return None
     x_range = (float(x.min()) / 1.3, float(x.max()) * 1.3)
     told = f"order {order['order']:.2f}" if math.isfinite(order["order"]) else \
-        f"no order ({order['note']})"
+        f"no order\n({order['note']})"  # on a line of its own: a panel is too narrow for both
     chart = style.chart(f"{order['measure']}: {told}", f"{X_LABELS[refined]} ({title})",
                         r"$\vert m_{k+1} - m_k\vert$")
     style.use_font(chart.GetTitleProperties())

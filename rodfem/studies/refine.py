@@ -78,8 +78,9 @@ class UserScene:
 
     def at(self, cells: int | None = None, dt: float | None = None,
            tolerance: float | None = None) -> Scene:
-        """The scene, with other cells, Δt or tolerance where given."""
-        sizes = [*([f"mesh.cells={cells}"] if cells else []),
+        """The scene, with other cells, Δt or tolerance where given, keeping the row of every
+        step (the errors and measures are of every step, whatever rows the scene keeps)."""
+        sizes = ["output.history_every=1", *([f"mesh.cells={cells}"] if cells else []),
                  *([f"time.dt={dt!r}"] if dt else []),
                  *([f"time.tolerance={tolerance!r}"] if tolerance else [])]
         return load(self.path, [*self.overrides, *sizes])
