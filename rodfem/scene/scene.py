@@ -17,7 +17,7 @@ from rodfem.scene.values import _check_value, _toml_value
 class Scene(Mapping):
     """A validated scene: ``sections[section][key]`` holds every key, defaults filled in.
 
-    It is a read-only mapping of the dotted keys that apply to it (those :meth:`data` writes)
+    It is a read-only mapping of the dotted keys that apply to it (those ``data()`` writes)
     to their values: ``scene["model.k"]``, ``dict(scene)``, ``scene.keys()``, ``"model.k" in
     scene``. A key that does not apply (``time.tolerance`` of a fixed-step scene) is none of its
     keys, though ``scene[key]`` still reads its default. ``measures``: the measures it declares
