@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rodfem.output.names import TIME_LABEL, key_label, key_symbol, measure_label, series_label
+
 MAIN = ("u_1", "sigma_1", "energy")  # the curves Result.plot draws by default
 
 
@@ -21,6 +23,12 @@ def _caption(meaning: str) -> str:
         if depth == 0 and meaning.startswith((" = ", ", ", " (", ": ", "; "), i):
             return meaning[:i]
     return meaning
+
+
+def _symbol(key: str) -> str:
+    """A swept key in a legend: the paper's symbol where it has one."""
+    symbol = key_symbol(key)
+    return f"${symbol}$" if symbol else key
 
 
 def _new_axes(panels: int):
@@ -48,11 +56,11 @@ def history(history: np.ndarray, meanings: dict[str, str], title: str, gap: floa
         if name == "u_1":
             panel.axhline(gap, color="0.5", linestyle="--", linewidth=1, label="gap g")
         if ax is None:
-            panel.set_ylabel(name)
+            panel.set_ylabel(series_label(name))
             panel.set_title(_caption(meanings.get(name, name)), loc="left", fontsize="medium")
             if name == "u_1":
                 panel.legend(loc="best", fontsize="small")
-    panels[-1].set_xlabel("t")
+    panels[-1].set_xlabel(TIME_LABEL)
     panels[0].figure.suptitle(title)
     if ax is not None:
         ax.legend(loc="best", fontsize="small")
@@ -82,15 +90,17 @@ def measure(columns: dict[str, np.ndarray], axes: tuple[str, ...], name: str, x=
         for key, value in zip(others, group, strict=True):
             rows &= columns[key] == value
         order = np.argsort(columns[x][rows], kind="stable")
-        label = ", ".join(f"{key} = {value}" for key, value in zip(others, group, strict=True))
+        label = ", ".join(f"{_symbol(key)} = {value:g}" if isinstance(value, float) else
+                          f"{_symbol(key)} = {value}" for key, value in zip(others, group,
+                                                                             strict=True))
         ax.plot(columns[x][rows][order], columns[name][rows][order], "o" if many else "o-",
                 label=label or None, markersize=4)
     values = columns[x][complete]
     if values.dtype.kind in "if" and len(values) and values.min() > 0 \
             and values.max() >= 100 * values.min():
         ax.set_xscale("log")
-    ax.set_xlabel(x)
-    ax.set_ylabel(name)
+    ax.set_xlabel(key_label(x))
+    ax.set_ylabel(measure_label(name))
     if others and not many:
         ax.legend(loc="best", fontsize="small")
     return ax

@@ -115,10 +115,9 @@ def test_the_columns_and_names_measures_may_name_agree_with_the_output_layer():
 
 def test_every_column_and_measure_has_a_name_in_the_figures():
     """The figures name each column a measure may reduce, and each built-in measure, by the
-    paper's symbol and unit (rodfem.post.names), never by a fallback."""
-    from rodfem.output import columns
+    paper's symbol and unit (rodfem.output.names), never by a fallback."""
+    from rodfem.output import columns, names
     from rodfem.output.measures import NAMES as BUILTIN
-    from rodfem.post import names
 
     written = [c.name for c in (*columns.COLUMNS, *columns.ADAPTIVE, *columns.QUANTITIES)]
     assert set(written) <= set(names.COLUMNS)

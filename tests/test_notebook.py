@@ -200,7 +200,9 @@ def test_fields_repr_and_to_xarray_are_the_saved_arrays(run):
 
 def test_plot_draws_the_history(run):
     axes = run.plot()
-    assert len(axes) == 3 and [a.get_ylabel() for a in axes] == ["u_1", "sigma_1", "energy"]
+    assert len(axes) == 3 and [a.get_ylabel() for a in axes] == [
+        "$u(1, t)$ [$L$]", r"$\sigma(1, t)$ [$E$]", r"$\hat{E}$ [$EL$]"]  # rodfem.output.names
+    assert axes[-1].get_xlabel() == "$t$ [$t_0$]"
     u_1, gap = axes[0].lines
     np.testing.assert_array_equal(u_1.get_xdata(), run.history["t"])
     np.testing.assert_array_equal(u_1.get_ydata(), run.history["u_1"])
@@ -276,8 +278,9 @@ def test_sweep_to_pandas_gives_a_boolean_key_as_booleans():
 
 def test_sweep_plot_draws_a_measure_against_a_key(table):
     ax = table.plot("max_penetration")
-    assert ax.get_xscale() == "log" and ax.get_xlabel() == "obstacle.epsilon"
-    assert [line.get_label() for line in ax.lines] == ["model.zeta = 0.2", "model.zeta = 1.0"]
+    assert ax.get_xscale() == "log" and ax.get_xlabel() == r"$\varepsilon$ (obstacle.epsilon)"
+    assert ax.get_ylabel() == "max penetration $[u(1) - g]_+$ [$L$]"
+    assert [line.get_label() for line in ax.lines] == [r"$\zeta$ = 0.2", r"$\zeta$ = 1"]
     rows = table["model.zeta"] == 1.0
     np.testing.assert_array_equal(ax.lines[1].get_xdata(), table["obstacle.epsilon"][rows])
     np.testing.assert_array_equal(ax.lines[1].get_ydata(), table["max_penetration"][rows])

@@ -14,9 +14,10 @@ from mpi4py import MPI
 import rodfem.post.curves as curves
 import rodfem.post.sweep as sweep_figures
 from conftest import assert_refused, serial_only
+from rodfem.output import names
 from rodfem.output.measures import NAMES
 from rodfem.output.readers import HISTORY_COLUMNS, History
-from rodfem.post import choice, names, scenes
+from rodfem.post import choice, scenes
 from rodfem.post.runs import PlotError, Run, legend_labels
 from rodfem.post.sweep import plot_sweep
 from rodfem.studies.sweep import run_sweep

@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from rodfem.output.names import COMPUTING
 from rodfem.output.results import measure_names
-from rodfem.post.names import COMPUTING
 from rodfem.post.runs import PlotError
 
 DECADES = 2  # positive values spanning this many decades or more are drawn on a log scale

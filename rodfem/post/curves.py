@@ -18,11 +18,11 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from rodfem.output.atomic import replacing
+from rodfem.output.names import TIME_LABEL, series_label
 from rodfem.post import style
-from rodfem.post.names import TIME_LABEL, series_label
 from rodfem.post.runs import Run
 
-# The paper's four panels (Figures 1-4): title, y label (rodfem.post.names) and history column.
+# The paper's four panels (Figures 1-4): title, y label (rodfem.output.names) and history column.
 PANELS = tuple((title, series_label(column), column) for title, column in (
     ("displacement of the end", "u_1"),
     ("displacement of the midpoint", "u_half"),

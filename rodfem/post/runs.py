@@ -11,6 +11,7 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
+from rodfem.output.names import CHOICES, KEYS
 from rodfem.output.readers import (  # noqa: F401 (the errors and History are read here)
     FUNCTIONS,
     Fields,
@@ -22,12 +23,11 @@ from rodfem.output.readers import (  # noqa: F401 (the errors and History are re
     read_fields,
     read_history,
 )
-from rodfem.post.names import CHOICES, KEYS
 from rodfem.scene import BUILTIN, SceneError
 from rodfem.scene import load as load_scene
 from rodfem.scene.expressions import shorten
 
-# The paper's symbols of scene values (rodfem.post.names), in mathtext (typeset by matplotlib, for
+# The paper's symbols of scene values (rodfem.output.names), in mathtext (typeset by matplotlib, for
 # the charts) and in Unicode (for text drawn many times, as in the animation, where typesetting
 # would cost seconds).
 PARAMETERS = {key: (math, text) for key, (math, text, _) in KEYS.items()}

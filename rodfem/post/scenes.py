@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
+from rodfem.output.names import CHOICES
 from rodfem.post import curves
 from rodfem.post.curves import DASHES, Dashes
-from rodfem.post.names import CHOICES
 from rodfem.post.runs import PARAMETERS, PlotError, Run, _flatten, legend_labels
 
 # The file of the histories ``rodfem sweep --histories`` keeps (rodfem.studies.sweepfiles writes

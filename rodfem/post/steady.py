@@ -12,13 +12,13 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from rodfem.output.atomic import replacing
+from rodfem.output.names import KEYS
 from rodfem.post import style
-from rodfem.post.names import KEYS
 from rodfem.post.runs import PlotError
 
 FLAGS = ("contact", "stable", "tangential")
 FIGURE = "branches.png"
-# The symbols of the keys a continuation runs over (rodfem.post.names).
+# The symbols of the keys a continuation runs over (rodfem.output.names).
 SYMBOLS = {key: symbol for key, (_, symbol, _) in KEYS.items()}
 
 

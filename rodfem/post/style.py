@@ -18,7 +18,7 @@ from matplotlib.ticker import MaxNLocator
 from vtkmodules.vtkCommonCore import VTK_FONT_FILE
 from vtkmodules.vtkRenderingCore import vtkTextProperty
 
-from rodfem.post import names
+from rodfem.output import names
 from rodfem.post.choice import logarithmic
 from rodfem.post.runs import Run
 
@@ -66,7 +66,7 @@ def mpl_fonts():
 
 def key_label(key: str | None) -> str:
     """A scene key for a colour bar: its paper's symbol and the key, ``$\\zeta$ (model.zeta)``
-    (:func:`rodfem.post.names.key_label`)."""
+    (:func:`rodfem.output.names.key_label`)."""
     return names.key_label(key) if key is not None else "None"
 
 

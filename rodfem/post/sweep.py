@@ -3,7 +3,7 @@
 ``sweep_<measure>.png`` for every informative measure of the table (the built-in ones of
 :mod:`rodfem.output.measures` and those declared, chosen by :mod:`rodfem.post.choice`), or those
 asked for, drawn by how the sweep was swept (``sweep.json``), axes named by their symbols and
-units (:mod:`rodfem.post.names`), on a log scale where the design or the values call for one:
+units (:mod:`rodfem.output.names`), on a log scale where the design or the values call for one:
 
 * one axis (grid, zip or sample): the measure against the axis, a line with markers;
 * two grid axes or more: a map over the first two grid axes, one cell per pair of values, each
@@ -30,9 +30,9 @@ from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from rodfem.output import journal, results
+from rodfem.output import journal, names, results
 from rodfem.output.atomic import replacing
-from rodfem.post import choice, names
+from rodfem.post import choice
 from rodfem.post.runs import PlotError
 
 SIZE, DPI = (6.4, 4.8), 100

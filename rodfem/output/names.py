@@ -1,5 +1,6 @@
 """What the figures call things: the paper's symbol of a scene key, the meaning and symbol of a
-measure, and their units (one home, read by the run figures and the sweep figures alike).
+measure, and their units (one home, read by the run figures, the sweep figures and the quick figures
+of :mod:`rodfem.quicklook` alike; it imports nothing, so a notebook's line plot loads no VTK).
 
 The model is nondimensional (docs/outputs.md, "Units"): lengths and displacements are in units of
 the rod's length L, times of t₀ = ρcL²/κ, stresses of Young's modulus E, the energy of EL per unit
