@@ -158,9 +158,6 @@ def orders_figure(data: dict, scene: str, path: Path) -> Path:
     points = [p for p in data["points"] if p["scene"] == scene and p["status"] == "complete"]
     rows = [m for m in ROWS if any(math.isfinite(p.get(m, math.nan)) for p in points)]
     columns = [d for d in DIRECTIONS if any(p["refined"] == d for p in points)]
-    plotter = pv.Plotter(shape=(len(rows), len(columns)),
-                         window_size=(len(columns) * PANEL[0], len(rows) * PANEL[1]),
-                         off_screen=True)
     plan = data["plan"]
     exact = scene in data.get("exact", ["manufactured"])
     if scene in data.get("user", []):  # a scene file's own ladders
@@ -170,10 +167,20 @@ def orders_figure(data: dict, scene: str, path: Path) -> Path:
     else:
         fixed = {"h": f"Δt = {plan['h_dt']:g}", "dt": f"{plan['dt_cells']} cells"}
     fixed["h=dt"] = f"T = {plan.get('impact_end', plan['end']):g}, exact solution"
+    return _grid(rows, columns, path, lambda measure, refined, first: _panel(
+        points, measure, refined, first, f"{scene}: refining {NAMES[refined]}, {fixed[refined]}",
+        exact))
+
+
+def _grid(rows: list[str], columns: list[str], path: Path, chart_of) -> Path:
+    """A figure of panels, a row per measure and a column per direction refined:
+    ``chart_of(measure, refined, first)`` draws one (None: the panel stays empty)."""
+    plotter = pv.Plotter(shape=(len(rows), len(columns)),
+                         window_size=(len(columns) * PANEL[0], len(rows) * PANEL[1]),
+                         off_screen=True)
     for i, measure in enumerate(rows):
         for j, refined in enumerate(columns):
-            title = f"{scene}: refining {NAMES[refined]}, {fixed[refined]}"
-            chart = _panel(points, measure, refined, (i, j) == (0, 0), title, exact)
+            chart = chart_of(measure, refined, (i, j) == (0, 0))
             if chart is not None:
                 plotter.subplot(i, j)
                 plotter.add_chart(chart)
@@ -231,21 +238,14 @@ def measures_figure(data: dict, scene: str, path: Path) -> Path | None:
                    for r in orders)]
     if not rows or not columns:
         return None
-    plotter = pv.Plotter(shape=(len(rows), len(columns)),
-                         window_size=(len(columns) * PANEL[0], len(rows) * PANEL[1]),
-                         off_screen=True)
     fixed = _user_fixed(data["scenes"][scene])
-    for i, measure in enumerate(rows):
-        for j, refined in enumerate(columns):
-            mine = [r for r in measured if (r["measure"], r["refined"]) == (measure, refined)]
-            order = next(r for r in orders if (r["measure"], r["refined"]) == (measure, refined))
-            chart = _measure_panel(mine, order, refined, fixed[refined], (i, j) == (0, 0))
-            if chart is not None:
-                plotter.subplot(i, j)
-                plotter.add_chart(chart)
-    backend.save_image(plotter, path)
-    plotter.close()
-    return path
+
+    def chart_of(measure: str, refined: str, first: bool) -> pv.Chart2D | None:
+        mine = [r for r in measured if (r["measure"], r["refined"]) == (measure, refined)]
+        order = next(r for r in orders if (r["measure"], r["refined"]) == (measure, refined))
+        return _measure_panel(mine, order, refined, fixed[refined], first)
+
+    return _grid(rows, columns, path, chart_of)
 
 
 def work_precision_figure(data: dict, scene: str, path: Path) -> Path:
