@@ -17,6 +17,7 @@ from conftest import assert_refused, serial_only
 from rodfem.output import names
 from rodfem.output.measures import NAMES
 from rodfem.output.readers import HISTORY_COLUMNS, History
+from rodfem.output.results import HISTORIES
 from rodfem.post import choice, scenes
 from rodfem.post.runs import PlotError, Run, legend_labels
 from rodfem.post.sweep import plot_sweep
@@ -241,10 +242,23 @@ def test_overlay_needs_histories(tmp_path, capsys):
                    tmp_path / "f", "kept no histories (run the sweep with --histories)", capsys)
 
 
-def test_histories_file_name():
-    from rodfem.studies.sweepfiles import HISTORIES
+def test_kept_histories_read_a_scenes_own_columns_or_the_files(tmp_path):
+    """One reader of histories.h5 for the overlays and SweepResult.history: a scene's columns
+    are its dataset's, or the file's where the dataset has none."""
+    import h5py
 
-    assert scenes.HISTORIES == HISTORIES
+    from rodfem.output.results import kept_histories
+
+    rows = np.arange(6.0).reshape(2, 3)
+    with h5py.File(tmp_path / "h.h5", "w") as file:
+        file.attrs["columns"] = "t,u_1,u_half"
+        file.create_group("scenes").create_dataset("0", data=rows)
+        file["scenes"].create_dataset("2", data=rows[:, :2]).attrs["columns"] = "t,u_1"
+    kept = kept_histories(tmp_path / "h.h5")
+    assert sorted(kept) == [0, 2]
+    np.testing.assert_array_equal(kept[0][0], rows)
+    assert kept[0][1] == ("t", "u_1", "u_half") and kept[2][1] == ("t", "u_1")
+    assert list(kept_histories(tmp_path / "h.h5", [2, 5])) == [2]
 
 
 @pytest.mark.parametrize("options, message", [
@@ -334,7 +348,7 @@ def test_overlay_of_a_stopped_sweep_says_why(tmp_path):
     """A sweep run with --histories writes histories.h5 when it is complete: before, the overlay
     says so (and how to finish it), nothing written."""
     out = sweep(tmp_path, LOG, histories=True)
-    (out / scenes.HISTORIES).unlink()
+    (out / HISTORIES).unlink()
     with pytest.raises(PlotError, match="keeps them when it is complete.*rodfem resume"):
         plot_sweep(out, overlay=True)
     assert not (out / "figures").exists()

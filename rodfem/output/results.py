@@ -25,6 +25,7 @@ from rodfem.output.measures import MEASURES
 from rodfem.output.measures import NAMES as MEASURE_NAMES
 
 NAME = "results.csv"
+HISTORIES = "histories.h5"  # the scenes' histories a sweep keeps (rodfem sweep --histories)
 STATUSES = ("complete", "failed", "interrupted")
 
 
@@ -143,3 +144,17 @@ def parse(content: str, path: str = NAME) -> tuple[tuple[str, ...], dict[str, np
     if any(len(r) != len(names) for r in body):
         raise ResultsError(f"{path} has rows of another length than its header")
     return axes, {name: _column(name, [r[j] for r in body]) for j, name in enumerate(names)}
+
+
+def kept_histories(path: Path, indices=None) -> dict[int, tuple[np.ndarray, tuple[str, ...]]]:
+    """The rows and column names of the scenes' histories in a sweep's histories.h5 (``path``),
+    by index: of ``indices`` (those kept), or of every scene kept. A scene's columns are its
+    own (the default ones, then what its [output] adds), or the file's where it has none.
+    OSError, KeyError or ValueError for a file that is not one."""
+    import h5py  # here: imported before dolfinx, Debian's serial h5py aborts an MPI run
+
+    with h5py.File(path, "r") as file:
+        scenes = file["scenes"]
+        wanted = list(scenes) if indices is None else [str(i) for i in indices]
+        return {int(name): (scenes[name][...], tuple(str(scenes[name].attrs.get(
+            "columns", file.attrs["columns"])).split(","))) for name in wanted if name in scenes}

@@ -21,13 +21,11 @@ from pathlib import Path
 import numpy as np
 
 from rodfem.output.names import CHOICES
+from rodfem.output.results import HISTORIES, kept_histories
 from rodfem.post import curves
 from rodfem.post.curves import DASHES, Dashes
 from rodfem.post.runs import PARAMETERS, PlotError, Run, _flatten, legend_labels
 
-# The file of the histories ``rodfem sweep --histories`` keeps (rodfem.studies.sweepfiles writes
-# it, a layer above the figures; tests/test_sweep_figures.py checks the two names agree).
-HISTORIES = "histories.h5"
 FIGURES = ("sweep_scenes_contact.png", "sweep_scenes_energy.png")
 
 
@@ -46,8 +44,6 @@ class Overlay:
 def _histories(path: Path, kept: bool) -> dict[int, tuple[np.ndarray, tuple[str, ...]]]:
     """The rows and column names of every scene's history in histories.h5, by index; ``kept``:
     whether the sweep was run to keep them (sweep.json's ``histories``)."""
-    import h5py  # here: imported before dolfinx, Debian's serial h5py aborts an MPI run
-
     file = path / HISTORIES
     if not file.is_file():
         if kept:  # written when the sweep is complete
@@ -56,9 +52,7 @@ def _histories(path: Path, kept: bool) -> dict[int, tuple[np.ndarray, tuple[str,
         raise PlotError(f"--overlay: {path} kept no histories (run the sweep with "
                         "--histories)")
     try:
-        with h5py.File(file, "r") as data:
-            return {int(i): (dataset[...], tuple(str(dataset.attrs["columns"]).split(",")))
-                    for i, dataset in data["scenes"].items()}
+        return kept_histories(file)
     except (OSError, KeyError, ValueError) as err:
         raise PlotError(f"--overlay: cannot read {file}: {' '.join(str(err).split())}") \
             from None

@@ -26,7 +26,7 @@ from rodfem.scene.expressions import shorten
 from rodfem.studies import design
 from rodfem.studies.design import Sweep
 
-HISTORIES = "histories.h5"
+HISTORIES = table.HISTORIES
 FORMAT = 2  # 2: with the digest of the sweep, which tags its journal's records
 
 
@@ -110,15 +110,11 @@ class SweepResult:
             return named_history(*self._histories[index])
         if self.path is None or not (self.path / HISTORIES).is_file():
             raise KeyError(f"no histories kept (run the sweep with --histories): scene {index}")
-        import h5py
-
-        with h5py.File(self.path / HISTORIES, "r") as file:
-            name = f"scenes/{index}"
-            if name not in file:
-                raise KeyError(f"{self.path / HISTORIES} has no history of scene {index}")
-            data = file[name]
-            names = data.attrs.get("columns", file.attrs["columns"])
-            return named_history(data[...], named(str(names).split(",")))
+        kept = table.kept_histories(self.path / HISTORIES, [index])
+        if index not in kept:
+            raise KeyError(f"{self.path / HISTORIES} has no history of scene {index}")
+        rows, names = kept[index]
+        return named_history(rows, named(names))
 
 
 def result_from(lines: dict[int, str], axes, status, path=None, histories=None,
