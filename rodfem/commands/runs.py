@@ -35,6 +35,10 @@ def _advice(scene, error) -> str:
     )
 
 
+# The directories `rodfem resume` continues other than a run's: their command's resume function.
+STUDIES = {"sweep": ("rodfem.commands.sweeps", "resume_sweep"),
+           "fit": ("rodfem.commands.fit", "resume_fit"),
+           "sensitivity": ("rodfem.commands.sensitivity", "resume_sensitivity")}
 PER_STEP = {"picard": "Picard iterations/step", "newton": "Newton iterations/step",
             "direct": "solves/step"}
 
@@ -121,10 +125,11 @@ def resume(args: argparse.Namespace) -> int:
     except OutputError as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
-    if marker.get("command") == "sweep":
-        from rodfem.commands.sweeps import resume_sweep
+    if marker.get("command") in STUDIES:
+        import importlib
 
-        return resume_sweep(args, out, marker)
+        module, function = STUDIES[marker["command"]]
+        return getattr(importlib.import_module(module), function)(args, out, marker)
     try:
         scene, checkpoint = plan(out, args.overrides, marker, comm, large=args.large)
         mark_running(out, comm)

@@ -52,6 +52,7 @@ FIGURE_NAMES = re.compile(r"^((contact|energy)(_.+)?\.png"
 DATA_DIRS = {"fields": re.compile(r"^(mesh|steps-\d{6,})\.h5$"),
              "journal": re.compile(r"^part-\d{4,}-\d{5,}\.bin$")}
 
+RESUMABLE = ("run", "sweep", "fit", "sensitivity")  # the commands `rodfem resume` continues
 _held: dict[Path, tuple[int, dict]] = {}  # the directories this process holds: lock fd, marker
 
 
@@ -295,8 +296,8 @@ def finish(path: Path, status: str, comm: MPI.Comm) -> None:
 
 
 def reopen(path: Path, comm: MPI.Comm) -> dict:
-    """Hold the run directory ``path`` again (``rodfem resume``): it must be one that ``rodfem
-    run`` or ``rodfem sweep`` wrote and that no process holds. Returns its marker; nothing is
+    """Hold the run directory ``path`` again (``rodfem resume``): it must be one that a command
+    of :data:`RESUMABLE` wrote and that no process holds. Returns its marker; nothing is
     written until :func:`mark_running` (or :func:`release`, which lets it go untouched).
 
     Raises:
@@ -308,9 +309,9 @@ def reopen(path: Path, comm: MPI.Comm) -> dict:
             if not path.is_dir():
                 raise OutputError(f"{path} is not a directory")
             before = read_marker(path)
-            if before is None or before.get("command") not in ("run", "sweep"):
-                raise OutputError(f"{path} is not a directory of 'rodfem run' or 'rodfem sweep' "
-                                  f"(no {MARKER} of a run or a sweep)")
+            if before is None or before.get("command") not in RESUMABLE:
+                raise OutputError(f"{path} is not a directory of 'rodfem run', 'rodfem sweep', "
+                                  f"'rodfem fit' or 'rodfem sensitivity' (no {MARKER} of one)")
             why = marker_error(before)
             if why is not None:
                 raise OutputError(f"{path / MARKER} is not a marker rodfem wrote ({why}); "
