@@ -17,7 +17,10 @@ _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "sweep": "rodfem.studies.sweep", "load_sweep": "rodfem.studies.sweep",
         "read_fields": "rodfem.output.readers", "Fields": "rodfem.output.readers",
         "CoarseStepWarning": "rodfem.model.timescales", "steady": "rodfem.api",
-        "Scene": "rodfem.scene", "SweepResult": "rodfem.studies.sweepfiles"}
+        "Scene": "rodfem.scene", "SweepResult": "rodfem.studies.sweepfiles",
+        "sensitivity": "rodfem.studies.sensitivity",
+        "load_sensitivity": "rodfem.studies.sensitivityfiles",
+        "SensitivityResult": "rodfem.studies.sensitivityfiles"}
 __all__ = [*_API, "__version__"]
 
 
