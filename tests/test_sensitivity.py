@@ -263,8 +263,9 @@ def wait_for_records(out: Path, count: int, process) -> None:
 
 
 @serial_only
-@pytest.mark.parametrize("how", ["SIGKILL", "SIGTERM"])
-def test_a_stopped_campaign_resumes_to_the_same_indices(how, uninterrupted, tmp_path):
+@pytest.mark.parametrize("how, ranks", [("SIGKILL", 2), ("SIGTERM", 1)])
+def test_a_stopped_campaign_resumes_to_the_same_indices(how, ranks, uninterrupted, tmp_path):
+    """Stopped serially, resumed on ``ranks`` ranks (a sweep resumes on any number)."""
     study, whole = uninterrupted
     out = tmp_path / "out"
     process = subprocess.Popen(command("sensitivity", study, "--out", out), env=ENV,
@@ -278,8 +279,8 @@ def test_a_stopped_campaign_resumes_to_the_same_indices(how, uninterrupted, tmp_
     else:
         assert process.returncode == -signal.SIGKILL
     assert not (out / "sensitivity.csv").exists()
-    done = subprocess.run(command("resume", out), env=ENV, capture_output=True, text=True,
-                          timeout=600)
+    done = subprocess.run(command("resume", out, ranks=ranks), env=ENV, capture_output=True,
+                          text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     assert (out / "sensitivity.csv").read_bytes() == (whole / "sensitivity.csv").read_bytes()
     again = subprocess.run(command("resume", out), env=ENV, capture_output=True, text=True,
