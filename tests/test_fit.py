@@ -45,12 +45,13 @@ def synthetic() -> tuple[np.ndarray, np.ndarray]:
 
 
 def write_fit(directory: Path, fit: str = FIT, data: str | None = None) -> Path:
-    """The fit file and its data.csv in ``directory`` (rank 0 writes; every rank waits)."""
+    """The fit file and its data.csv in ``directory`` (rank 0 writes; every rank waits). The
+    data are made on every rank: the first run of a process starts PETSc, on every rank."""
+    if data is None:
+        t, u = synthetic()
+        data = "t,u_1\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(t, u, strict=True))
     if COMM.rank == 0:
         directory.mkdir(parents=True, exist_ok=True)
-        if data is None:
-            t, u = synthetic()
-            data = "t,u_1\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(t, u, strict=True))
         (directory / "data.csv").write_text(data)
         (directory / "fit.toml").write_text(fit)
     COMM.barrier()
