@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+import tomllib
 import types
 from pathlib import Path
 
@@ -86,9 +87,12 @@ def test_known_parameters_are_recovered_within_their_standard_errors(shared_dir)
     assert loaded.numbers == result.numbers and loaded.values == result.values
     assert (out / "fit.png").stat().st_size > 0
     assert "model.zeta" in repr(loaded) and "<table>" in loaded._repr_html_()
-    if COMM.size > 1:  # every rank ran the optimiser on the same numbers: the serial fit's
-        alone = rodfem.fit(shared_dir / "in" / "fit.toml", comm=MPI.COMM_SELF)
-        assert alone.numbers == result.numbers
+    # in memory, from the file's data, on one rank: the same fit (under mpirun every rank ran
+    # the optimiser on the same numbers, and took the same steps)
+    spec = tomllib.loads(FIT)
+    alone = rodfem.fit({**spec, "data": str(shared_dir / "in" / "data.csv")}, comm=MPI.COMM_SELF)
+    assert alone.numbers == result.numbers and alone.path is None
+    np.testing.assert_array_equal(alone.fitted.history["u_1"], fitted.history["u_1"])
 
 
 @pytest.fixture(scope="module")
@@ -164,6 +168,18 @@ def test_resume_refuses_edited_data_with_one_line(serial, tmp_path, capsys):
     assert main(["resume", str(copy)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "data.csv is not the data this fit was run with" in err
+
+
+@serial_only
+def test_a_run_that_fails_stops_the_fit_with_exit_3_naming_its_point(tmp_path, capsys):
+    """Picard's iteration cannot converge with so stiff an obstacle: the first run fails."""
+    fit = FIT.replace('"direct"', '"picard"').replace("[1e-3, 1e-1]", "[1e-7, 1e-6]")
+    out = tmp_path / "out"
+    assert main(["fit", str(write_fit(tmp_path, fit, GOOD_DATA)), "--out", str(out)]) == 3
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the run at model.zeta = " in err, err
+    assert "did not converge" in err and json.loads((out / "rodfem.json").read_text())[
+        "status"] == "failed"
 
 
 # --- statistics -------------------------------------------------------------------------------
