@@ -182,6 +182,19 @@ def test_a_run_that_fails_stops_the_fit_with_exit_3_naming_its_point(tmp_path, c
         "status"] == "failed"
 
 
+@serial_only
+def test_force_never_replaces_the_directory_that_holds_the_data(serial, tmp_path, capsys):
+    _, whole = serial
+    out = tmp_path / "out"
+    shutil.copytree(whole, out)
+    fit = write_fit(tmp_path / "in", FIT.replace('"data.csv"', f'"{out / "data.csv"}"'), "")
+    before = sorted(p.name for p in out.iterdir())
+    assert main(["fit", str(fit), "--out", str(out), "--force"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is inside the output directory" in err, err
+    assert sorted(p.name for p in out.iterdir()) == before
+
+
 # --- statistics -------------------------------------------------------------------------------
 
 def test_standard_errors_and_correlations_are_those_of_the_formula():
