@@ -22,6 +22,7 @@ import rodfem
 from conftest import COMM, serial_only
 from rodfem.cli import main
 from rodfem.output import journal
+from rodfem.output.directories import state
 from rodfem.studies import parameters
 from rodfem.studies.fit import H, Problem, statistics
 from rodfem.studies.fitdata import OWN
@@ -126,8 +127,22 @@ def wait_for_records(out: Path, count: int, process) -> None:
     raise AssertionError(f"the fit did not record {count} points in time")
 
 
+def processes_of(out: Path) -> list[int]:
+    """The processes whose command line names ``out`` (this test's own directory)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        try:
+            words = (entry / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if entry.name.isdigit() and str(out).encode() in words:
+            found.append(int(entry.name))
+    return found
+
+
 @serial_only
-@pytest.mark.parametrize("how, ranks", [("SIGKILL", 1), ("SIGTERM", 1), ("SIGUSR1", 2)])
+@pytest.mark.parametrize("how, ranks", [("SIGKILL", 1), ("SIGTERM", 1), ("SIGUSR1", 2),
+                                        ("SIGKILL", 2)])
 def test_a_stopped_fit_resumes_to_the_same_fit_json(how, ranks, serial, tmp_path):
     fit, whole = serial
     out = tmp_path / "out"
@@ -135,11 +150,16 @@ def test_a_stopped_fit_resumes_to_the_same_fit_json(how, ranks, serial, tmp_path
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                start_new_session=True)
     wait_for_records(out, 4, process)
-    if how == "SIGKILL":  # every process of it at once
-        os.killpg(process.pid, signal.SIGKILL)
+    if how == "SIGKILL":  # every process of it at once, mpirun's ranks too (a node lost)
+        for pid in processes_of(out):
+            os.kill(pid, signal.SIGKILL)
     else:  # the command, or mpirun, which forwards SIGUSR1 to the ranks
         process.send_signal(getattr(signal, how))
     _, err = process.communicate(timeout=120)
+    deadline = time.monotonic() + 60  # every rank gone (mpirun's ranks after it), its lock too
+    while state(out) == "running":
+        assert time.monotonic() < deadline
+        time.sleep(0.1)
     if how == "SIGKILL":
         assert process.returncode != 0
     else:
