@@ -20,7 +20,9 @@ _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "Scene": "rodfem.scene", "SweepResult": "rodfem.studies.sweepfiles",
         "sensitivity": "rodfem.studies.sensitivity",
         "load_sensitivity": "rodfem.studies.sensitivityfiles",
-        "SensitivityResult": "rodfem.studies.sensitivityfiles"}
+        "SensitivityResult": "rodfem.studies.sensitivityfiles",
+        "fit": "rodfem.studies.fitrun", "load_fit": "rodfem.studies.fitfiles",
+        "FitResult": "rodfem.studies.fitfiles", "FitError": "rodfem.studies.fitfiles"}
 __all__ = [*_API, "__version__"]
 
 

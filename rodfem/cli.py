@@ -3,6 +3,7 @@
 
     rodfem run SCENE [--out DIR] [--set section.key=value ...] [--force]
     rodfem sweep SWEEP.toml [--out DIR] [--force] [--histories]
+    rodfem fit FIT.toml [--out DIR] [--force] [--progress]
     rodfem sensitivity SENS.toml [--out DIR] [--force]
     rodfem resume DIR [--set time.end=T]
     rodfem plot DIR [DIR ...] [--out FIGDIR] [--force] [--only KINDS] [--no-animation]
@@ -62,7 +63,8 @@ def parser() -> argparse.ArgumentParser:
         description="Dynamic contact of a thermoviscoelastic rod with an obstacle (Copetti).",
     )
     sub = parser.add_subparsers(dest="command", required=True)
-    for add in (_run, _sweep, _sensitivity, _resume, _plot, _paper, _stability, _verify, _steady):
+    for add in (_run, _sweep, _fit, _sensitivity, _resume, _plot, _paper, _stability, _verify,
+                _steady):
         add(sub)
     return parser
 
@@ -127,19 +129,38 @@ def _sensitivity(sub) -> None:
     _progress(command, "a progress line every few seconds even when output is not a terminal")
 
 
+def _fit(sub) -> None:
+    """``rodfem fit``: a scene's parameters fitted to measured histories."""
+    fit = sub.add_parser(
+        "fit",
+        help="fit a scene's parameters to measured histories",
+        description="Fit the parameters of a fit file (a base scene, fixed values, ranges of "
+        "the parameters and a CSV of measured histories) by bounded nonlinear least squares, "
+        "the runs of each step dealt to the MPI ranks, and write fit.json (the values, their "
+        "standard errors and correlations), fitted/ (the run at the optimum) and fit.png. "
+        "'rodfem resume DIR' continues a stopped fit.",
+    )
+    fit.add_argument("file", metavar="FIT.toml", help="the fit file")
+    _output(fit, None, "output directory (default: results/<fit file's name>)",
+            "replace an existing fit directory")
+    fit.add_argument("--quiet", action="store_true", help="no final line")
+    _progress(fit, "a line per batch of runs")
+
+
 def _resume(sub) -> None:
-    """``rodfem resume``: a stopped run or sweep continued."""
+    """``rodfem resume``: a stopped run, sweep, fit or sensitivity study continued."""
     resume = sub.add_parser(
         "resume",
-        help="continue a stopped run or sweep, or extend a finished run",
+        help="continue a stopped run, sweep, fit or sensitivity study, or extend a finished run",
         description="Continue the run in DIR from its last checkpoint, after Ctrl-C, a signal, "
         "a kill, a full disk or a failure, to the history and fields an uninterrupted run would "
         "have written, bit for bit (under mpirun, on as many ranks as the run had). With --set "
         "time.end=T a finished run goes on to T. A stopped sweep runs the scenes its journal "
-        "does not hold (on any number of ranks), to the table an uninterrupted sweep writes.",
+        "does not hold (on any number of ranks), to the table an uninterrupted sweep writes; "
+        "a stopped fit or sensitivity study goes on from its journal to the same results.",
     )
     resume.add_argument("dir", type=Path, metavar="DIR",
-                        help="a directory of 'rodfem run' or 'rodfem sweep'")
+                        help="a directory of 'rodfem run', 'sweep', 'fit' or 'sensitivity'")
     _overrides(resume, "a later end, time.end=T (the only value a resumed run may change)")
     resume.add_argument("--quiet", action="store_true", help="no progress bar and no final line")
     _progress(resume, "draw the progress bar even when output is not a terminal (mpirun)")
@@ -308,7 +329,7 @@ def _steady(sub) -> None:
 
 
 COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.resume,
-            "sensitivity": commands.sensitivity,
+            "fit": commands.fit, "sensitivity": commands.sensitivity,
             "plot": commands.plot,
             "paper": commands.paper,
             "stability": commands.stability, "verify": commands.verify,
