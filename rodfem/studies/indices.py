@@ -93,6 +93,9 @@ def settings(extra: dict, name: str, parameters: int) -> dict[str, Any]:
     method = extra.get("method", "sobol")
     if method not in METHODS:
         raise SceneError(f"{name}: method must be one of {', '.join(METHODS)}, got {method!r}")
+    if method == "sobol" and "levels" in extra:  # a forgotten method = "morris"
+        raise SceneError(f"{name}: levels is an option of Morris' screening; give "
+                         'method = "morris" with it, or leave it out for Sobol indices')
     samples = _integer(extra, "samples", 64 if method == "sobol" else 16, 2, name)
     if method == "sobol" and samples & (samples - 1):
         raise SceneError(f"{name}: samples must be a power of 2 for Sobol indices (Saltelli's "

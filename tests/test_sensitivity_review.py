@@ -1,0 +1,30 @@
+"""Review of rodfem sensitivity: options of the other method, the lines a user reads, and the
+directories other commands are given."""
+
+
+from conftest import assert_refused, serial_only
+from rodfem.cli import main
+
+GOOD = """scene = "paper1"
+samples = 4
+outputs = ["u_1_final"]
+[set]
+"mesh.cells" = 8
+"time.end" = 0.2
+"solver.method" = "direct"
+[parameters]
+"model.zeta" = [0.5, 1.0]
+"""
+
+
+@serial_only
+def test_a_morris_option_without_method_morris_is_refused(tmp_path, capsys):
+    """levels without method = "morris" is a forgotten method: Sobol indices would ignore it."""
+    study = tmp_path / "levels.toml"
+    study.write_text("levels = 4\n" + GOOD)
+    assert_refused(["sensitivity", str(study), "--out", str(tmp_path / "out")],
+                   tmp_path / "out", 'levels is an option of Morris\' screening; give method = '
+                   '"morris"', capsys)
+    study.write_text('method = "morris"\nlevels = 4\n' + GOOD.replace(
+        "[parameters]\n", '[parameters]\n"model.theta_A" = [5.0, 15.0]\n'))
+    assert main(["sensitivity", str(study), "--out", str(tmp_path / "out"), "--quiet"]) == 0
