@@ -1,7 +1,6 @@
 """Review of rodfem sensitivity: options of the other method, the lines a user reads, and the
 directories other commands are given."""
 
-
 from conftest import assert_refused, serial_only
 from rodfem.cli import main
 
@@ -28,3 +27,12 @@ def test_a_morris_option_without_method_morris_is_refused(tmp_path, capsys):
     study.write_text('method = "morris"\nlevels = 4\n' + GOOD.replace(
         "[parameters]\n", '[parameters]\n"model.theta_A" = [5.0, 15.0]\n'))
     assert main(["sensitivity", str(study), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+
+
+@serial_only
+def test_morris_of_one_parameter_is_refused_in_one_line(tmp_path, capsys):
+    """SALib's Morris sampling of one parameter raised a TypeError (a traceback)."""
+    study = tmp_path / "one.toml"
+    study.write_text('method = "morris"\n' + GOOD)
+    assert_refused(["sensitivity", str(study), "--out", str(tmp_path / "out")],
+                   tmp_path / "out", "Morris' screening ranks 2 parameters or more", capsys)
