@@ -96,7 +96,7 @@ def test_a_constant_or_a_missing_measure_has_no_indices_and_a_warning():
                                             "v": values})
     assert [r["measure"] for r in rows] == ["v"]
     assert "c has no indices: it is constant" in warnings[0]
-    assert "n has no indices: 1 of its 24 values are not numbers" in warnings[1]
+    assert "n has no indices: not a number in 1 of its 24 runs" in warnings[1]
 
 
 # --- campaigns ----------------------------------------------------------------------------------

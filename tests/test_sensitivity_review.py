@@ -36,3 +36,12 @@ def test_morris_of_one_parameter_is_refused_in_one_line(tmp_path, capsys):
     study.write_text('method = "morris"\n' + GOOD)
     assert_refused(["sensitivity", str(study), "--out", str(tmp_path / "out")],
                    tmp_path / "out", "Morris' screening ranks 2 parameters or more", capsys)
+
+
+@serial_only
+def test_the_lines_of_one_measure_and_one_parameter_are_singular(tmp_path, capsys):
+    study = tmp_path / "one.toml"
+    study.write_text(GOOD)
+    assert main(["sensitivity", str(study), "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "Sobol indices of 1 of 1 measure over 1 parameter ->" in out, out

@@ -147,7 +147,7 @@ def usable(output: np.ndarray) -> str | None:
     """Why a measure's values over the runs cannot be analysed, or None."""
     finite = np.isfinite(output)
     if not finite.all():
-        return f"{int((~finite).sum())} of its {len(output)} values are not numbers"
+        return f"not a number in {int((~finite).sum())} of its {len(output)} runs"
     if np.all(output == output[0]):
         return f"it is constant ({output[0]!r}): every index is 0"
     return None

@@ -32,6 +32,7 @@ from rodfem.output.measures import TIMINGS
 from rodfem.scene import SceneError
 from rodfem.studies import indices, parameters
 from rodfem.studies.design import Sweep
+from rodfem.studies.paper import plural
 from rodfem.studies.parameters import Study
 from rodfem.studies.sensitivityfiles import (
     CSV,
@@ -295,8 +296,9 @@ def summary_line(result: SensitivityResult) -> str:
     numbers = result.numbers
     kind = "Sobol indices" if result.method == "sobol" else "Morris screening"
     ran = numbers.get("ran", numbers["runs"])
-    done = f" ({ran} run now)" if ran != numbers["runs"] else ""
+    done = f" ({ran or 'none'} run now)" if ran != numbers["runs"] else ""
     return (f"{numbers['runs']} runs{done} in {numbers['run_seconds']:.2f} s; {kind} of "
-            f"{len(set(r['measure'] for r in result.table))} of {len(result.outputs)} measures "
-            f"over {len(result.parameters)} parameters")
+            f"{len(set(r['measure'] for r in result.table))} of "
+            f"{plural(len(result.outputs), 'measure')} over "
+            f"{plural(len(result.parameters), 'parameter')}")
 
