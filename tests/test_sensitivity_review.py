@@ -39,9 +39,18 @@ def test_morris_of_one_parameter_is_refused_in_one_line(tmp_path, capsys):
 
 
 @serial_only
-def test_the_lines_of_one_measure_and_one_parameter_are_singular(tmp_path, capsys):
+def test_one_measure_one_parameter_lines_and_plot_of_the_directory(tmp_path, capsys):
     study = tmp_path / "one.toml"
     study.write_text(GOOD)
     assert main(["sensitivity", str(study), "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
     assert "Sobol indices of 1 of 1 measure over 1 parameter ->" in out, out
+    # rodfem plot of the study's directory says where its figures are (it said the directory
+    # was not a run's, for want of a history.h5)
+    assert main(["plot", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"rodfem: error: {tmp_path / 'out'} is a sensitivity study, drawn in "
+                   f"{tmp_path / 'out' / 'sensitivity.png'}; 'rodfem plot "
+                   f"{tmp_path / 'out' / 'runs'}' draws the figures of its runs\n"), err
+    assert not (tmp_path / "out" / "figures").exists()
+    assert main(["plot", str(tmp_path / "out" / "runs")]) == 0
