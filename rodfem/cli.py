@@ -128,18 +128,21 @@ def _sensitivity(sub) -> None:
 
 
 def _resume(sub) -> None:
-    """``rodfem resume``: a stopped run or sweep continued."""
+    """``rodfem resume``: a stopped run, sweep or study continued."""
     resume = sub.add_parser(
         "resume",
-        help="continue a stopped run or sweep, or extend a finished run",
+        help="continue a stopped run, sweep or sensitivity study, or extend a finished run",
         description="Continue the run in DIR from its last checkpoint, after Ctrl-C, a signal, "
         "a kill, a full disk or a failure, to the history and fields an uninterrupted run would "
         "have written, bit for bit (under mpirun, on as many ranks as the run had). With --set "
         "time.end=T a finished run goes on to T. A stopped sweep runs the scenes its journal "
-        "does not hold (on any number of ranks), to the table an uninterrupted sweep writes.",
+        "does not hold (on any number of ranks), to the table an uninterrupted sweep writes; a "
+        "stopped sensitivity study runs the rest of its runs and analyses them, to the indices "
+        "an uninterrupted study writes.",
     )
     resume.add_argument("dir", type=Path, metavar="DIR",
-                        help="a directory of 'rodfem run' or 'rodfem sweep'")
+                        help="a directory of 'rodfem run', 'rodfem sweep' or 'rodfem "
+                        "sensitivity'")
     _overrides(resume, "a later end, time.end=T (the only value a resumed run may change)")
     resume.add_argument("--quiet", action="store_true", help="no progress bar and no final line")
     _progress(resume, "draw the progress bar even when output is not a terminal (mpirun)")

@@ -1,6 +1,8 @@
 """Review of rodfem sensitivity: options of the other method, the lines a user reads, and the
 directories other commands are given."""
 
+import pytest
+
 from conftest import assert_refused, serial_only
 from rodfem.cli import main
 
@@ -54,3 +56,12 @@ def test_one_measure_one_parameter_lines_and_plot_of_the_directory(tmp_path, cap
                    f"{tmp_path / 'out' / 'runs'}' draws the figures of its runs\n"), err
     assert not (tmp_path / "out" / "figures").exists()
     assert main(["plot", str(tmp_path / "out" / "runs")]) == 0
+
+
+@serial_only
+def test_the_help_of_resume_names_sensitivity_studies(capsys):
+    with pytest.raises(SystemExit):
+        main(["resume", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "a stopped sensitivity study runs the rest of its runs" in text, text
+    assert "'rodfem sensitivity'" in text
