@@ -65,3 +65,15 @@ def test_the_help_of_resume_names_sensitivity_studies(capsys):
     text = " ".join(capsys.readouterr().out.split())
     assert "a stopped sensitivity study runs the rest of its runs" in text, text
     assert "'rodfem sensitivity'" in text
+
+
+def test_the_repr_of_one_measure_and_one_parameter_is_singular():
+    from rodfem.studies.sensitivityfiles import SensitivityResult
+
+    row = {"measure": "u_1_final", "parameter": "model.zeta", "S1": 0.5, "S1_conf": 0.1,
+           "ST": 0.6, "ST_conf": 0.1}
+    result = SensitivityResult("sobol", ("S1", "S1_conf", "ST", "ST_conf"), (row,),
+                               ("model.zeta",), ("u_1_final",), "complete")
+    assert repr(result).startswith("<rodfem.SensitivityResult complete: Sobol indices, "
+                                   "1 measure × 1 parameter>")
+    assert "1 measure × 1 parameter&gt;</b>" in result._repr_html_()

@@ -31,8 +31,8 @@ from rodfem.output.measures import NAMES as BUILTIN
 from rodfem.output.measures import TIMINGS
 from rodfem.scene import SceneError
 from rodfem.studies import indices, parameters
+from rodfem.studies.common import plural
 from rodfem.studies.design import Sweep
-from rodfem.studies.paper import plural
 from rodfem.studies.parameters import Study
 from rodfem.studies.sensitivityfiles import (
     CSV,

@@ -15,6 +15,7 @@ import numpy as np
 
 from rodfem.scene import SceneError
 from rodfem.studies import indices
+from rodfem.studies.common import plural
 from rodfem.studies.sweepfiles import digest
 
 CSV, FIGURE = "sensitivity.csv", "sensitivity.png"
@@ -80,8 +81,9 @@ class SensitivityResult:
 
     def __repr__(self) -> str:
         kind = "Sobol indices" if self.method == "sobol" else "Morris screening"
-        lines = [f"<rodfem.SensitivityResult {self.status}: {kind}, {len(self.outputs)} "
-                 f"measures × {len(self.parameters)} parameters>"]
+        lines = [f"<rodfem.SensitivityResult {self.status}: {kind}, "
+                 f"{plural(len(self.outputs), 'measure')} × "
+                 f"{plural(len(self.parameters), 'parameter')}>"]
         for row in self.table[:12]:
             lines.append(f"    {row['measure']} / {row['parameter']}: " + ", ".join(
                 f"{c} {row[c]:.3g}" for c in self.columns))
