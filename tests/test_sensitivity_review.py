@@ -1,8 +1,11 @@
 """Review of rodfem sensitivity: options of the other method, the lines a user reads, and the
 directories other commands are given."""
 
+import tomllib
+
 import pytest
 
+import rodfem
 from conftest import assert_refused, serial_only
 from rodfem.cli import main
 
@@ -77,3 +80,9 @@ def test_the_repr_of_one_measure_and_one_parameter_is_singular():
     assert repr(result).startswith("<rodfem.SensitivityResult complete: Sobol indices, "
                                    "1 measure × 1 parameter>")
     assert "1 measure × 1 parameter&gt;</b>" in result._repr_html_()
+
+
+def test_a_campaign_in_memory_says_how_long_its_runs_took():
+    result = rodfem.sensitivity(tomllib.loads(GOOD))
+    assert result.path is None and result.numbers["runs"] == 12
+    assert result.numbers["run_seconds"] > 0  # was 0.0 in memory

@@ -133,8 +133,9 @@ def run_campaign(found: Campaign, out: str | Path | None, comm: MPI.Comm, *,
     from rodfem.studies.sweep import run_sweep
 
     if out is None:
+        started = time.perf_counter()
         runs = run_sweep(found.sweep, None, comm, progress=progress)
-        return _analysed(found, runs, None, comm, 0.0)
+        return _analysed(found, runs, None, comm, time.perf_counter() - started)
     out = Path(out)
     from rodfem.output.directories import prepare_directory
     from rodfem.output.files import write_json, write_text
