@@ -86,3 +86,31 @@ def test_a_campaign_in_memory_says_how_long_its_runs_took():
     result = rodfem.sensitivity(tomllib.loads(GOOD))
     assert result.path is None and result.numbers["runs"] == 12
     assert result.numbers["run_seconds"] > 0  # was 0.0 in memory
+
+
+@serial_only
+def test_a_signal_during_the_analysis_leaves_a_complete_study(tmp_path, capsys, monkeypatch):
+    """SIGTERM while the figure is drawn (the runs done) stopped the command with 'stopped
+    outside a time loop' and no word of resume; the analysis now finishes first."""
+    import os
+    import signal
+
+    import rodfem.post.sensitivity as chart
+    from rodfem.output import interrupts
+
+    monkeypatch.setattr(interrupts, "_received", [])  # the signal is this test's alone
+    drawn = chart.plot_indices
+
+    def interrupted(*args):
+        os.kill(os.getpid(), signal.SIGTERM)
+        return drawn(*args)
+
+    monkeypatch.setattr(chart, "plot_indices", interrupted)
+    study = tmp_path / "good.toml"
+    study.write_text(GOOD)
+    assert main(["sensitivity", str(study), "--out", str(tmp_path / "out")]) == 0
+    assert "1 of 1 measure" in capsys.readouterr().out
+    loaded = rodfem.load_sensitivity(tmp_path / "out")
+    assert loaded.status == "complete" and len(loaded.table) == 1
+    assert (tmp_path / "out" / "sensitivity.png").is_file()
+

@@ -160,36 +160,39 @@ def _analysed(found: Campaign, runs: SweepResult, out: Path | None, comm: MPI.Co
     """The indices of a campaign's runs (complete, or as far as they went), with its files
     written (``out``: rank 0) and its marker's final status; ``ran``: how many ran now (None:
     as its sweep's summary says)."""
-    rows, warnings, failed, analysis = [], [], 0, 0.0
-    status = runs.status if runs.error is None else "failed"
-    if status == "complete" and comm.rank == 0:
-        failed = int(np.sum(runs["status"] != "complete"))
-        started = time.perf_counter()
-        if failed:
-            warnings.append(f"no indices: {failed} of the {len(runs)} runs failed (their rows "
-                            "in runs/results.csv say why)")
-        else:
-            rows, warnings = indices.analyse(found.plan, {m: np.asarray(runs[m], dtype=float)
-                                                          for m in found.outputs})
-        analysis = time.perf_counter() - started
-    ran = len(found.sweep) if ran is None else ran
-    if out is not None and comm.rank == 0 and ran != 0:  # a resumed campaign's, this time
-        try:
-            ran = json.loads((out / "runs" / "summary.json").read_text())["ran_this_time"]
-        except (OSError, ValueError, KeyError, TypeError):
-            pass
-    rows, warnings, failed, analysis, ran = comm.bcast((rows, warnings, failed, analysis, ran),
-                                                       root=0)
-    error = runs.error
-    if out is not None:
-        error = _write(out, found, rows, status, comm) or error
-        if error is not None:
-            status = "failed"
-    return SensitivityResult(found.plan.method, found.plan.columns, tuple(rows),
-                             tuple(p.key for p in found.plan.parameters), found.outputs,
-                             status, out, tuple(warnings), failed, error,
-                             {"runs": len(found.sweep), "ran": ran, "run_seconds": seconds,
-                              "analysis_seconds": analysis})
+    # The runs are done: a signal now waits for the analysis and its files (a second or two),
+    # which leave the campaign complete, rather than stopping it between them.
+    with interrupts.deferred():
+        rows, warnings, failed, analysis = [], [], 0, 0.0
+        status = runs.status if runs.error is None else "failed"
+        if status == "complete" and comm.rank == 0:
+            failed = int(np.sum(runs["status"] != "complete"))
+            started = time.perf_counter()
+            if failed:
+                warnings.append(f"no indices: {failed} of the {len(runs)} runs failed (their rows "
+                                "in runs/results.csv say why)")
+            else:
+                rows, warnings = indices.analyse(found.plan, {m: np.asarray(runs[m], dtype=float)
+                                                              for m in found.outputs})
+            analysis = time.perf_counter() - started
+        ran = len(found.sweep) if ran is None else ran
+        if out is not None and comm.rank == 0 and ran != 0:  # a resumed campaign's, this time
+            try:
+                ran = json.loads((out / "runs" / "summary.json").read_text())["ran_this_time"]
+            except (OSError, ValueError, KeyError, TypeError):
+                pass
+        rows, warnings, failed, analysis, ran = comm.bcast((rows, warnings, failed, analysis, ran),
+                                                           root=0)
+        error = runs.error
+        if out is not None:
+            error = _write(out, found, rows, status, comm) or error
+            if error is not None:
+                status = "failed"
+        return SensitivityResult(found.plan.method, found.plan.columns, tuple(rows),
+                                 tuple(p.key for p in found.plan.parameters), found.outputs,
+                                 status, out, tuple(warnings), failed, error,
+                                 {"runs": len(found.sweep), "ran": ran, "run_seconds": seconds,
+                                  "analysis_seconds": analysis})
 
 
 def _write(out: Path, found: Campaign, rows: list[dict], status: str,
