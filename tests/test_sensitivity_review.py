@@ -1,7 +1,10 @@
 """Review of rodfem sensitivity: options of the other method, the lines a user reads, and the
 directories other commands are given."""
 
+import json
+import shutil
 import tomllib
+from pathlib import Path
 
 import pytest
 
@@ -114,3 +117,45 @@ def test_a_signal_during_the_analysis_leaves_a_complete_study(tmp_path, capsys, 
     assert loaded.status == "complete" and len(loaded.table) == 1
     assert (tmp_path / "out" / "sensitivity.png").is_file()
 
+
+
+def _stale(marker: Path) -> None:
+    """A marker as a kill leaves it: running, its process gone."""
+    data = json.loads(marker.read_text())
+    data.update(status="running", pid=2 ** 22 + 1)
+    data.pop("finished", None)
+    marker.write_text(json.dumps(data))
+
+
+@serial_only
+def test_a_campaign_killed_as_its_runs_directory_was_made_resumes(tmp_path, capsys):
+    """Killed between marking runs/ and writing its sweep.json, resume said 'no readable
+    sweep.json' and exit 2; now it runs the runs, to the indices of an unstopped campaign."""
+    study = tmp_path / "good.toml"
+    study.write_text(GOOD)
+    assert main(["sensitivity", str(study), "--out", str(tmp_path / "whole"), "--quiet"]) == 0
+    out = tmp_path / "out"
+    shutil.copytree(tmp_path / "whole", out)
+    for entry in (out / "runs").iterdir():
+        if entry.name not in ("rodfem.json", "rodfem.lock"):
+            shutil.rmtree(entry) if entry.is_dir() else entry.unlink()
+    for name in ("sensitivity.csv", "sensitivity.png"):
+        (out / name).unlink()
+    _stale(out / "rodfem.json")
+    _stale(out / "runs" / "rodfem.json")
+    capsys.readouterr()
+    assert main(["resume", str(out), "--quiet"]) == 0, capsys.readouterr().err
+    assert (out / "sensitivity.csv").read_bytes() == \
+        (tmp_path / "whole" / "sensitivity.csv").read_bytes()
+    # a runs/ holding a file of the user's is not replaced: one line, exit 2, the file kept
+    for name in ("sensitivity.csv", "sensitivity.png"):
+        (out / name).unlink()
+    shutil.rmtree(out / "runs")
+    (out / "runs").mkdir()
+    (out / "runs" / "notes.txt").write_text("mine")
+    _stale(out / "rodfem.json")
+    capsys.readouterr()
+    assert main(["resume", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("rodfem: error: ") and err.count("\n") == 1, err
+    assert (out / "runs" / "notes.txt").read_text() == "mine"

@@ -245,8 +245,11 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SensitivityResu
             raise SceneError(str(err)) from None
     mark_running(out, comm)
     started = time.perf_counter()
-    if runs_state is None:  # stopped before its runs began
-        result = run_sweep(found.sweep, runs, comm, progress=progress)
+    if runs_state is None:  # stopped before its runs began (runs/ perhaps marked, no more)
+        try:
+            result = run_sweep(found.sweep, runs, comm, force=runs.exists(), progress=progress)
+        except OutputError as err:  # runs/ is not rodfem's alone: untouched
+            raise SceneError(str(err)) from None
     elif runs_state == "complete":
         result = comm.bcast(load_sweep(runs) if comm.rank == 0 else None, root=0)
         return _analysed(found, result, out, comm, 0.0, ran=0)
@@ -265,7 +268,7 @@ def _checked(out: Path) -> tuple[dict | str, str | None]:
     runs = out / "runs"
     try:
         written = read_meta(out)
-        if not runs.exists():
+        if not (runs / "sweep.json").exists():  # its runs had not begun (a kill before)
             return written, None
         if read_sweep(runs)["digest"] != written["runs"]:
             raise SceneError(f"{runs} holds the runs of another study; run the study again "
