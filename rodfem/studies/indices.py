@@ -96,9 +96,6 @@ def settings(extra: dict, name: str, parameters: int) -> dict[str, Any]:
     if method == "sobol" and "levels" in extra:  # a forgotten method = "morris"
         raise SceneError(f"{name}: levels is an option of Morris' screening; give "
                          'method = "morris" with it, or leave it out for Sobol indices')
-    if method == "morris" and parameters < 2:  # SALib's trajectories need two
-        raise SceneError(f"{name}: Morris' screening ranks 2 parameters or more; give another "
-                         "range in [parameters], or Sobol indices of this one")
     samples = _integer(extra, "samples", 64 if method == "sobol" else 16, 2, name)
     if method == "sobol" and samples & (samples - 1):
         raise SceneError(f"{name}: samples must be a power of 2 for Sobol indices (Saltelli's "
@@ -110,6 +107,9 @@ def settings(extra: dict, name: str, parameters: int) -> dict[str, Any]:
     levels = _integer(extra, "levels", 4, 2, name)
     if levels % 2:
         raise SceneError(f"{name}: levels must be even (Morris' grid), got {levels}")
+    if method == "morris" and parameters < 2:  # SALib's trajectories need two
+        raise SceneError(f"{name}: Morris' screening ranks 2 parameters or more; give another "
+                         "range in [parameters], or Sobol indices of this one")
     resamples = _integer(extra, "resamples", 100, 1, name)
     confidence = extra.get("confidence", 0.95)
     if isinstance(confidence, bool) or not isinstance(confidence, (int, float)) \
