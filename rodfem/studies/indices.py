@@ -31,6 +31,7 @@ SALib takes a seed of 0 for none: it is given ``seed + 1``.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 from typing import Any
@@ -73,6 +74,17 @@ class Plan:
     def columns(self) -> tuple[str, ...]:
         """The columns of the indices of this method."""
         return COLUMNS[self.method]
+
+
+@contextlib.contextmanager
+def _caller_random():
+    """SALib's Morris functions seed NumPy's global generator (``np.random.seed``): the
+    caller's is restored after them, as it was."""
+    state = np.random.get_state()
+    try:
+        yield
+    finally:
+        np.random.set_state(state)
 
 
 def _integer(extra: dict, key: str, default: int, low: int, name: str) -> int:
@@ -136,7 +148,8 @@ def plan(parameters: tuple[Parameter, ...], method: str = "sobol", samples: int 
     else:
         from SALib.sample import morris
 
-        scaled = morris.sample(empty.problem, samples, num_levels=levels, seed=seed + 1)
+        with _caller_random():
+            scaled = morris.sample(empty.problem, samples, num_levels=levels, seed=seed + 1)
     scaled = np.ascontiguousarray(scaled, dtype=float)
     values = np.array([[p.value(x) for p, x in zip(parameters, row, strict=True)]
                        for row in scaled]).reshape(scaled.shape)
@@ -175,9 +188,10 @@ def analyse(plan: Plan, outputs: dict[str, np.ndarray]) -> tuple[list[dict], lis
                                   num_resamples=plan.resamples, conf_level=plan.confidence,
                                   seed=plan.seed + 1)
         else:
-            found = morris.analyze(problem, plan.scaled, output, num_resamples=plan.resamples,
-                                   conf_level=plan.confidence, num_levels=plan.levels,
-                                   seed=plan.seed + 1)
+            with _caller_random():
+                found = morris.analyze(problem, plan.scaled, output,
+                                       num_resamples=plan.resamples, conf_level=plan.confidence,
+                                       num_levels=plan.levels, seed=plan.seed + 1)
         for j, parameter in enumerate(plan.parameters):
             rows.append({"measure": name, "parameter": parameter.key,
                          **{c: float(np.asarray(found[c])[j]) for c in plan.columns}})
