@@ -159,6 +159,7 @@ def test_a_campaign_killed_as_its_runs_directory_was_made_resumes(tmp_path, caps
     err = capsys.readouterr().err
     assert err.startswith("rodfem: error: ") and err.count("\n") == 1, err
     assert (out / "runs" / "notes.txt").read_text() == "mine"
+    assert rodfem.load_sensitivity(out).status == "interrupted"  # not 'gone' for a live run
 
 
 @pytest.mark.parametrize("method, samples", [("morris", 4), ("sobol", 8)])

@@ -229,7 +229,7 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SensitivityResu
         SceneError: its files are not this version's, were edited, or its runs/ is another
             study's or in use: one line, nothing changed.
     """
-    from rodfem.output.directories import OutputError, mark_running, reopen
+    from rodfem.output.directories import OutputError, finish, mark_running, reopen
     from rodfem.studies.sweep import load_sweep, run_sweep
     from rodfem.studies.sweep import resume as continue_sweep
 
@@ -249,6 +249,7 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SensitivityResu
         try:
             result = run_sweep(found.sweep, runs, comm, force=runs.exists(), progress=progress)
         except OutputError as err:  # runs/ is not rodfem's alone: untouched
+            finish(out, "interrupted", comm)  # as it was: resumable once runs/ is rodfem's
             raise SceneError(str(err)) from None
     elif runs_state == "complete":
         result = comm.bcast(load_sweep(runs) if comm.rank == 0 else None, root=0)
