@@ -178,3 +178,12 @@ def test_a_study_leaves_the_callers_random_numbers_alone(method, samples):
     plan = indices.plan(parameters, method, samples)
     indices.analyse(plan, {"y": plan.values[:, 0] + plan.values[:, 1] ** 2})
     assert np.array_equal(np.random.rand(3), expected)
+
+
+@serial_only
+def test_one_bootstrap_resample_is_refused(tmp_path, capsys):
+    """resamples = 1 gave confidence intervals that are not numbers (and NumPy's warnings)."""
+    study = tmp_path / "one.toml"
+    study.write_text("resamples = 1\n" + GOOD)
+    assert_refused(["sensitivity", str(study), "--out", str(tmp_path / "out")],
+                   tmp_path / "out", "resamples must be an integer from 2 to", capsys)

@@ -14,7 +14,7 @@ The keys of a sensitivity file besides the study's own (:data:`KEYS`)::
     seed = 0              # of the sampling and of the bootstrap (default 0)
     outputs = ["peak_force", "u_1_final"]   # the measures analysed (default: the declared)
     levels = 4            # Morris: the grid's levels, even (default 4)
-    resamples = 100       # bootstrap resamples of the confidence intervals (default 100)
+    resamples = 100       # bootstrap resamples of the confidence intervals (default 100, >= 2)
     confidence = 0.95     # their level (default 0.95)
 
 Sobol indices (Saltelli's estimators, second order not computed): ``S1`` the first-order index
@@ -122,7 +122,7 @@ def settings(extra: dict, name: str, parameters: int) -> dict[str, Any]:
     if method == "morris" and parameters < 2:  # SALib's trajectories need two
         raise SceneError(f"{name}: Morris' screening ranks 2 parameters or more; give another "
                          "range in [parameters], or Sobol indices of this one")
-    resamples = _integer(extra, "resamples", 100, 1, name)
+    resamples = _integer(extra, "resamples", 100, 2, name)  # one has no spread
     confidence = extra.get("confidence", 0.95)
     if isinstance(confidence, bool) or not isinstance(confidence, (int, float)) \
             or not 0 < confidence < 1:
