@@ -166,6 +166,18 @@ def usable(output: np.ndarray) -> str | None:
     return None
 
 
+def left_out(name: str, output: np.ndarray) -> str | None:
+    """The warning line of a measure that gets no indices (:func:`usable`), or None."""
+    why = usable(np.asarray(output, dtype=float))
+    return None if why is None else f"{name} has no indices: {why}"
+
+
+def failed_line(failed: int, runs: int) -> str:
+    """The warning line of a study whose runs failed: no measure gets indices."""
+    return (f"no indices: {failed} of the {runs} runs failed (their rows in runs/results.csv "
+            "say why)")
+
+
 def analyse(plan: Plan, outputs: dict[str, np.ndarray]) -> tuple[list[dict], list[str]]:
     """The indices of each measure of ``outputs`` (name: its value at each of the plan's
     points, in order): rows {measure, parameter, and :attr:`Plan.columns`}, in the order of
@@ -179,9 +191,9 @@ def analyse(plan: Plan, outputs: dict[str, np.ndarray]) -> tuple[list[dict], lis
         output = np.asarray(output, dtype=float)
         if len(output) != len(plan.scaled):
             raise ValueError(f"{name}: {len(output)} values for {len(plan.scaled)} points")
-        why = usable(output)
-        if why is not None:
-            warnings.append(f"{name} has no indices: {why}")
+        line = left_out(name, output)
+        if line is not None:
+            warnings.append(line)
             continue
         if plan.method == "sobol":
             found = sobol.analyze(problem, output, calc_second_order=False,

@@ -169,8 +169,7 @@ def _analysed(found: Campaign, runs: SweepResult, out: Path | None, comm: MPI.Co
             failed = int(np.sum(runs["status"] != "complete"))
             started = time.perf_counter()
             if failed:
-                warnings.append(f"no indices: {failed} of the {len(runs)} runs failed (their rows "
-                                "in runs/results.csv say why)")
+                warnings.append(indices.failed_line(failed, len(runs)))
             else:
                 rows, warnings = indices.analyse(found.plan, {m: np.asarray(runs[m], dtype=float)
                                                               for m in found.outputs})

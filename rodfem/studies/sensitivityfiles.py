@@ -170,13 +170,18 @@ def load_sensitivity(path: str | Path) -> SensitivityResult:
             rows.append({"measure": cells[0], "parameter": cells[1],
                          **{c: float(v) for c, v in zip(columns, cells[2:], strict=True)}})
     keys = tuple(p["key"] for p in data.get("parameters", ()))
-    failed = 0
+    failed, warnings = 0, []
     if (path / "runs" / "results.csv").is_file():
         from rodfem.output import results as table
 
         _, found = table.read(path / "runs" / "results.csv")
         failed = int(np.sum(found["status"] != "complete"))
+        if status == "complete":  # the warnings of its analysis, said again
+            analysed = {row["measure"] for row in rows}
+            warnings = [indices.failed_line(failed, len(found["status"]))] if failed else [
+                line for m in data["outputs"] if m not in analysed and m in found
+                and (line := indices.left_out(m, found[m])) is not None]
     return SensitivityResult(data["method"], columns, tuple(rows), keys,
-                             tuple(data["outputs"]), status, path, failed=failed,
+                             tuple(data["outputs"]), status, path, tuple(warnings), failed,
                              numbers={"runs": data["samples"] * (len(keys) + (
                                  2 if data["method"] == "sobol" else 1))})
