@@ -187,3 +187,16 @@ def test_one_bootstrap_resample_is_refused(tmp_path, capsys):
     study.write_text("resamples = 1\n" + GOOD)
     assert_refused(["sensitivity", str(study), "--out", str(tmp_path / "out")],
                    tmp_path / "out", "resamples must be an integer from 2 to", capsys)
+
+
+@serial_only
+def test_loading_an_edited_table_is_one_scene_error(tmp_path, capsys):
+    study = tmp_path / "good.toml"
+    study.write_text(GOOD)
+    assert main(["sensitivity", str(study), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    table = tmp_path / "out" / "sensitivity.csv"
+    lines = table.read_text().splitlines()
+    for edited in (lines[1].rsplit(",", 1)[0], lines[1].rsplit(",", 1)[0] + ",abc", "x"):
+        table.write_text("\n".join([lines[0], edited]) + "\n")
+        with pytest.raises(rodfem.SceneError, match="sensitivity.csv, line 2: not a row"):
+            rodfem.load_sensitivity(tmp_path / "out")

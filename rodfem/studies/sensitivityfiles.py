@@ -165,10 +165,14 @@ def load_sensitivity(path: str | Path) -> SensitivityResult:
         if not lines or tuple(lines[0].split(",")) != names:
             raise SceneError(f"{path / CSV} is not a table rodfem wrote (its header is not "
                              f"{','.join(names)})")
-        for line in lines[1:]:
+        for number, line in enumerate(lines[1:], 2):
             cells = line.split(",")
-            rows.append({"measure": cells[0], "parameter": cells[1],
-                         **{c: float(v) for c, v in zip(columns, cells[2:], strict=True)}})
+            try:
+                rows.append({"measure": cells[0], "parameter": cells[1],
+                             **{c: float(v) for c, v in zip(columns, cells[2:], strict=True)}})
+            except (ValueError, IndexError):
+                raise SceneError(f"{path / CSV}, line {number}: not a row rodfem wrote (was it "
+                                 f"edited?): {line[:80]!r}") from None
     keys = tuple(p["key"] for p in data.get("parameters", ()))
     failed, warnings = 0, []
     if (path / "runs" / "results.csv").is_file():
