@@ -95,6 +95,12 @@ def _integer(extra: dict, key: str, default: int, low: int, name: str) -> int:
     return value
 
 
+def count(method: str, samples: int, parameters: int) -> int:
+    """How many runs a study makes: Saltelli's N (D + 2) without second-order terms, or
+    Morris' N (D + 1)."""
+    return samples * (parameters + (2 if method == "sobol" else 1))
+
+
 def settings(extra: dict, name: str, parameters: int) -> dict[str, Any]:
     """The sampling keys of a study file (``extra``: its own keys, ``name`` for messages),
     checked; ``parameters``: how many it varies.
@@ -112,7 +118,7 @@ def settings(extra: dict, name: str, parameters: int) -> dict[str, Any]:
     if method == "sobol" and samples & (samples - 1):
         raise SceneError(f"{name}: samples must be a power of 2 for Sobol indices (Saltelli's "
                          f"sampling), e.g. {1 << samples.bit_length()}, got {samples}")
-    runs = samples * (parameters + (2 if method == "sobol" else 1))
+    runs = count(method, samples, parameters)
     if runs > MAX_RUNS:
         raise SceneError(f"{name}: samples = {samples} makes {runs} runs; at most {MAX_RUNS}")
     seed = _integer(extra, "seed", 0, 0, name)

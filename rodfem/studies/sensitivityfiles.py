@@ -187,5 +187,5 @@ def load_sensitivity(path: str | Path) -> SensitivityResult:
                 and (line := indices.left_out(m, found[m])) is not None]
     return SensitivityResult(data["method"], columns, tuple(rows), keys,
                              tuple(data["outputs"]), status, path, tuple(warnings), failed,
-                             numbers={"runs": data["samples"] * (len(keys) + (
-                                 2 if data["method"] == "sobol" else 1))})
+                             numbers={"runs": indices.count(data["method"], data["samples"],
+                                                            len(keys))})
