@@ -200,3 +200,28 @@ def test_loading_an_edited_table_is_one_scene_error(tmp_path, capsys):
         table.write_text("\n".join([lines[0], edited]) + "\n")
         with pytest.raises(rodfem.SceneError, match="sensitivity.csv, line 2: not a row"):
             rodfem.load_sensitivity(tmp_path / "out")
+
+
+@serial_only
+def test_a_signal_before_the_runs_begin_says_how_to_resume(tmp_path, capsys, monkeypatch):
+    """A signal between the study's directory and its runs (the sweep raises it as it starts)
+    said 'stopped outside a time loop, nothing half-written' and no word of resume."""
+    import signal
+
+    import rodfem.studies.sweep as engine
+    from rodfem.output import interrupts
+
+    def stopped(*args, **kwargs):
+        raise interrupts.Interrupted(signal.SIGTERM)
+
+    monkeypatch.setattr(engine, "run_sweep", stopped)
+    monkeypatch.chdir(tmp_path)
+    Path("good.toml").write_text(GOOD)
+    assert main(["sensitivity", "good.toml", "--out", "out"]) == 143
+    err = capsys.readouterr().err
+    assert err == ("rodfem: interrupted by SIGTERM; stopped outside a time loop, nothing "
+                   "half-written; 'rodfem resume out' continues it\n"), err
+    assert rodfem.load_sensitivity(tmp_path / "out").status == "interrupted"
+    monkeypatch.undo()
+    assert main(["resume", str(tmp_path / "out"), "--quiet"]) == 0
+    assert len(rodfem.load_sensitivity(tmp_path / "out").table) == 1
