@@ -83,6 +83,11 @@ def test_the_repr_of_one_measure_and_one_parameter_is_singular():
     assert repr(result).startswith("<rodfem.SensitivityResult complete: Sobol indices, "
                                    "1 measure × 1 parameter>")
     assert "1 measure × 1 parameter&gt;</b>" in result._repr_html_()
+    empty = SensitivityResult("sobol", result.columns, (), ("model.zeta",), ("u_1_final",),
+                              "complete", warnings=("u_1_final has no indices: it is constant",))
+    with pytest.raises(KeyError, match="measures with indices: none"):
+        empty.indices("u_1_final")
+    assert "<tbody></tbody>" in empty._repr_html_() and "constant" in empty._repr_html_()
 
 
 def test_a_campaign_in_memory_says_how_long_its_runs_took():

@@ -64,8 +64,8 @@ class SensitivityResult:
         found = {row["parameter"]: {c: row[c] for c in self.columns}
                  for row in self.table if row["measure"] == measure}
         if not found:
-            raise KeyError(f"no indices of {measure!r}; measures with indices: "
-                           f"{', '.join(dict.fromkeys(r['measure'] for r in self.table))}")
+            having = ", ".join(dict.fromkeys(r["measure"] for r in self.table)) or "none"
+            raise KeyError(f"no indices of {measure!r}; measures with indices: {having}")
         return found
 
     def to_pandas(self):
