@@ -23,6 +23,7 @@ file could not be written, 128 + the signal's number when stopped by a signal.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -336,12 +337,25 @@ COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.res
             "work-precision": commands.verify, "steady": commands.steady}
 
 
-def _release(status: str) -> None:
-    """Mark the directories still held with ``status`` (if rodfem got as far as holding any)."""
+def _release(status: str) -> str:
+    """Mark the directories still held with ``status`` (if rodfem got as far as holding any);
+    returns how to continue the outermost of them, where ``rodfem resume`` continues it, or
+    ''."""
     directories = sys.modules.get("rodfem.output.directories")
-    if directories is not None:
-        with interrupts.deferred():  # a second signal (mpirun's SIGTERM) waits for the marker
-            directories.release_all(status)
+    if directories is None:
+        return ""
+    with interrupts.deferred():  # a second signal (mpirun's SIGTERM) waits for the marker
+        released = directories.release_all(status)
+    if not released:
+        return ""
+    outer = min(released, key=lambda path: len(path.parts))  # a study's, not its runs/
+    if released[outer] not in directories.RESUMABLE:  # e.g. rodfem paper, holding its runs
+        return ""
+    try:
+        shown = os.path.relpath(outer)
+    except OSError:  # no current directory
+        shown = str(outer)
+    return f"; 'rodfem resume {outer if shown.startswith('..') else shown}' continues it"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -355,11 +369,11 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as err:  # noqa: BLE001 (what a signal or a failed write became)
         signum = interrupts.signal_behind(err)
         if signum is not None:
-            _release("interrupted")
+            again = _release("interrupted")
             # said by every rank that gets here, not rank 0's alone: this rank may end the others
             # (_abort_ranks) before rank 0 has said anything
             print(f"rodfem: {interrupts.Interrupted(signum)}; stopped outside a time loop, "
-                  "nothing half-written", file=sys.stderr, flush=True)
+                  f"nothing half-written{again}", file=sys.stderr, flush=True)
             _abort_ranks(128 + signum)
             return 128 + signum
         if isinstance(err, OSError):  # a write that failed outside a run's loop (a figure)

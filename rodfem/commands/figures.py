@@ -27,6 +27,10 @@ SWEEP_INCOMPLETE = {
     "failed": "is a sweep stopped by a failed write ('rodfem resume {path}' runs the rest)",
 }
 
+# The study directories rodfem plot is not drawn from: their command's figure, and the
+# directory in them that rodfem plot draws.
+STUDY_FIGURES = {"sensitivity": ("sensitivity.png", "runs")}
+
 
 def _plot_options(args: argparse.Namespace):
     """The options of ``rodfem plot`` read (their fit with the runs is checked as they load)."""
@@ -52,6 +56,12 @@ def _drawing(args: argparse.Namespace):
         if blocking is not None:
             raise PlotError(f"--out {args.out}: {blocking} is a file, not a directory; give a "
                             "directory for the figures")
+    for d in args.dirs:
+        command = (read_marker(d) or {}).get("command")
+        if command in STUDY_FIGURES:
+            figure, inner = STUDY_FIGURES[command]
+            raise PlotError(f"{d} is a {command} study, drawn in {d / figure}; 'rodfem plot "
+                            f"{d / inner}' draws the figures of its runs")
     sweeps = [d for d in args.dirs if (read_marker(d) or {}).get("command") == "sweep"]
     if sweeps and len(args.dirs) > 1:
         raise PlotError(f"{sweeps[0]} is a sweep: plot it alone (its figures draw every "

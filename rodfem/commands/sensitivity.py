@@ -34,7 +34,7 @@ def _report(result, out: Path, quiet: bool) -> int:
     from rodfem.studies.sensitivity import summary_line
     from rodfem.studies.sensitivityfiles import CSV
 
-    for line in result.warnings:
+    for line in result.warnings if not result.failed else ():  # the error line says it
         say(f"rodfem: warning: {line}")
     again = f"'rodfem resume {out}' runs the rest and analyses them"
     if result.error is not None:

@@ -371,14 +371,17 @@ def state(path: Path) -> str | None:
     return "gone"
 
 
-def release_all(status: str) -> None:
+def release_all(status: str) -> dict[Path, str]:
     """Record ``status`` in every directory this process still holds, and release them (a
     command stopped before it could finish them itself). Errors are ignored: the lock is freed
-    when the process ends anyway, and a marker that still says running is read as 'gone'."""
+    when the process ends anyway, and a marker that still says running is read as 'gone'.
+    Returns them, with the command of each."""
     from mpi4py import MPI  # here: reading a directory (rodfem.load) needs no MPI
 
+    released = {path: str(marker.get("command")) for path, (_, marker) in _held.items()}
     for path in list(_held):
         try:
             finish(path, status, MPI.COMM_SELF)
         except OSError:
             pass
+    return released

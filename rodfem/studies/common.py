@@ -20,6 +20,11 @@ if TYPE_CHECKING:
     from mpi4py import MPI
 
 
+def plural(count: int, noun: str) -> str:
+    """``1 interval``, ``3 intervals``."""
+    return f"{count} {noun}{'' if count == 1 else 's'}"
+
+
 def machine(comm: MPI.Comm) -> dict:
     """Where a study ran: node, CPU, ranks and the versions of the software."""
     import dolfinx

@@ -14,7 +14,7 @@ The keys of a sensitivity file besides the study's own (:data:`KEYS`)::
     seed = 0              # of the sampling and of the bootstrap (default 0)
     outputs = ["peak_force", "u_1_final"]   # the measures analysed (default: the declared)
     levels = 4            # Morris: the grid's levels, even (default 4)
-    resamples = 100       # bootstrap resamples of the confidence intervals (default 100)
+    resamples = 100       # bootstrap resamples of the confidence intervals (default 100, >= 2)
     confidence = 0.95     # their level (default 0.95)
 
 Sobol indices (Saltelli's estimators, second order not computed): ``S1`` the first-order index
@@ -31,6 +31,7 @@ SALib takes a seed of 0 for none: it is given ``seed + 1``.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 from typing import Any
@@ -75,12 +76,29 @@ class Plan:
         return COLUMNS[self.method]
 
 
+@contextlib.contextmanager
+def _caller_random():
+    """SALib's Morris functions seed NumPy's global generator (``np.random.seed``): the
+    caller's is restored after them, as it was."""
+    state = np.random.get_state()
+    try:
+        yield
+    finally:
+        np.random.set_state(state)
+
+
 def _integer(extra: dict, key: str, default: int, low: int, name: str) -> int:
     value = extra.get(key, default)
     if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= MAX_RUNS:
         raise SceneError(f"{name}: {key} must be an integer from {low} to {MAX_RUNS}, got "
                          f"{value!r}")
     return value
+
+
+def count(method: str, samples: int, parameters: int) -> int:
+    """How many runs a study makes: Saltelli's N (D + 2) without second-order terms, or
+    Morris' N (D + 1)."""
+    return samples * (parameters + (2 if method == "sobol" else 1))
 
 
 def settings(extra: dict, name: str, parameters: int) -> dict[str, Any]:
@@ -93,18 +111,24 @@ def settings(extra: dict, name: str, parameters: int) -> dict[str, Any]:
     method = extra.get("method", "sobol")
     if method not in METHODS:
         raise SceneError(f"{name}: method must be one of {', '.join(METHODS)}, got {method!r}")
+    if method == "sobol" and "levels" in extra:  # a forgotten method = "morris"
+        raise SceneError(f"{name}: levels is an option of Morris' screening; give "
+                         'method = "morris" with it, or leave it out for Sobol indices')
     samples = _integer(extra, "samples", 64 if method == "sobol" else 16, 2, name)
     if method == "sobol" and samples & (samples - 1):
         raise SceneError(f"{name}: samples must be a power of 2 for Sobol indices (Saltelli's "
                          f"sampling), e.g. {1 << samples.bit_length()}, got {samples}")
-    runs = samples * (parameters + (2 if method == "sobol" else 1))
+    runs = count(method, samples, parameters)
     if runs > MAX_RUNS:
         raise SceneError(f"{name}: samples = {samples} makes {runs} runs; at most {MAX_RUNS}")
     seed = _integer(extra, "seed", 0, 0, name)
     levels = _integer(extra, "levels", 4, 2, name)
     if levels % 2:
         raise SceneError(f"{name}: levels must be even (Morris' grid), got {levels}")
-    resamples = _integer(extra, "resamples", 100, 1, name)
+    if method == "morris" and parameters < 2:  # SALib's trajectories need two
+        raise SceneError(f"{name}: Morris' screening ranks 2 parameters or more; give another "
+                         "range in [parameters], or Sobol indices of this one")
+    resamples = _integer(extra, "resamples", 100, 2, name)  # one has no spread
     confidence = extra.get("confidence", 0.95)
     if isinstance(confidence, bool) or not isinstance(confidence, (int, float)) \
             or not 0 < confidence < 1:
@@ -130,7 +154,8 @@ def plan(parameters: tuple[Parameter, ...], method: str = "sobol", samples: int 
     else:
         from SALib.sample import morris
 
-        scaled = morris.sample(empty.problem, samples, num_levels=levels, seed=seed + 1)
+        with _caller_random():
+            scaled = morris.sample(empty.problem, samples, num_levels=levels, seed=seed + 1)
     scaled = np.ascontiguousarray(scaled, dtype=float)
     values = np.array([[p.value(x) for p, x in zip(parameters, row, strict=True)]
                        for row in scaled]).reshape(scaled.shape)
@@ -141,10 +166,22 @@ def usable(output: np.ndarray) -> str | None:
     """Why a measure's values over the runs cannot be analysed, or None."""
     finite = np.isfinite(output)
     if not finite.all():
-        return f"{int((~finite).sum())} of its {len(output)} values are not numbers"
+        return f"not a number in {int((~finite).sum())} of its {len(output)} runs"
     if np.all(output == output[0]):
         return f"it is constant ({output[0]!r}): every index is 0"
     return None
+
+
+def left_out(name: str, output: np.ndarray) -> str | None:
+    """The warning line of a measure that gets no indices (:func:`usable`), or None."""
+    why = usable(np.asarray(output, dtype=float))
+    return None if why is None else f"{name} has no indices: {why}"
+
+
+def failed_line(failed: int, runs: int) -> str:
+    """The warning line of a study whose runs failed: no measure gets indices."""
+    return (f"no indices: {failed} of the {runs} runs failed (their rows in runs/results.csv "
+            "say why)")
 
 
 def analyse(plan: Plan, outputs: dict[str, np.ndarray]) -> tuple[list[dict], list[str]]:
@@ -160,18 +197,19 @@ def analyse(plan: Plan, outputs: dict[str, np.ndarray]) -> tuple[list[dict], lis
         output = np.asarray(output, dtype=float)
         if len(output) != len(plan.scaled):
             raise ValueError(f"{name}: {len(output)} values for {len(plan.scaled)} points")
-        why = usable(output)
-        if why is not None:
-            warnings.append(f"{name} has no indices: {why}")
+        line = left_out(name, output)
+        if line is not None:
+            warnings.append(line)
             continue
         if plan.method == "sobol":
             found = sobol.analyze(problem, output, calc_second_order=False,
                                   num_resamples=plan.resamples, conf_level=plan.confidence,
                                   seed=plan.seed + 1)
         else:
-            found = morris.analyze(problem, plan.scaled, output, num_resamples=plan.resamples,
-                                   conf_level=plan.confidence, num_levels=plan.levels,
-                                   seed=plan.seed + 1)
+            with _caller_random():
+                found = morris.analyze(problem, plan.scaled, output,
+                                       num_resamples=plan.resamples, conf_level=plan.confidence,
+                                       num_levels=plan.levels, seed=plan.seed + 1)
         for j, parameter in enumerate(plan.parameters):
             rows.append({"measure": name, "parameter": parameter.key,
                          **{c: float(np.asarray(found[c])[j]) for c in plan.columns}})

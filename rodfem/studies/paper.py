@@ -22,6 +22,7 @@ from rodfem.output.directories import finish, prepare_directory
 from rodfem.output.files import write_text
 from rodfem.output.readers import history_path, read_history
 from rodfem.run import simulate
+from rodfem.studies.common import plural
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,11 +63,6 @@ def caption(path: Path) -> str:
     if kind.startswith("spacetime_"):
         return MAPS[kind.removeprefix("spacetime_")][1]
     return CAPTIONS[kind]
-
-
-def plural(count: int, noun: str) -> str:
-    """``1 interval``, ``3 intervals``."""
-    return f"{count} {noun}{'' if count == 1 else 's'}"
 
 
 def measured(scene: rodfem.scene.Scene, run: Path, result) -> str:

@@ -31,6 +31,7 @@ from rodfem.output.measures import NAMES as BUILTIN
 from rodfem.output.measures import TIMINGS
 from rodfem.scene import SceneError
 from rodfem.studies import indices, parameters
+from rodfem.studies.common import plural
 from rodfem.studies.design import Sweep
 from rodfem.studies.parameters import Study
 from rodfem.studies.sensitivityfiles import (
@@ -132,8 +133,9 @@ def run_campaign(found: Campaign, out: str | Path | None, comm: MPI.Comm, *,
     from rodfem.studies.sweep import run_sweep
 
     if out is None:
+        started = time.perf_counter()
         runs = run_sweep(found.sweep, None, comm, progress=progress)
-        return _analysed(found, runs, None, comm, 0.0)
+        return _analysed(found, runs, None, comm, time.perf_counter() - started)
     out = Path(out)
     from rodfem.output.directories import prepare_directory
     from rodfem.output.files import write_json, write_text
@@ -158,36 +160,38 @@ def _analysed(found: Campaign, runs: SweepResult, out: Path | None, comm: MPI.Co
     """The indices of a campaign's runs (complete, or as far as they went), with its files
     written (``out``: rank 0) and its marker's final status; ``ran``: how many ran now (None:
     as its sweep's summary says)."""
-    rows, warnings, failed, analysis = [], [], 0, 0.0
-    status = runs.status if runs.error is None else "failed"
-    if status == "complete" and comm.rank == 0:
-        failed = int(np.sum(runs["status"] != "complete"))
-        started = time.perf_counter()
-        if failed:
-            warnings.append(f"no indices: {failed} of the {len(runs)} runs failed (their rows "
-                            "in runs/results.csv say why)")
-        else:
-            rows, warnings = indices.analyse(found.plan, {m: np.asarray(runs[m], dtype=float)
-                                                          for m in found.outputs})
-        analysis = time.perf_counter() - started
-    ran = len(found.sweep) if ran is None else ran
-    if out is not None and comm.rank == 0 and ran != 0:  # a resumed campaign's, this time
-        try:
-            ran = json.loads((out / "runs" / "summary.json").read_text())["ran_this_time"]
-        except (OSError, ValueError, KeyError, TypeError):
-            pass
-    rows, warnings, failed, analysis, ran = comm.bcast((rows, warnings, failed, analysis, ran),
-                                                       root=0)
-    error = runs.error
-    if out is not None:
-        error = _write(out, found, rows, status, comm) or error
-        if error is not None:
-            status = "failed"
-    return SensitivityResult(found.plan.method, found.plan.columns, tuple(rows),
-                             tuple(p.key for p in found.plan.parameters), found.outputs,
-                             status, out, tuple(warnings), failed, error,
-                             {"runs": len(found.sweep), "ran": ran, "run_seconds": seconds,
-                              "analysis_seconds": analysis})
+    # The runs are done: a signal now waits for the analysis and its files (a second or two),
+    # which leave the campaign complete, rather than stopping it between them.
+    with interrupts.deferred():
+        rows, warnings, failed, analysis = [], [], 0, 0.0
+        status = runs.status if runs.error is None else "failed"
+        if status == "complete" and comm.rank == 0:
+            failed = int(np.sum(runs["status"] != "complete"))
+            started = time.perf_counter()
+            if failed:
+                warnings.append(indices.failed_line(failed, len(runs)))
+            else:
+                rows, warnings = indices.analyse(found.plan, {m: np.asarray(runs[m], dtype=float)
+                                                              for m in found.outputs})
+            analysis = time.perf_counter() - started
+        ran = len(found.sweep) if ran is None else ran
+        if out is not None and comm.rank == 0 and ran != 0:  # a resumed campaign's, this time
+            try:
+                ran = json.loads((out / "runs" / "summary.json").read_text())["ran_this_time"]
+            except (OSError, ValueError, KeyError, TypeError):
+                pass
+        rows, warnings, failed, analysis, ran = comm.bcast((rows, warnings, failed, analysis, ran),
+                                                           root=0)
+        error = runs.error
+        if out is not None:
+            error = _write(out, found, rows, status, comm) or error
+            if error is not None:
+                status = "failed"
+        return SensitivityResult(found.plan.method, found.plan.columns, tuple(rows),
+                                 tuple(p.key for p in found.plan.parameters), found.outputs,
+                                 status, out, tuple(warnings), failed, error,
+                                 {"runs": len(found.sweep), "ran": ran, "run_seconds": seconds,
+                                  "analysis_seconds": analysis})
 
 
 def _write(out: Path, found: Campaign, rows: list[dict], status: str,
@@ -224,7 +228,7 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SensitivityResu
         SceneError: its files are not this version's, were edited, or its runs/ is another
             study's or in use: one line, nothing changed.
     """
-    from rodfem.output.directories import OutputError, mark_running, reopen
+    from rodfem.output.directories import OutputError, finish, mark_running, reopen
     from rodfem.studies.sweep import load_sweep, run_sweep
     from rodfem.studies.sweep import resume as continue_sweep
 
@@ -240,8 +244,12 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SensitivityResu
             raise SceneError(str(err)) from None
     mark_running(out, comm)
     started = time.perf_counter()
-    if runs_state is None:  # stopped before its runs began
-        result = run_sweep(found.sweep, runs, comm, progress=progress)
+    if runs_state is None:  # stopped before its runs began (runs/ perhaps marked, no more)
+        try:
+            result = run_sweep(found.sweep, runs, comm, force=runs.exists(), progress=progress)
+        except OutputError as err:  # runs/ is not rodfem's alone: untouched
+            finish(out, "interrupted", comm)  # as it was: resumable once runs/ is rodfem's
+            raise SceneError(str(err)) from None
     elif runs_state == "complete":
         result = comm.bcast(load_sweep(runs) if comm.rank == 0 else None, root=0)
         return _analysed(found, result, out, comm, 0.0, ran=0)
@@ -260,7 +268,7 @@ def _checked(out: Path) -> tuple[dict | str, str | None]:
     runs = out / "runs"
     try:
         written = read_meta(out)
-        if not runs.exists():
+        if not (runs / "sweep.json").exists():  # its runs had not begun (a kill before)
             return written, None
         if read_sweep(runs)["digest"] != written["runs"]:
             raise SceneError(f"{runs} holds the runs of another study; run the study again "
@@ -295,8 +303,9 @@ def summary_line(result: SensitivityResult) -> str:
     numbers = result.numbers
     kind = "Sobol indices" if result.method == "sobol" else "Morris screening"
     ran = numbers.get("ran", numbers["runs"])
-    done = f" ({ran} run now)" if ran != numbers["runs"] else ""
+    done = f" ({ran or 'none'} run now)" if ran != numbers["runs"] else ""
     return (f"{numbers['runs']} runs{done} in {numbers['run_seconds']:.2f} s; {kind} of "
-            f"{len(set(r['measure'] for r in result.table))} of {len(result.outputs)} measures "
-            f"over {len(result.parameters)} parameters")
+            f"{len(set(r['measure'] for r in result.table))} of "
+            f"{plural(len(result.outputs), 'measure')} over "
+            f"{plural(len(result.parameters), 'parameter')}")
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from rodfem.scene import SceneError
 from rodfem.studies import indices
+from rodfem.studies.common import plural
 from rodfem.studies.sweepfiles import digest
 
 CSV, FIGURE = "sensitivity.csv", "sensitivity.png"
@@ -63,8 +64,8 @@ class SensitivityResult:
         found = {row["parameter"]: {c: row[c] for c in self.columns}
                  for row in self.table if row["measure"] == measure}
         if not found:
-            raise KeyError(f"no indices of {measure!r}; measures with indices: "
-                           f"{', '.join(dict.fromkeys(r['measure'] for r in self.table))}")
+            having = ", ".join(dict.fromkeys(r["measure"] for r in self.table)) or "none"
+            raise KeyError(f"no indices of {measure!r}; measures with indices: {having}")
         return found
 
     def to_pandas(self):
@@ -80,8 +81,9 @@ class SensitivityResult:
 
     def __repr__(self) -> str:
         kind = "Sobol indices" if self.method == "sobol" else "Morris screening"
-        lines = [f"<rodfem.SensitivityResult {self.status}: {kind}, {len(self.outputs)} "
-                 f"measures × {len(self.parameters)} parameters>"]
+        lines = [f"<rodfem.SensitivityResult {self.status}: {kind}, "
+                 f"{plural(len(self.outputs), 'measure')} × "
+                 f"{plural(len(self.parameters), 'parameter')}>"]
         for row in self.table[:12]:
             lines.append(f"    {row['measure']} / {row['parameter']}: " + ", ".join(
                 f"{c} {row[c]:.3g}" for c in self.columns))
@@ -163,18 +165,27 @@ def load_sensitivity(path: str | Path) -> SensitivityResult:
         if not lines or tuple(lines[0].split(",")) != names:
             raise SceneError(f"{path / CSV} is not a table rodfem wrote (its header is not "
                              f"{','.join(names)})")
-        for line in lines[1:]:
+        for number, line in enumerate(lines[1:], 2):
             cells = line.split(",")
-            rows.append({"measure": cells[0], "parameter": cells[1],
-                         **{c: float(v) for c, v in zip(columns, cells[2:], strict=True)}})
+            try:
+                rows.append({"measure": cells[0], "parameter": cells[1],
+                             **{c: float(v) for c, v in zip(columns, cells[2:], strict=True)}})
+            except (ValueError, IndexError):
+                raise SceneError(f"{path / CSV}, line {number}: not a row rodfem wrote (was it "
+                                 f"edited?): {line[:80]!r}") from None
     keys = tuple(p["key"] for p in data.get("parameters", ()))
-    failed = 0
+    failed, warnings = 0, []
     if (path / "runs" / "results.csv").is_file():
         from rodfem.output import results as table
 
         _, found = table.read(path / "runs" / "results.csv")
         failed = int(np.sum(found["status"] != "complete"))
+        if status == "complete":  # the warnings of its analysis, said again
+            analysed = {row["measure"] for row in rows}
+            warnings = [indices.failed_line(failed, len(found["status"]))] if failed else [
+                line for m in data["outputs"] if m not in analysed and m in found
+                and (line := indices.left_out(m, found[m])) is not None]
     return SensitivityResult(data["method"], columns, tuple(rows), keys,
-                             tuple(data["outputs"]), status, path, failed=failed,
-                             numbers={"runs": data["samples"] * (len(keys) + (
-                                 2 if data["method"] == "sobol" else 1))})
+                             tuple(data["outputs"]), status, path, tuple(warnings), failed,
+                             numbers={"runs": indices.count(data["method"], data["samples"],
+                                                            len(keys))})
