@@ -131,6 +131,11 @@ class Evaluations:
                     from rodfem.output.columns import for_scene
 
                     names = tuple(c.name for c in for_scene(sweep.scene(outcome.index)))
+                t = outcome.history[:, names.index("t")]
+                why = problem.data.after(t, sweep.scene(outcome.index))
+                if why is not None:
+                    mine.append((outcome.index, "failed", why))
+                    return
                 r = problem.data.residuals(outcome.history, names)
                 if not np.all(np.isfinite(r)):
                     mine.append((outcome.index, "failed", "its history is not finite"))

@@ -32,6 +32,12 @@ from rodfem.studies.parameters import Study
 
 OWN = ("data", "columns", "weights", "start", "max_evaluations", "tolerance")
 MAX_EVALUATIONS, TOLERANCE = 100, 1e-8
+SLACK = 1e-9  # of time.end: a data time this far after the history's last row is at it
+
+
+def shown(t: float) -> str:
+    """A time for a message: short, unless that would show it equal to another."""
+    return f"{t:g}" if float(f"{t:g}") == t else repr(float(t))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,6 +61,16 @@ class Data:
         return np.concatenate([
             w * (np.interp(self.t, t, rows[:, names.index(c)]) - self.values[:, j])
             for j, (c, w) in enumerate(zip(self.columns, self.weights, strict=True))])
+
+    def after(self, t: np.ndarray, scene) -> str | None:
+        """Why a run's history (its times ``t``) of ``scene`` cannot be interpolated at the
+        data's last time, or None: its last row is before it (np.interp would hold it there)."""
+        if self.t[-1] <= t[-1] + SLACK * scene["time.end"]:
+            return None
+        every = scene["output.history_every"]
+        return (f"its history ends at t = {t[-1]:g}, before the data's last time t = "
+                f"{shown(self.t[-1])}" + (f" (output.history_every = {every} keeps one row in "
+                                          f"{every})" if every > 1 else ""))
 
     def model(self, residuals: np.ndarray) -> np.ndarray:
         """The model at the data's times (times × columns) from its residuals."""
@@ -164,7 +180,17 @@ def load_data(study: Study, path: Path, scene) -> Data:
     if t[0] < 0:
         raise SceneError(f"{where}: t = {t[0]:g} lies before the scene's start t = 0")
     if t[-1] > end:
-        raise SceneError(f"{where}: t = {t[-1]:g} lies after the scene's end time.end = {end:g}")
+        raise SceneError(f"{where}: t = {shown(t[-1])} lies after the scene's end time.end = "
+                         f"{end:g}")
+    if not scene.adaptive:
+        every, steps = scene["output.history_every"], scene.steps
+        last = steps // every * every * scene["time.dt"]
+        if t[-1] > last + SLACK * end:
+            why = (f"output.history_every = {every} keeps one row in {every} of its {steps} "
+                   "steps" if every > 1 else
+                   f"its {steps} steps of time.dt = {scene['time.dt']:g} end there")
+            raise SceneError(f"{where}: t = {shown(t[-1])} lies after the last row of the "
+                             f"scene's history, at t = {last:g} ({why})")
     return Data(t, tuple(columns), values[:, [header.index(c) for c in columns]],
                 np.array([float(weights.get(c, 1.0)) for c in columns]))
 

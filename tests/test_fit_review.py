@@ -1,0 +1,51 @@
+"""Fits at the edges: data the history cannot reach, weights and tolerances the optimiser cannot
+use, the messages' grammar, and a fit directory given to rodfem plot."""
+
+import numpy as np
+from test_fit import FIT, write_fit
+
+from conftest import serial_only
+from rodfem.api import scene_of
+from rodfem.cli import main
+from rodfem.studies.fitdata import Data
+
+DATA_TO_END = "t,u_1\n0.1,0.03\n0.5,0.12\n1.0,0.1\n"
+
+
+def one_line_exit_2(fit: str, data: str, tmp_path, capsys) -> str:
+    out = tmp_path / "out"
+    assert main(["fit", str(write_fit(tmp_path, fit, data)), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("rodfem: error: ") and not out.exists(), err
+    return err
+
+
+@serial_only
+def test_data_after_the_last_row_the_history_keeps_are_refused(tmp_path, capsys):
+    """500 steps, one row in 7 kept: the last at step 497, t = 0.994; the data's t = 1 would be
+    compared with u(0.994) held by the interpolation."""
+    fit = FIT.replace("[parameters]", '"output.history_every" = 7\n[parameters]')
+    err = one_line_exit_2(fit, DATA_TO_END, tmp_path, capsys)
+    assert "t = 1 lies after the last row of the scene's history, at t = 0.994" in err, err
+    assert "output.history_every = 7" in err
+
+
+def test_a_run_whose_history_ends_before_the_data_is_a_failed_run():
+    """Adaptive steps: where the history ends is known only once run."""
+    scene = scene_of("paper1", {"time.adaptive": True, "output.history_every": 7})
+    data = Data(np.array([0.1, 0.5, 8.0]), ("u_1",), np.zeros((3, 1)), np.ones(1))
+    why = data.after(np.array([0.0, 0.5, 7.9]), scene)
+    assert "ends at t = 7.9, before the data's last time t = 8" in why
+    assert "output.history_every = 7" in why
+    end = scene["time.end"]
+    assert data.after(np.array([0.0, end - 1e-12 * end]), scene) is None  # round-off: at it
+
+
+@serial_only
+def test_a_fit_whose_first_run_ends_before_the_data_stops_with_exit_3(tmp_path, capsys):
+    fit = FIT.replace("[parameters]", '"time.adaptive" = true\n"output.history_every" = 7\n'
+                      "[parameters]")
+    out = tmp_path / "out"
+    assert main(["fit", str(write_fit(tmp_path, fit, DATA_TO_END)), "--out", str(out)]) == 3
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "failed: its history ends at t = 0.99" in err, err
