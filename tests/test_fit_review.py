@@ -1,12 +1,16 @@
 """Fits at the edges: data the history cannot reach, weights and tolerances the optimiser cannot
 use, the messages' grammar, and a fit directory given to rodfem plot."""
 
+import types
+
 import numpy as np
+import pytest
 from test_fit import FIT, write_fit
 
 from conftest import serial_only
 from rodfem.api import scene_of
 from rodfem.cli import main
+from rodfem.studies.fit import statistics
 from rodfem.studies.fitdata import Data
 
 DATA_TO_END = "t,u_1\n0.1,0.03\n0.5,0.12\n1.0,0.1\n"
@@ -49,3 +53,33 @@ def test_a_fit_whose_first_run_ends_before_the_data_stops_with_exit_3(tmp_path, 
     assert main(["fit", str(write_fit(tmp_path, fit, DATA_TO_END)), "--out", str(out)]) == 3
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "failed: its history ends at t = 0.99" in err, err
+
+
+@serial_only
+@pytest.mark.parametrize("weight", ["1e300", "1e-300"])
+def test_weights_beyond_what_float64_squares_hold_are_refused(weight, tmp_path, capsys):
+    """1e300: the squares overflow (a traceback from the optimiser); 1e-300: they underflow to
+    0, and the fit 'converged' at its start with standard errors nan."""
+    fit = FIT.replace("[set]", f"[weights]\nu_1 = {weight}\n[set]")
+    err = one_line_exit_2(fit, DATA_TO_END, tmp_path, capsys)
+    assert "weights u_1: must be from 1e-100 to 1e+100" in err, err
+
+
+@serial_only
+def test_residuals_whose_squares_overflow_stop_the_fit_with_exit_3(tmp_path, capsys):
+    data = "t,u_1\n0.1,1e200\n0.5,1e200\n"
+    out = tmp_path / "out"
+    fit = FIT.replace("[set]", "[weights]\nu_1 = 1e100\n[set]")
+    assert main(["fit", str(write_fit(tmp_path, fit, data)), "--out", str(out)]) == 3
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "weighted residuals overflows" in err, err
+
+
+def test_no_standard_errors_where_float64_cannot_hold_them():
+    flat = types.SimpleNamespace(derivatives=lambda _: np.ones(2))
+    tiny = np.array([[1e-310, 0.0], [0.0, 1e-320], [0.0, 0.0]])  # full rank, its s² underflow
+    stderr, correlation, why = statistics(flat, np.zeros(2), np.full(3, 1e-300), tiny)
+    assert stderr is None and correlation is None and "float64" in why
+    exact = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])  # |r| = 0: errors 0, no correlation
+    stderr, correlation, why = statistics(flat, np.zeros(2), np.zeros(3), exact)
+    assert list(stderr) == [0.0, 0.0] and correlation is None and why is None

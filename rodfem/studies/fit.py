@@ -140,6 +140,12 @@ class Evaluations:
                 if not np.all(np.isfinite(r)):
                     mine.append((outcome.index, "failed", "its history is not finite"))
                     return
+                with np.errstate(over="ignore"):
+                    overflows = not np.isfinite(r @ r)
+                if overflows:
+                    mine.append((outcome.index, "failed", "the sum of the squares of its "
+                                 "weighted residuals overflows (scale the weights)"))
+                    return
                 if self.log is not None:
                     key = new[outcome.index]
                     self.log.append(self.order[key], key.hex(), r[None, :])
@@ -207,8 +213,14 @@ def statistics(problem: Problem, u: np.ndarray, r: np.ndarray, J: np.ndarray):
         return None, None, ("the residuals do not depend on every parameter at the optimum "
                             "(its Jacobian is of rank below their number): no standard errors")
     variance = float(r @ r) / (m - n)
-    covariance_u = variance * (vt.T / s**2) @ vt
-    d = problem.derivatives(u)
-    covariance = covariance_u * np.outer(d, d)
-    stderr = np.sqrt(np.diag(covariance))
-    return stderr, covariance / np.outer(stderr, stderr), None
+    with np.errstate(all="ignore"):  # a Jacobian or residuals at the ends of float64
+        covariance_u = variance * (vt.T / s**2) @ vt
+        d = problem.derivatives(u)
+        covariance = covariance_u * np.outer(d, d)
+        stderr = np.sqrt(np.diag(covariance))
+        correlation = covariance / np.outer(stderr, stderr)
+    if not np.all(np.isfinite(stderr)):
+        return None, None, ("the residuals or their Jacobian at the optimum are too small or "
+                            "too large for float64 (scale the weights): no standard errors")
+    # |r| = 0: standard errors 0 and no correlations
+    return stderr, correlation if np.all(np.isfinite(correlation)) else None, None

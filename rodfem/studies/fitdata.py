@@ -32,6 +32,7 @@ from rodfem.studies.parameters import Study
 
 OWN = ("data", "columns", "weights", "start", "max_evaluations", "tolerance")
 MAX_EVALUATIONS, TOLERANCE = 100, 1e-8
+WEIGHTS = (1e-100, 1e100)  # w² |model - data|² of every datum well within float64's range
 SLACK = 1e-9  # of time.end: a data time this far after the history's last row is at it
 
 
@@ -174,7 +175,10 @@ def load_data(study: Study, path: Path, scene) -> Data:
         if column not in columns:
             raise SceneError(f"{name}: weights {column}: not a fitted column: "
                              f"{_suggest(column, columns)}")
-        _number(weight, f"{name}: weights {column}", 0.0)
+        if not WEIGHTS[0] <= _number(weight, f"{name}: weights {column}", 0.0) <= WEIGHTS[1]:
+            raise SceneError(f"{name}: weights {column}: must be from {WEIGHTS[0]:g} to "
+                             f"{WEIGHTS[1]:g} (the squares of the residuals must stay within "
+                             f"float64's range), got {weight!r}")
     t = values[:, header.index("t")]
     end = scene["time.end"]
     if t[0] < 0:
