@@ -83,3 +83,10 @@ def test_no_standard_errors_where_float64_cannot_hold_them():
     exact = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])  # |r| = 0: errors 0, no correlation
     stderr, correlation, why = statistics(flat, np.zeros(2), np.zeros(3), exact)
     assert list(stderr) == [0.0, 0.0] and correlation is None and why is None
+
+
+@serial_only
+def test_a_tolerance_below_float64s_epsilon_is_refused(tmp_path, capsys):
+    fit = FIT.replace("[set]", "tolerance = 1e-20\n[set]")
+    err = one_line_exit_2(fit, DATA_TO_END, tmp_path, capsys)
+    assert "tolerance: must be a number between 2.22045e-16 and 1, got 1e-20" in err, err

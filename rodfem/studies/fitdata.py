@@ -224,6 +224,8 @@ def options(study: Study) -> tuple[dict[str, float], int, float]:
     if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 100_000:
         raise SceneError(f"{name}: max_evaluations must be an integer from 1 to 100000, got "
                          f"{count!r}")
-    tolerance = _number(extra.get("tolerance", TOLERANCE), f"{name}: tolerance", 0.0, 1.0)
+    # the optimiser refuses tolerances below float64's epsilon
+    tolerance = _number(extra.get("tolerance", TOLERANCE), f"{name}: tolerance",
+                        float(np.finfo(float).eps), 1.0)
     return ({p.key: float(start.get(p.key, p.middle)) for p in study.parameters}, count,
             tolerance)
