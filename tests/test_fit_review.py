@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from test_fit import FIT, write_fit
 
+import rodfem
 from conftest import serial_only
 from rodfem.api import scene_of
 from rodfem.cli import main
@@ -90,3 +91,23 @@ def test_a_tolerance_below_float64s_epsilon_is_refused(tmp_path, capsys):
     fit = FIT.replace("[set]", "tolerance = 1e-20\n[set]")
     err = one_line_exit_2(fit, DATA_TO_END, tmp_path, capsys)
     assert "tolerance: must be a number between 2.22045e-16 and 1, got 1e-20" in err, err
+
+
+ONE = ('scene = "paper1"\ndata = "data.csv"\nmax_evaluations = 1\n[set]\n"mesh.cells" = 16\n'
+       '"time.dt" = 0.002\n"time.end" = 1.0\n"solver.method" = "direct"\n'
+       '"obstacle.epsilon" = 0.012\n[parameters]\n"model.zeta" = [0.1, 1.0]\n')
+
+
+@serial_only
+def test_the_lines_count_one_in_the_singular(tmp_path, capsys):
+    """One parameter, one datum, one evaluation: the start and its Jacobian, two runs."""
+    out = tmp_path / "out"
+    fit = write_fit(tmp_path, ONE, "t,u_1\n0.5,0.12\n")
+    assert main(["fit", str(fit), "--out", str(out), "--progress"]) == 0
+    captured = capsys.readouterr()
+    assert "after 2 runs (1 iteration) ->" in captured.out, captured.out
+    assert "fit: batch 1: 1 run (1 point in all)" in captured.err, captured.err
+    assert "1 value to fit for 1 parameter: no standard errors" in captured.err
+    loaded = rodfem.load_fit(out)
+    assert "1 parameter, 1 time × 1 column, " in repr(loaded), repr(loaded)
+    assert "2 runs</p>" in loaded._repr_html_()
