@@ -5,6 +5,7 @@ import types
 
 import numpy as np
 import pytest
+from mpi4py import MPI
 from test_fit import FIT, write_fit
 
 import rodfem
@@ -111,3 +112,17 @@ def test_the_lines_count_one_in_the_singular(tmp_path, capsys):
     loaded = rodfem.load_fit(out)
     assert "1 parameter, 1 time × 1 column, " in repr(loaded), repr(loaded)
     assert "2 runs</p>" in loaded._repr_html_()
+
+
+@serial_only
+def test_plot_of_a_fit_directory_says_where_its_figures_are(tmp_path, capsys):
+    from rodfem.output.directories import finish, prepare_directory
+    from rodfem.studies.fitfiles import FILES
+
+    out = tmp_path / "fit"
+    prepare_directory(out, False, MPI.COMM_SELF, command="fit", files=FILES)
+    finish(out, "complete", MPI.COMM_SELF)
+    assert main(["plot", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{out} is a fit: its figure is {out}/fit.png" in err, err
+    assert f"'rodfem plot {out}/fitted'" in err

@@ -52,6 +52,10 @@ def _drawing(args: argparse.Namespace):
         if blocking is not None:
             raise PlotError(f"--out {args.out}: {blocking} is a file, not a directory; give a "
                             "directory for the figures")
+    fit = next((d for d in args.dirs if (read_marker(d) or {}).get("command") == "fit"), None)
+    if fit is not None:
+        raise PlotError(f"{fit} is a fit: its figure is {fit / 'fit.png'}, and 'rodfem plot "
+                        f"{fit / 'fitted'}' draws those of its fitted run")
     sweeps = [d for d in args.dirs if (read_marker(d) or {}).get("command") == "sweep"]
     if sweeps and len(args.dirs) > 1:
         raise PlotError(f"{sweeps[0]} is a sweep: plot it alone (its figures draw every "
