@@ -126,3 +126,13 @@ def test_plot_of_a_fit_directory_says_where_its_figures_are(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{out} is a fit: its figure is {out}/fit.png" in err, err
     assert f"'rodfem plot {out}/fitted'" in err
+
+
+@serial_only
+@pytest.mark.parametrize("data, expected", [
+    ("t,u_1\n0.1,0.03\n0.09999999,0.04\n", "row 3 has t = 0.09999999 after t = 0.1"),
+    ("t,u_1\n0.1,0.03\n1.0000001,0.04\n", "t = 1.0000001 lies after the scene's end time.end = 1"),
+])
+def test_times_in_messages_are_shown_apart_from_those_they_are_set_against(
+        data, expected, tmp_path, capsys):
+    assert expected in one_line_exit_2(FIT, data, tmp_path, capsys)

@@ -122,7 +122,7 @@ def read_csv(path: Path, name: str) -> tuple[list[str], np.ndarray]:
     if len(t) > 1 and not np.all(np.diff(t) > 0):
         n = int(np.argmin(np.diff(t) > 0))
         raise SceneError(f"{where}: the times must increase strictly; row {n + 3} has t = "
-                         f"{t[n + 1]:g} after t = {t[n]:g}")
+                         f"{shown(t[n + 1])} after t = {shown(t[n])}")
     return header, values
 
 
@@ -182,19 +182,16 @@ def load_data(study: Study, path: Path, scene) -> Data:
     t = values[:, header.index("t")]
     end = scene["time.end"]
     if t[0] < 0:
-        raise SceneError(f"{where}: t = {t[0]:g} lies before the scene's start t = 0")
+        raise SceneError(f"{where}: t = {shown(t[0])} lies before the scene's start t = 0")
     if t[-1] > end:
         raise SceneError(f"{where}: t = {shown(t[-1])} lies after the scene's end time.end = "
                          f"{end:g}")
-    if not scene.adaptive:
-        every, steps = scene["output.history_every"], scene.steps
-        last = steps // every * every * scene["time.dt"]
-        if t[-1] > last + SLACK * end:
-            why = (f"output.history_every = {every} keeps one row in {every} of its {steps} "
-                   "steps" if every > 1 else
-                   f"its {steps} steps of time.dt = {scene['time.dt']:g} end there")
-            raise SceneError(f"{where}: t = {shown(t[-1])} lies after the last row of the "
-                             f"scene's history, at t = {last:g} ({why})")
+    every, steps = scene["output.history_every"], scene.steps  # end = steps dt, validated
+    last = steps // every * every * scene["time.dt"]
+    if not scene.adaptive and t[-1] > last + SLACK * end:
+        raise SceneError(f"{where}: t = {shown(t[-1])} lies after the last row of the scene's "
+                         f"history, at t = {last:g} (output.history_every = {every} keeps one "
+                         f"row in {every} of its {steps} steps)")
     return Data(t, tuple(columns), values[:, [header.index(c) for c in columns]],
                 np.array([float(weights.get(c, 1.0)) for c in columns]))
 
