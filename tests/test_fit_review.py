@@ -136,3 +136,12 @@ def test_plot_of_a_fit_directory_says_where_its_figures_are(tmp_path, capsys):
 def test_times_in_messages_are_shown_apart_from_those_they_are_set_against(
         data, expected, tmp_path, capsys):
     assert expected in one_line_exit_2(FIT, data, tmp_path, capsys)
+
+
+@serial_only
+def test_a_directory_named_as_the_data_is_refused_asking_for_a_csv_file(tmp_path, capsys):
+    fit = write_fit(tmp_path, FIT.replace("data.csv", "measured"), "")
+    (tmp_path / "measured").mkdir()
+    assert main(["fit", str(fit), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "not a regular file but a directory; give a CSV file" in err, err

@@ -86,7 +86,7 @@ def read_csv(path: Path, name: str) -> tuple[list[str], np.ndarray]:
     Raises:
         SceneError: one line naming the file and what is wrong.
     """
-    text = read_text(path, f"{name}: data '{path}'")
+    text = read_text(path, f"{name}: data '{path}'", "CSV")
     if text is None:
         raise SceneError(f"{name}: data '{path}': no such file")
     where = path.name
