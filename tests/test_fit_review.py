@@ -1,6 +1,8 @@
 """Fits at the edges: data the history cannot reach, weights and tolerances the optimiser cannot
 use, the messages' grammar, and a fit directory given to rodfem plot."""
 
+import json
+import shutil
 import types
 
 import numpy as np
@@ -145,3 +147,21 @@ def test_a_directory_named_as_the_data_is_refused_asking_for_a_csv_file(tmp_path
     assert main(["fit", str(fit), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert "not a regular file but a directory; give a CSV file" in err, err
+
+
+@serial_only
+def test_resume_refuses_a_journal_of_another_fit_naming_its_file(tmp_path, capsys):
+    data = "t,u_1\n0.5,0.12\n"
+    first, second = tmp_path / "first", tmp_path / "second"
+    assert main(["fit", str(write_fit(tmp_path / "a", ONE, data)), "--out", str(first)]) == 0
+    other = ONE.replace("[0.1, 1.0]", "[0.2, 1.0]")
+    assert main(["fit", str(write_fit(tmp_path / "b", other, data)), "--out", str(second)]) == 0
+    stranger = first / "journal" / "part-0009-00000.bin"
+    shutil.copy(second / "journal" / "part-0000-00000.bin", stranger)
+    marker = json.loads((first / "rodfem.json").read_text())
+    (first / "rodfem.json").write_text(json.dumps({**marker, "status": "interrupted"}))
+    capsys.readouterr()
+    assert main(["resume", str(first)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{stranger} holds points of another fit" in err, err
+    assert "sweep" not in err

@@ -220,7 +220,10 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> FitResult:
         try:
             known = {bytes.fromhex(r.line): r.history()[0]
                      for r in journal.read(out, tag(written)).values()}
-        except (journal.JournalError, ValueError, IndexError, TypeError) as err:
+        except journal.JournalError as err:
+            error = (f"{err.path} holds points of another fit than the directory's study.json; "
+                     "run the fit again with --force")
+        except (ValueError, IndexError, TypeError) as err:
             error = f"{out}: its journal is not this fit's ({err}); run the fit again with --force"
     error, known = comm.bcast((error, known), root=0)
     if error is not None:
