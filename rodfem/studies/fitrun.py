@@ -244,6 +244,9 @@ def fit(study, out: str | Path | None = None, comm=None, *, force: bool = False,
         SceneError: a mistake in the fit file, its data or a scene (nothing run or written).
         rodfem.OutputError: ``out`` cannot be used.
         FitError: a run failed (the message names its point).
+        rodfem.output.interrupts.Interrupted: a stop signal (Ctrl-C, SIGTERM, SIGUSR1) came:
+            the fit stopped between two batches of runs, with no result; a fit into ``out``
+            continues with ``rodfem resume``.
     """
     with interrupts.call():
         return run_fit(study, out, comm, force=force, progress=progress)
