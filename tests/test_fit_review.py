@@ -3,12 +3,13 @@ use, the messages' grammar, and a fit directory given to rodfem plot."""
 
 import json
 import shutil
+import subprocess
 import types
 
 import numpy as np
 import pytest
 from mpi4py import MPI
-from test_fit import FIT, write_fit
+from test_fit import ENV, FIT, rodfem_command, write_fit
 
 import rodfem
 from conftest import serial_only
@@ -165,3 +166,23 @@ def test_resume_refuses_a_journal_of_another_fit_naming_its_file(tmp_path, capsy
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{stranger} holds points of another fit" in err, err
     assert "sweep" not in err
+
+
+# time.dt between 0.0005 and 0.002: its middle and ends divide time.end = 1, the Jacobian's step
+# from the middle does not
+STEPS = ('scene = "paper1"\ndata = "data.csv"\n[set]\n"mesh.cells" = 16\n"time.end" = 1.0\n'
+         '"solver.method" = "direct"\n"obstacle.epsilon" = 0.012\n[parameters]\n'
+         '"model.zeta" = [0.1, 1.0]\n"time.dt" = [0.0005, 0.002]\n')
+
+
+@serial_only
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_point_whose_scene_is_refused_stops_the_fit_with_exit_3(ranks, tmp_path):
+    """Under mpirun the rank that took the point raised alone, and the other waited for it for
+    ever."""
+    fit = write_fit(tmp_path, STEPS, DATA_TO_END)
+    done = subprocess.run(rodfem_command("fit", fit, "--out", tmp_path / "out", ranks=ranks),
+                          env=ENV, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 3, done.stderr
+    assert "rodfem: error: the scene at model.zeta = 0.31622776601683794, time.dt = " in \
+        done.stderr and "is refused: time.end: must be a whole number of steps" in done.stderr

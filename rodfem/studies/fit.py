@@ -30,6 +30,7 @@ from mpi4py import MPI
 
 from rodfem.output import interrupts, journal
 from rodfem.output import results as table
+from rodfem.scene import SceneError
 from rodfem.studies import design
 from rodfem.studies.dealing import Progress, deal
 from rodfem.studies.fitdata import Data
@@ -121,6 +122,14 @@ class Evaluations:
         problem = self.problem
         points = [np.frombuffer(key) for key in new]
         sweep = problem.sweep([problem.values(u) for u in points])
+        for index, point in enumerate(sweep.points):  # on every rank, before any is dealt
+            try:
+                sweep.scene(index)
+            except SceneError as err:
+                shown = str(err).removeprefix(f"{sweep.name}: scene {index + 1} of {len(sweep)} "
+                                              f"({design.describe(point)}): ")
+                raise FitError(f"the scene at {design.describe(point)} is refused: "
+                               f"{shown}") from None
         names = None
         mine = []
 
