@@ -186,3 +186,16 @@ def test_a_point_whose_scene_is_refused_stops_the_fit_with_exit_3(ranks, tmp_pat
     assert done.returncode == 3, done.stderr
     assert "rodfem: error: the scene at model.zeta = 0.31622776601683794, time.dt = " in \
         done.stderr and "is refused: time.end: must be a whole number of steps" in done.stderr
+
+
+@serial_only
+def test_load_fit_refuses_data_edited_since_the_fit(tmp_path, capsys):
+    """A data.csv cut to half its rows gave 20 times against a model at 40; one without the
+    fitted column a ValueError."""
+    out = tmp_path / "out"
+    data = "t,u_1\n0.25,0.05\n0.5,0.12\n"
+    assert main(["fit", str(write_fit(tmp_path, ONE, data)), "--out", str(out)]) == 0
+    assert len(rodfem.load_fit(out).t) == 2
+    (out / "data.csv").write_text("t,u_1\n0.25,0.05\n")
+    with pytest.raises(rodfem.SceneError, match="data.csv is not the data this fit was run"):
+        rodfem.load_fit(out)

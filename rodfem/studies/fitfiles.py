@@ -181,13 +181,15 @@ def load_fit(path: str | Path) -> FitResult:
     """The :class:`FitResult` of a complete fit directory (``rodfem fit --out``).
 
     Raises:
-        rodfem.SceneError: ``path`` is not a complete fit's directory (one line).
+        rodfem.SceneError: ``path`` is not a complete fit's directory, or its study.json or
+            data.csv was edited since (one line).
     """
     from rodfem.api import load
     from rodfem.studies.fitdata import read_csv
 
     path = Path(path)
     numbers = numbers_of(path)
+    read_meta(path)  # the data are those fitted
     header, values = read_csv(path / "data.csv", str(path))
     t = values[:, header.index("t")]
     columns = numbers["columns"]
