@@ -199,3 +199,15 @@ def test_load_fit_refuses_data_edited_since_the_fit(tmp_path, capsys):
     (out / "data.csv").write_text("t,u_1\n0.25,0.05\n")
     with pytest.raises(rodfem.SceneError, match="data.csv is not the data this fit was run"):
         rodfem.load_fit(out)
+
+
+@serial_only
+def test_an_optimum_held_at_an_end_of_its_range_is_warned_of(tmp_path, capsys):
+    """The data are of ζ = 0.25; its range starts at 0.3."""
+    fit = write_fit(tmp_path, FIT.replace("[0.1, 1.0]", "[0.3, 1.0]"))
+    out = tmp_path / "out"
+    assert main(["fit", str(fit), "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "rodfem: warning: model.zeta = 0.3 at the low end of its range [0.3, 1]: " in err, err
+    assert "obstacle.epsilon" not in err
+    assert rodfem.load_fit(out).numbers["warning"].startswith("model.zeta = 0.3 at the low end")

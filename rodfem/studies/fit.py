@@ -234,3 +234,17 @@ def statistics(problem: Problem, u: np.ndarray, r: np.ndarray, J: np.ndarray):
                             "too large for float64 (scale the weights): no standard errors")
     # |r| = 0: standard errors 0 and no correlations
     return stderr, correlation if np.all(np.isfinite(correlation)) else None, None
+
+
+def at_bounds(problem: Problem, u: np.ndarray, active: np.ndarray) -> str | None:
+    """The parameters whose optimum ``u`` is held at an end of its range (the optimiser's
+    ``active_mask``), said in one line, or None: there the data may be fitted better beyond
+    it, and a standard error, which takes the optimum for a free one, says nothing of that."""
+    held = [f"{p.key} = {v:.6g} at the {'low' if a < 0 else 'high'} end of its range "
+            f"[{p.low:g}, {p.high:g}]"
+            for p, v, a in zip(problem.study.parameters, problem.values(u), active, strict=True)
+            if a != 0]
+    if not held:
+        return None
+    return (f"{', '.join(held)}: the data may be fitted better beyond it, which its standard "
+            "error does not say; widen the range")

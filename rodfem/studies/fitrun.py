@@ -19,6 +19,7 @@ from rodfem.studies.fit import (
     Evaluations,
     Problem,
     WriteError,
+    at_bounds,
     jacobian,
     optimise,
     statistics,
@@ -138,6 +139,7 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
     u = found.x
     r = evaluations.batch([u])[0]
     stderr, correlation, why = statistics(problem, u, r, jacobian(evaluations, u))
+    warnings = [w for w in (why, at_bounds(problem, u, found.active_mask)) if w]
     data = problem.data
     model = data.model(r)
     numbers = {
@@ -150,7 +152,8 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
         "evaluations": int(found.nfev), "runs": len(evaluations.cache),
         "status": "converged" if found.status > 0 else "stopped", "message": found.message,
         "columns": list(data.columns), "points": len(data.t), "start": problem.start,
-        "warning": why, "model": {c: model[:, j].tolist() for j, c in enumerate(data.columns)}}
+        "warning": "; ".join(warnings) or None,
+        "model": {c: model[:, j].tolist() for j, c in enumerate(data.columns)}}
     fitted = _fitted(problem.scene(u), comm, out)
     error = None
     if out is not None and comm.rank == 0:
