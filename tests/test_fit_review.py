@@ -211,3 +211,17 @@ def test_an_optimum_held_at_an_end_of_its_range_is_warned_of(tmp_path, capsys):
     assert "rodfem: warning: model.zeta = 0.3 at the low end of its range [0.3, 1]: " in err, err
     assert "obstacle.epsilon" not in err
     assert rodfem.load_fit(out).numbers["warning"].startswith("model.zeta = 0.3 at the low end")
+
+
+@serial_only
+def test_resume_of_a_fit_stopped_before_its_study_json_says_to_run_it_again(tmp_path, capsys):
+    from rodfem.output.directories import finish, prepare_directory
+    from rodfem.studies.fitfiles import FILES
+
+    out = tmp_path / "fit"
+    prepare_directory(out, False, MPI.COMM_SELF, command="fit", files=FILES)
+    finish(out, "interrupted", MPI.COMM_SELF)
+    assert main(["resume", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no readable study.json (No such file or directory): the " \
+        "fit stopped before it began; run it again with --force" in err, err

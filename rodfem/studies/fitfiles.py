@@ -150,7 +150,11 @@ def read_meta(out: Path) -> dict[str, Any]:
     try:
         found = json.loads((out / "study.json").read_text(encoding="utf-8"))
     except (OSError, ValueError) as err:
-        raise SceneError(f"{out}: no readable study.json ({err})") from None
+        why = ("the fit stopped before it began; run it again with --force"
+               if isinstance(err, FileNotFoundError)
+               else "run the fit again into another directory")
+        raise SceneError(f"{out}: no readable study.json ({getattr(err, 'strerror', None) or err}"
+                         f"): {why}") from None
     if not isinstance(found, dict) or found.get("format") != FORMAT \
             or not isinstance(found.get("digest"), str) or found["digest"] != digest(found):
         raise SceneError(f"{out}/study.json is not the fit this directory was run with (was it "
