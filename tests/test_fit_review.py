@@ -225,3 +225,10 @@ def test_resume_of_a_fit_stopped_before_its_study_json_says_to_run_it_again(tmp_
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no readable study.json (No such file or directory): the " \
         "fit stopped before it began; run it again with --force" in err, err
+
+
+@serial_only
+def test_data_of_times_alone_are_refused_naming_the_columns_wanted(tmp_path, capsys):
+    err = one_line_exit_2(FIT, "t\n0.1\n0.5\n", tmp_path, capsys)
+    assert "data.csv: no column beside t; it needs the measured histories' columns too, e.g. " \
+        "t,u_1 (those that can be fitted: u_1, u_half" in err, err

@@ -152,6 +152,10 @@ def load_data(study: Study, path: Path, scene) -> Data:
     header, values = read_csv(path, name)
     where = path.name
     possible = allowed(scene)
+    if header == ["t"]:
+        raise SceneError(f"{where}: no column beside t; it needs the measured histories' "
+                         f"columns too, e.g. t,u_1 (those that can be fitted: "
+                         f"{', '.join(possible)})")
     columns = extra.get("columns", [c for c in header if c != "t"])
     if not isinstance(columns, list) or not columns \
             or not all(isinstance(c, str) for c in columns):
