@@ -27,9 +27,10 @@ SWEEP_INCOMPLETE = {
     "failed": "is a sweep stopped by a failed write ('rodfem resume {path}' runs the rest)",
 }
 
-# The study directories rodfem plot is not drawn from: their command's figure, and the
-# directory in them that rodfem plot draws.
-STUDY_FIGURES = {"sensitivity": ("sensitivity.png", "runs")}
+# The study directories rodfem plot is not drawn from: their command's figure, the directory in
+# them that rodfem plot draws, and what that directory holds.
+STUDY_FIGURES = {"sensitivity": ("sensitivity.png", "runs", "its runs"),
+                 "fit": ("fit.png", "fitted", "its fitted run")}
 
 
 def _plot_options(args: argparse.Namespace):
@@ -59,9 +60,9 @@ def _drawing(args: argparse.Namespace):
     for d in args.dirs:
         command = (read_marker(d) or {}).get("command")
         if command in STUDY_FIGURES:
-            figure, inner = STUDY_FIGURES[command]
+            figure, inner, what = STUDY_FIGURES[command]
             raise PlotError(f"{d} is a {command} study, drawn in {d / figure}; 'rodfem plot "
-                            f"{d / inner}' draws the figures of its runs")
+                            f"{d / inner}' draws the figures of {what}")
     sweeps = [d for d in args.dirs if (read_marker(d) or {}).get("command") == "sweep"]
     if sweeps and len(args.dirs) > 1:
         raise PlotError(f"{sweeps[0]} is a sweep: plot it alone (its figures draw every "

@@ -29,7 +29,7 @@ def _ended(call, out: Path, quiet: bool) -> int:
     from rodfem.output.atomic import io_line
     from rodfem.output.directories import OutputError
     from rodfem.studies.fit import WriteError
-    from rodfem.studies.fitfiles import FitError
+    from rodfem.studies.fitfiles import FitError, counted
 
     again = f"'rodfem resume {out}' continues it"
     try:
@@ -60,8 +60,9 @@ def _ended(call, out: Path, quiet: bool) -> int:
     if not quiet:
         shown = ", ".join(f"{key} = {value:.6g}" + (f" ± {err:.2g}" if err is not None else "")
                           for key, (value, err) in result.parameters.items())
-        say(f"{shown}; |r| = {numbers['residual_norm']:.4g} after {numbers['runs']} runs "
-            f"({numbers['iterations']} iterations) -> {out / 'fit.json'}", sys.stdout)
+        say(f"{shown}; |r| = {numbers['residual_norm']:.4g} after "
+            f"{counted(numbers['runs'], 'run')} ({counted(numbers['iterations'], 'iteration')})"
+            f" -> {out / 'fit.json'}", sys.stdout)
     return 0
 
 

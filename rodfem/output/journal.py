@@ -34,7 +34,12 @@ SYNC_SECONDS = 1.0
 
 
 class JournalError(ValueError):
-    """A journal holding whole records of another sweep than the one it is read for."""
+    """A journal holding whole records of another sweep than the one it is read for (``path``:
+    the part file that holds them)."""
+
+    def __init__(self, message: str, path: Path | None = None):
+        super().__init__(message)
+        self.path = path
 
 
 def part_name(session: int, rank: int) -> str:
@@ -159,7 +164,7 @@ def read(out: Path, tag: bytes | None = None) -> dict[int, Record]:
             tag = record.tag if tag is None else tag
             if record.tag != tag:
                 raise JournalError(f"{path} holds a scene of another sweep than the directory's "
-                                   "sweep.json")
+                                   "sweep.json", path)
             latest[record.index] = record
     return latest
 

@@ -40,10 +40,10 @@ _KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a pipe"),
           (stat.S_ISSOCK, "a socket"))
 
 
-def read_text(path: Path, what: str) -> str | None:
-    """The text of the regular file ``path``, or None if there is no such file. The file is
-    opened without waiting for a writer and checked once open, so what is read is what was
-    checked.
+def read_text(path: Path, what: str, form: str = "TOML") -> str | None:
+    """The text of the regular file ``path`` (a ``form`` file), or None if there is no such
+    file. The file is opened without waiting for a writer and checked once open, so what is
+    read is what was checked.
 
     Raises:
         SceneError: ``what`` and why, on one line, for a path that names something else (a
@@ -61,7 +61,7 @@ def read_text(path: Path, what: str) -> str | None:
         mode = os.fstat(fd).st_mode
         if not stat.S_ISREG(mode):
             kind = next((name for test, name in _KINDS if test(mode)), "not a file")
-            raise SceneError(f"{what}: not a regular file but {kind}; give a TOML file")
+            raise SceneError(f"{what}: not a regular file but {kind}; give a {form} file")
         with open(fd, encoding="utf-8", closefd=False) as file:
             return file.read()
     except (OSError, UnicodeDecodeError) as err:

@@ -30,10 +30,11 @@ from mpi4py import MPI
 
 from rodfem.output import interrupts, journal
 from rodfem.output import results as table
+from rodfem.scene import SceneError
 from rodfem.studies import design
 from rodfem.studies.dealing import Progress, deal
 from rodfem.studies.fitdata import Data
-from rodfem.studies.fitfiles import FitError
+from rodfem.studies.fitfiles import FitError, counted
 from rodfem.studies.parameters import Study
 
 H = 1e-6  # the finite differences' step, in u
@@ -121,6 +122,14 @@ class Evaluations:
         problem = self.problem
         points = [np.frombuffer(key) for key in new]
         sweep = problem.sweep([problem.values(u) for u in points])
+        for index, point in enumerate(sweep.points):  # on every rank, before any is dealt
+            try:
+                sweep.scene(index)
+            except SceneError as err:
+                shown = str(err).removeprefix(f"{sweep.name}: scene {index + 1} of {len(sweep)} "
+                                              f"({design.describe(point)}): ")
+                raise FitError(f"the scene at {design.describe(point)} is refused: "
+                               f"{shown}") from None
         names = None
         mine = []
 
@@ -131,9 +140,20 @@ class Evaluations:
                     from rodfem.output.columns import for_scene
 
                     names = tuple(c.name for c in for_scene(sweep.scene(outcome.index)))
+                t = outcome.history[:, names.index("t")]
+                why = problem.data.after(t, sweep.scene(outcome.index))
+                if why is not None:
+                    mine.append((outcome.index, "failed", why))
+                    return
                 r = problem.data.residuals(outcome.history, names)
                 if not np.all(np.isfinite(r)):
                     mine.append((outcome.index, "failed", "its history is not finite"))
+                    return
+                with np.errstate(over="ignore"):
+                    overflows = not np.isfinite(r @ r)
+                if overflows:
+                    mine.append((outcome.index, "failed", "the sum of the squares of its "
+                                 "weighted residuals overflows (scale the weights)"))
                     return
                 if self.log is not None:
                     key = new[outcome.index]
@@ -164,8 +184,8 @@ class Evaluations:
                            f"{why or 'no reason given'}")
         if self.progress and self.comm.rank == 0:
             norm = float(np.linalg.norm(self.cache[new[0]]))
-            print(f"fit: batch {self.batches}: {len(new)} run{'s' if len(new) > 1 else ''} "
-                  f"({len(self.cache)} points in all), |r| = {norm:.6g} at "
+            print(f"fit: batch {self.batches}: {counted(len(new), 'run')} "
+                  f"({counted(len(self.cache), 'point')} in all), |r| = {norm:.6g} at "
                   f"{design.describe(sweep.points[0])}", file=sys.stderr, flush=True)
 
 
@@ -196,14 +216,35 @@ def statistics(problem: Problem, u: np.ndarray, r: np.ndarray, J: np.ndarray):
     ``r``, Jacobian ``J`` in u), or (None, None, why) where the data cannot give them."""
     m, n = J.shape
     if m <= n:
-        return None, None, f"{m} data for {n} parameters: no standard errors"
+        return None, None, (f"{counted(m, 'value')} to fit for {counted(n, 'parameter')}: no "
+                            "standard errors")
     _, s, vt = np.linalg.svd(J, full_matrices=False)
     if s[-1] <= s[0] * max(m, n) * np.finfo(float).eps:
         return None, None, ("the residuals do not depend on every parameter at the optimum "
                             "(its Jacobian is of rank below their number): no standard errors")
     variance = float(r @ r) / (m - n)
-    covariance_u = variance * (vt.T / s**2) @ vt
-    d = problem.derivatives(u)
-    covariance = covariance_u * np.outer(d, d)
-    stderr = np.sqrt(np.diag(covariance))
-    return stderr, covariance / np.outer(stderr, stderr), None
+    with np.errstate(all="ignore"):  # a Jacobian or residuals at the ends of float64
+        covariance_u = variance * (vt.T / s**2) @ vt
+        d = problem.derivatives(u)
+        covariance = covariance_u * np.outer(d, d)
+        stderr = np.sqrt(np.diag(covariance))
+        correlation = covariance / np.outer(stderr, stderr)
+    if not np.all(np.isfinite(stderr)):
+        return None, None, ("the residuals or their Jacobian at the optimum are too small or "
+                            "too large for float64 (scale the weights): no standard errors")
+    # |r| = 0: standard errors 0 and no correlations
+    return stderr, correlation if np.all(np.isfinite(correlation)) else None, None
+
+
+def at_bounds(problem: Problem, u: np.ndarray, active: np.ndarray) -> str | None:
+    """The parameters whose optimum ``u`` is held at an end of its range (the optimiser's
+    ``active_mask``), said in one line, or None: there the data may be fitted better beyond
+    it, and a standard error, which takes the optimum for a free one, says nothing of that."""
+    held = [f"{p.key} = {v:.6g} at the {'low' if a < 0 else 'high'} end of its range "
+            f"[{p.low:g}, {p.high:g}]"
+            for p, v, a in zip(problem.study.parameters, problem.values(u), active, strict=True)
+            if a != 0]
+    if not held:
+        return None
+    return (f"{', '.join(held)}: the data may be fitted better beyond it, which its standard "
+            "error does not say; widen the range")

@@ -32,6 +32,13 @@ from rodfem.studies.parameters import Study
 
 OWN = ("data", "columns", "weights", "start", "max_evaluations", "tolerance")
 MAX_EVALUATIONS, TOLERANCE = 100, 1e-8
+WEIGHTS = (1e-100, 1e100)  # w² |model - data|² of every datum well within float64's range
+SLACK = 1e-9  # of time.end: a data time this far after the history's last row is at it
+
+
+def shown(t: float) -> str:
+    """A time for a message: short, unless that would show it equal to another."""
+    return f"{t:g}" if float(f"{t:g}") == t else repr(float(t))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -56,6 +63,16 @@ class Data:
             w * (np.interp(self.t, t, rows[:, names.index(c)]) - self.values[:, j])
             for j, (c, w) in enumerate(zip(self.columns, self.weights, strict=True))])
 
+    def after(self, t: np.ndarray, scene) -> str | None:
+        """Why a run's history (its times ``t``) of ``scene`` cannot be interpolated at the
+        data's last time, or None: its last row is before it (np.interp would hold it there)."""
+        if self.t[-1] <= t[-1] + SLACK * scene["time.end"]:
+            return None
+        every = scene["output.history_every"]
+        return (f"its history ends at t = {t[-1]:g}, before the data's last time t = "
+                f"{shown(self.t[-1])}" + (f" (output.history_every = {every} keeps one row in "
+                                          f"{every})" if every > 1 else ""))
+
     def model(self, residuals: np.ndarray) -> np.ndarray:
         """The model at the data's times (times × columns) from its residuals."""
         r = np.asarray(residuals).reshape(len(self.columns), len(self.t)).T
@@ -69,7 +86,7 @@ def read_csv(path: Path, name: str) -> tuple[list[str], np.ndarray]:
     Raises:
         SceneError: one line naming the file and what is wrong.
     """
-    text = read_text(path, f"{name}: data '{path}'")
+    text = read_text(path, f"{name}: data '{path}'", "CSV")
     if text is None:
         raise SceneError(f"{name}: data '{path}': no such file")
     where = path.name
@@ -105,7 +122,7 @@ def read_csv(path: Path, name: str) -> tuple[list[str], np.ndarray]:
     if len(t) > 1 and not np.all(np.diff(t) > 0):
         n = int(np.argmin(np.diff(t) > 0))
         raise SceneError(f"{where}: the times must increase strictly; row {n + 3} has t = "
-                         f"{t[n + 1]:g} after t = {t[n]:g}")
+                         f"{shown(t[n + 1])} after t = {shown(t[n])}")
     return header, values
 
 
@@ -135,6 +152,10 @@ def load_data(study: Study, path: Path, scene) -> Data:
     header, values = read_csv(path, name)
     where = path.name
     possible = allowed(scene)
+    if header == ["t"]:
+        raise SceneError(f"{where}: no column beside t; it needs the measured histories' "
+                         f"columns too, e.g. t,u_1 (those that can be fitted: "
+                         f"{', '.join(possible)})")
     columns = extra.get("columns", [c for c in header if c != "t"])
     if not isinstance(columns, list) or not columns \
             or not all(isinstance(c, str) for c in columns):
@@ -158,13 +179,23 @@ def load_data(study: Study, path: Path, scene) -> Data:
         if column not in columns:
             raise SceneError(f"{name}: weights {column}: not a fitted column: "
                              f"{_suggest(column, columns)}")
-        _number(weight, f"{name}: weights {column}", 0.0)
+        if not WEIGHTS[0] <= _number(weight, f"{name}: weights {column}", 0.0) <= WEIGHTS[1]:
+            raise SceneError(f"{name}: weights {column}: must be from {WEIGHTS[0]:g} to "
+                             f"{WEIGHTS[1]:g} (the squares of the residuals must stay within "
+                             f"float64's range), got {weight!r}")
     t = values[:, header.index("t")]
     end = scene["time.end"]
     if t[0] < 0:
-        raise SceneError(f"{where}: t = {t[0]:g} lies before the scene's start t = 0")
+        raise SceneError(f"{where}: t = {shown(t[0])} lies before the scene's start t = 0")
     if t[-1] > end:
-        raise SceneError(f"{where}: t = {t[-1]:g} lies after the scene's end time.end = {end:g}")
+        raise SceneError(f"{where}: t = {shown(t[-1])} lies after the scene's end time.end = "
+                         f"{end:g}")
+    every, steps = scene["output.history_every"], scene.steps  # end = steps dt, validated
+    last = steps // every * every * scene["time.dt"]
+    if not scene.adaptive and t[-1] > last + SLACK * end:
+        raise SceneError(f"{where}: t = {shown(t[-1])} lies after the last row of the scene's "
+                         f"history, at t = {last:g} (output.history_every = {every} keeps one "
+                         f"row in {every} of its {steps} steps)")
     return Data(t, tuple(columns), values[:, [header.index(c) for c in columns]],
                 np.array([float(weights.get(c, 1.0)) for c in columns]))
 
@@ -194,6 +225,8 @@ def options(study: Study) -> tuple[dict[str, float], int, float]:
     if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 100_000:
         raise SceneError(f"{name}: max_evaluations must be an integer from 1 to 100000, got "
                          f"{count!r}")
-    tolerance = _number(extra.get("tolerance", TOLERANCE), f"{name}: tolerance", 0.0, 1.0)
+    # the optimiser refuses tolerances below float64's epsilon
+    tolerance = _number(extra.get("tolerance", TOLERANCE), f"{name}: tolerance",
+                        float(np.finfo(float).eps), 1.0)
     return ({p.key: float(start.get(p.key, p.middle)) for p in study.parameters}, count,
             tolerance)

@@ -26,6 +26,11 @@ FILES = ("fit.toml", "study.json", "base.toml", "data.csv", "journal", "fit.json
          "fit.png")
 
 
+def counted(count: int, noun: str) -> str:
+    """``1 run``, ``12 runs``."""
+    return f"{count} {noun}{'' if count == 1 else 's'}"
+
+
 class FitError(RuntimeError):
     """A run of a fit failed (its method did not converge, its values overflowed): the fit
     cannot go on. The message names the point."""
@@ -94,9 +99,9 @@ class FitResult:
 
     def __repr__(self) -> str:
         n = self.numbers
-        lines = [f"<rodfem.FitResult {n['status']}: {len(n['parameters'])} parameters, "
-                 f"{n['points']} data × {len(n['columns'])} columns, |r| = "
-                 f"{n['residual_norm']:.4g}, {n['runs']} runs>"]
+        lines = [f"<rodfem.FitResult {n['status']}: {counted(len(n['parameters']), 'parameter')}"
+                 f", {counted(n['points'], 'time')} × {counted(len(n['columns']), 'column')}, "
+                 f"|r| = {n['residual_norm']:.4g}, {counted(n['runs'], 'run')}>"]
         lines += [f"    {key} = {value}" + (f" ± {err}" if err else " (no standard error)")
                   for key, value, err in self._rows()]
         if self.path is not None:
@@ -108,7 +113,7 @@ class FitResult:
                        for k, v, e in self._rows())
         n = self.numbers
         return (f"<p>rodfem fit, {html.escape(n['status'])}: |r| = {n['residual_norm']:.4g}, "
-                f"{n['runs']} runs</p><table><thead><tr><th>parameter</th><th>value</th>"
+                f"{counted(n['runs'], 'run')}</p><table><thead><tr><th>parameter</th><th>value</th>"
                 f"<th>standard error</th></tr></thead><tbody>{rows}</tbody></table>")
 
 
@@ -145,7 +150,11 @@ def read_meta(out: Path) -> dict[str, Any]:
     try:
         found = json.loads((out / "study.json").read_text(encoding="utf-8"))
     except (OSError, ValueError) as err:
-        raise SceneError(f"{out}: no readable study.json ({err})") from None
+        why = ("the fit stopped before it began; run it again with --force"
+               if isinstance(err, FileNotFoundError)
+               else "run the fit again into another directory")
+        raise SceneError(f"{out}: no readable study.json ({getattr(err, 'strerror', None) or err}"
+                         f"): {why}") from None
     if not isinstance(found, dict) or found.get("format") != FORMAT \
             or not isinstance(found.get("digest"), str) or found["digest"] != digest(found):
         raise SceneError(f"{out}/study.json is not the fit this directory was run with (was it "
@@ -176,13 +185,15 @@ def load_fit(path: str | Path) -> FitResult:
     """The :class:`FitResult` of a complete fit directory (``rodfem fit --out``).
 
     Raises:
-        rodfem.SceneError: ``path`` is not a complete fit's directory (one line).
+        rodfem.SceneError: ``path`` is not a complete fit's directory, or its study.json or
+            data.csv was edited since (one line).
     """
     from rodfem.api import load
     from rodfem.studies.fitdata import read_csv
 
     path = Path(path)
     numbers = numbers_of(path)
+    read_meta(path)  # the data are those fitted
     header, values = read_csv(path / "data.csv", str(path))
     t = values[:, header.index("t")]
     columns = numbers["columns"]

@@ -19,6 +19,7 @@ from rodfem.studies.fit import (
     Evaluations,
     Problem,
     WriteError,
+    at_bounds,
     jacobian,
     optimise,
     statistics,
@@ -138,6 +139,7 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
     u = found.x
     r = evaluations.batch([u])[0]
     stderr, correlation, why = statistics(problem, u, r, jacobian(evaluations, u))
+    warnings = [w for w in (why, at_bounds(problem, u, found.active_mask)) if w]
     data = problem.data
     model = data.model(r)
     numbers = {
@@ -150,7 +152,8 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
         "evaluations": int(found.nfev), "runs": len(evaluations.cache),
         "status": "converged" if found.status > 0 else "stopped", "message": found.message,
         "columns": list(data.columns), "points": len(data.t), "start": problem.start,
-        "warning": why, "model": {c: model[:, j].tolist() for j, c in enumerate(data.columns)}}
+        "warning": "; ".join(warnings) or None,
+        "model": {c: model[:, j].tolist() for j, c in enumerate(data.columns)}}
     fitted = _fitted(problem.scene(u), comm, out)
     error = None
     if out is not None and comm.rank == 0:
@@ -220,7 +223,10 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> FitResult:
         try:
             known = {bytes.fromhex(r.line): r.history()[0]
                      for r in journal.read(out, tag(written)).values()}
-        except (journal.JournalError, ValueError, IndexError, TypeError) as err:
+        except journal.JournalError as err:
+            error = (f"{err.path} holds points of another fit than the directory's study.json; "
+                     "run the fit again with --force")
+        except (ValueError, IndexError, TypeError) as err:
             error = f"{out}: its journal is not this fit's ({err}); run the fit again with --force"
     error, known = comm.bcast((error, known), root=0)
     if error is not None:
@@ -241,6 +247,9 @@ def fit(study, out: str | Path | None = None, comm=None, *, force: bool = False,
         SceneError: a mistake in the fit file, its data or a scene (nothing run or written).
         rodfem.OutputError: ``out`` cannot be used.
         FitError: a run failed (the message names its point).
+        rodfem.output.interrupts.Interrupted: a stop signal (Ctrl-C, SIGTERM, SIGUSR1) came:
+            the fit stopped between two batches of runs, with no result; a fit into ``out``
+            continues with ``rodfem resume``.
     """
     with interrupts.call():
         return run_fit(study, out, comm, force=force, progress=progress)
