@@ -110,42 +110,38 @@ def _sweep(sub) -> None:
     _progress(sweep, "a progress line every few seconds even when output is not a terminal")
 
 
-def _sensitivity(sub) -> None:
-    """``rodfem sensitivity``: which parameters a scene's measures depend on."""
-    command = sub.add_parser(
-        "sensitivity",
-        help="Sobol indices (or Morris screening) of a scene's measures over parameter ranges",
-        description="Draw points over the ranges of a sensitivity file's [parameters] "
-        "(Saltelli's sampling, or Morris' trajectories with method = \"morris\"), run them as a "
-        "sweep into DIR/runs (under mpirun the ranks share the runs), and write "
-        "sensitivity.csv: a row per measure of 'outputs' and parameter, with the first-order "
-        "and total Sobol indices S1, ST and their bootstrap confidence intervals (Morris: "
-        "mu_star, mu_star_conf, sigma), samples.csv and sensitivity.png. 'rodfem resume DIR' "
-        "continues a stopped study to the same indices.",
-    )
-    command.add_argument("file", metavar="SENS.toml", help="the sensitivity file")
-    _output(command, None, "output directory (default: results/<file's name>)",
-            "replace an existing sensitivity directory")
-    command.add_argument("--quiet", action="store_true", help="no progress and no final line")
-    _progress(command, "a progress line every few seconds even when output is not a terminal")
+def _study(sub, name: str, metavar: str, help: str, description: str, progress: str) -> None:
+    """A study's command: its file, --out, --force, --quiet and --progress."""
+    command = sub.add_parser(name, help=help, description=description)
+    command.add_argument("file", metavar=metavar, help=f"the {name} file")
+    _output(command, None, f"output directory (default: results/<{name} file's name>)",
+            f"replace an existing {name} directory")
+    command.add_argument("--quiet", action="store_true", help="no final line")
+    _progress(command, progress)
 
 
 def _fit(sub) -> None:
     """``rodfem fit``: a scene's parameters fitted to measured histories."""
-    fit = sub.add_parser(
-        "fit",
-        help="fit a scene's parameters to measured histories",
-        description="Fit the parameters of a fit file (a base scene, fixed values, ranges of "
-        "the parameters and a CSV of measured histories) by bounded nonlinear least squares, "
-        "the runs of each step dealt to the MPI ranks, and write fit.json (the values, their "
-        "standard errors and correlations), fitted/ (the run at the optimum) and fit.png. "
-        "'rodfem resume DIR' continues a stopped fit.",
-    )
-    fit.add_argument("file", metavar="FIT.toml", help="the fit file")
-    _output(fit, None, "output directory (default: results/<fit file's name>)",
-            "replace an existing fit directory")
-    fit.add_argument("--quiet", action="store_true", help="no final line")
-    _progress(fit, "a line per batch of runs")
+    _study(sub, "fit", "FIT.toml", "fit a scene's parameters to measured histories",
+           "Fit the parameters of a fit file (a base scene, fixed values, ranges of the "
+           "parameters and a CSV of measured histories) by bounded nonlinear least squares, the "
+           "runs of each step dealt to the MPI ranks, and write fit.json (the values, their "
+           "standard errors and correlations), fitted/ (the run at the optimum) and fit.png. "
+           "'rodfem resume DIR' continues a stopped fit.", "a line per batch of runs")
+
+
+def _sensitivity(sub) -> None:
+    """``rodfem sensitivity``: which parameters a scene's measures depend on."""
+    _study(sub, "sensitivity", "SENS.toml",
+           "Sobol indices (or Morris screening) of a scene's measures over parameter ranges",
+           "Draw points over the ranges of a sensitivity file's [parameters] (Saltelli's "
+           "sampling, or Morris' trajectories with method = \"morris\"), run them as a sweep "
+           "into DIR/runs (under mpirun the ranks share the runs), and write sensitivity.csv: a "
+           "row per measure of 'outputs' and parameter, with the first-order and total Sobol "
+           "indices S1, ST and their bootstrap confidence intervals (Morris: mu_star, "
+           "mu_star_conf, sigma), samples.csv and sensitivity.png. 'rodfem resume DIR' continues "
+           "a stopped study to the same indices.",
+           "a progress line every few seconds even when output is not a terminal")
 
 
 def _resume(sub) -> None:
@@ -157,11 +153,14 @@ def _resume(sub) -> None:
         "a kill, a full disk or a failure, to the history and fields an uninterrupted run would "
         "have written, bit for bit (under mpirun, on as many ranks as the run had). With --set "
         "time.end=T a finished run goes on to T. A stopped sweep runs the scenes its journal "
-        "does not hold (on any number of ranks), to the table an uninterrupted sweep writes; "
-        "a stopped fit or sensitivity study goes on from its journal to the same results.",
+        "does not hold (on any number of ranks), to the table an uninterrupted sweep writes; a "
+        "stopped fit replays its journal and goes on, to the fit an uninterrupted one finds; a "
+        "stopped sensitivity study runs the rest of its runs and analyses them, to the indices "
+        "an uninterrupted study writes.",
     )
     resume.add_argument("dir", type=Path, metavar="DIR",
-                        help="a directory of 'rodfem run', 'sweep', 'fit' or 'sensitivity'")
+                        help="a directory of 'rodfem run', 'rodfem sweep', 'rodfem fit' or "
+                        "'rodfem sensitivity'")
     _overrides(resume, "a later end, time.end=T (the only value a resumed run may change)")
     resume.add_argument("--quiet", action="store_true", help="no progress bar and no final line")
     _progress(resume, "draw the progress bar even when output is not a terminal (mpirun)")
