@@ -17,7 +17,9 @@ _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "sweep": "rodfem.studies.sweep", "load_sweep": "rodfem.studies.sweep",
         "read_fields": "rodfem.output.readers", "Fields": "rodfem.output.readers",
         "CoarseStepWarning": "rodfem.model.timescales", "steady": "rodfem.api",
-        "Scene": "rodfem.scene", "SweepResult": "rodfem.studies.sweepfiles"}
+        "Scene": "rodfem.scene", "SweepResult": "rodfem.studies.sweepfiles",
+        "fit": "rodfem.studies.fitrun", "load_fit": "rodfem.studies.fitfiles",
+        "FitResult": "rodfem.studies.fitfiles", "FitError": "rodfem.studies.fitfiles"}
 __all__ = [*_API, "__version__"]
 
 

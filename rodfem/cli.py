@@ -3,6 +3,7 @@
 
     rodfem run SCENE [--out DIR] [--set section.key=value ...] [--force]
     rodfem sweep SWEEP.toml [--out DIR] [--force] [--histories]
+    rodfem fit FIT.toml [--out DIR] [--force] [--progress]
     rodfem resume DIR [--set time.end=T]
     rodfem plot DIR [DIR ...] [--out FIGDIR] [--force] [--only KINDS] [--no-animation]
                 [--window T0,T1] [--labels A,B,...] [--colour-by KEY]   (runs, or one sweep)
@@ -61,7 +62,7 @@ def parser() -> argparse.ArgumentParser:
         description="Dynamic contact of a thermoviscoelastic rod with an obstacle (Copetti).",
     )
     sub = parser.add_subparsers(dest="command", required=True)
-    for add in (_run, _sweep, _resume, _plot, _paper, _stability, _verify, _steady):
+    for add in (_run, _sweep, _fit, _resume, _plot, _paper, _stability, _verify, _steady):
         add(sub)
     return parser
 
@@ -104,6 +105,24 @@ def _sweep(sub) -> None:
                        help="also keep every scene's history, in histories.h5")
     sweep.add_argument("--quiet", action="store_true", help="no progress and no final line")
     _progress(sweep, "a progress line every few seconds even when output is not a terminal")
+
+
+def _fit(sub) -> None:
+    """``rodfem fit``: a scene's parameters fitted to measured histories."""
+    fit = sub.add_parser(
+        "fit",
+        help="fit a scene's parameters to measured histories",
+        description="Fit the parameters of a fit file (a base scene, fixed values, ranges of "
+        "the parameters and a CSV of measured histories) by bounded nonlinear least squares, "
+        "the runs of each step dealt to the MPI ranks, and write fit.json (the values, their "
+        "standard errors and correlations), fitted/ (the run at the optimum) and fit.png. "
+        "'rodfem resume DIR' continues a stopped fit.",
+    )
+    fit.add_argument("file", metavar="FIT.toml", help="the fit file")
+    _output(fit, None, "output directory (default: results/<fit file's name>)",
+            "replace an existing fit directory")
+    fit.add_argument("--quiet", action="store_true", help="no final line")
+    _progress(fit, "a line per batch of runs")
 
 
 def _resume(sub) -> None:
@@ -287,6 +306,7 @@ def _steady(sub) -> None:
 
 
 COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.resume,
+            "fit": commands.fit,
             "plot": commands.plot,
             "paper": commands.paper,
             "stability": commands.stability, "verify": commands.verify,

@@ -7,9 +7,10 @@ them): load and check the input, run, and report in one line per outcome, with t
 
 from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, say
 from rodfem.commands.figures import plot
+from rodfem.commands.fit import fit
 from rodfem.commands.runs import resume, run
 from rodfem.commands.studies import paper, stability, steady, verify
 from rodfem.commands.sweeps import sweep
 
-__all__ = ["EXIT_DIVERGED", "EXIT_INPUT", "EXIT_IO", "paper", "plot", "resume", "run", "say",
+__all__ = ["EXIT_DIVERGED", "EXIT_INPUT", "EXIT_IO", "fit", "paper", "plot", "resume", "run", "say",
            "stability", "steady", "sweep", "verify"]

@@ -1,0 +1,199 @@
+"""What a fit is fitted to: the measured data (a CSV of ``t`` and history columns) and the fit
+file's own keys, read and checked against the scene before anything runs (``rodfem fit``).
+
+A fit file is a study file (:mod:`rodfem.studies.parameters`) with these keys of its own::
+
+    data = "measured.csv"             # t and history columns (relative to the fit file)
+    columns = ["u_1"]                 # which columns to fit (default: every column but t)
+    weights = { u_1 = 1.0 }           # a positive weight per column (default 1)
+    start = { "model.zeta" = 0.5 }    # where the fit starts (default: each range's middle)
+    max_evaluations = 100             # of the residuals, at most
+    tolerance = 1e-8                  # of the optimiser's stopping tests
+
+The data are any times in ``[0, time.end]``, strictly increasing, every value a finite number;
+the model's history is interpolated linearly at them. A residual is ``w (model - data)``, column
+after column.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import math
+from pathlib import Path
+
+import numpy as np
+
+from rodfem.scene import SceneError
+from rodfem.scene.files import read_text
+from rodfem.scene.loading import _suggest
+from rodfem.studies.parameters import Study
+
+OWN = ("data", "columns", "weights", "start", "max_evaluations", "tolerance")
+MAX_EVALUATIONS, TOLERANCE = 100, 1e-8
+
+
+@dataclasses.dataclass(frozen=True)
+class Data:
+    """Measured histories: the times ``t`` and, per fitted column, its values and weight."""
+
+    t: np.ndarray
+    columns: tuple[str, ...]
+    values: np.ndarray  # times × columns
+    weights: np.ndarray  # per column
+
+    @property
+    def count(self) -> int:
+        """How many residuals: the values fitted."""
+        return self.values.size
+
+    def residuals(self, rows: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
+        """``w (model - data)`` of a run's history ``rows`` (its columns ``names``), the model
+        interpolated at the data's times, column after column."""
+        t = rows[:, names.index("t")]
+        return np.concatenate([
+            w * (np.interp(self.t, t, rows[:, names.index(c)]) - self.values[:, j])
+            for j, (c, w) in enumerate(zip(self.columns, self.weights, strict=True))])
+
+    def model(self, residuals: np.ndarray) -> np.ndarray:
+        """The model at the data's times (times × columns) from its residuals."""
+        r = np.asarray(residuals).reshape(len(self.columns), len(self.t)).T
+        return self.values + r / self.weights
+
+
+def read_csv(path: Path, name: str) -> tuple[list[str], np.ndarray]:
+    """The header and rows of the data file ``path`` (``name`` in messages): UTF-8 (a BOM
+    allowed), a header with ``t``, every cell a finite number, the times strictly increasing.
+
+    Raises:
+        SceneError: one line naming the file and what is wrong.
+    """
+    text = read_text(path, f"{name}: data '{path}'")
+    if text is None:
+        raise SceneError(f"{name}: data '{path}': no such file")
+    where = path.name
+    rows = [row for row in csv.reader(io.StringIO(text.removeprefix("\ufeff")))
+            if any(cell.strip() for cell in row)]
+    if not rows:
+        raise SceneError(f"{where}: empty; it needs a header with t and history columns, e.g. "
+                         "t,u_1")
+    header = [cell.strip() for cell in rows[0]]
+    if "t" not in header:
+        raise SceneError(f"{where}: the header has no column t (it has {', '.join(header)})")
+    for i, cell in enumerate(header):
+        if not cell or cell in header[:i]:
+            raise SceneError(f"{where}: column {i + 1} of the header is "
+                             f"{'empty' if not cell else f'{cell} again'}")
+    if len(rows) < 2:
+        raise SceneError(f"{where}: no rows of data after its header")
+    values = np.empty((len(rows) - 1, len(header)))
+    for n, row in enumerate(rows[1:]):
+        if len(row) != len(header):
+            raise SceneError(f"{where}: row {n + 2} has {len(row)} cells; the header has "
+                             f"{len(header)}")
+        for j, cell in enumerate(row):
+            try:
+                values[n, j] = float(cell)
+            except ValueError:
+                raise SceneError(f"{where}: row {n + 2}, column {header[j]}: {cell.strip()!r} "
+                                 "is not a number") from None
+            if not math.isfinite(values[n, j]):
+                raise SceneError(f"{where}: row {n + 2}, column {header[j]}: {cell.strip()} is "
+                                 "not a finite number")
+    t = values[:, header.index("t")]
+    if len(t) > 1 and not np.all(np.diff(t) > 0):
+        n = int(np.argmin(np.diff(t) > 0))
+        raise SceneError(f"{where}: the times must increase strictly; row {n + 3} has t = "
+                         f"{t[n + 1]:g} after t = {t[n]:g}")
+    return header, values
+
+
+def allowed(scene) -> tuple[str, ...]:
+    """The history columns of ``scene`` that can be fitted (real-valued, not t or Δt)."""
+    from rodfem.output.columns import for_scene
+
+    return tuple(c.name for c in for_scene(scene) if c.name not in ("t", "dt") and not c.integer)
+
+
+def _number(value, what: str, low: float, high: float | None = None) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or not value > low or (high is not None and not value < high):
+        bound = f"> {low:g}" if high is None else f"between {low:g} and {high:g}"
+        raise SceneError(f"{what}: must be a number {bound}, got {value!r}")
+    return float(value)
+
+
+def load_data(study: Study, path: Path, scene) -> Data:
+    """The data of a fit: its CSV at ``path`` checked against the base scene ``scene`` (its
+    recorded columns and its time span) and the fit file's ``columns`` and ``weights``.
+
+    Raises:
+        SceneError: one line naming what is wrong and what is allowed.
+    """
+    name, extra = study.name, study.extra
+    header, values = read_csv(path, name)
+    where = path.name
+    possible = allowed(scene)
+    columns = extra.get("columns", [c for c in header if c != "t"])
+    if not isinstance(columns, list) or not columns \
+            or not all(isinstance(c, str) for c in columns):
+        raise SceneError(f'{name}: columns must list the data\'s columns to fit, e.g. '
+                         f'columns = ["u_1"]')
+    for column in columns:
+        if column not in possible:
+            raise SceneError(f"{where}: column {column} is not a history column the scene "
+                             f"records; those that can be fitted: {', '.join(possible)} (a "
+                             "scene records more with output.history)")
+        if column not in header:
+            raise SceneError(f"{name}: columns: {column} is not a column of {where} "
+                             f"({', '.join(header)})")
+    if len(set(columns)) != len(columns):
+        raise SceneError(f"{name}: columns: a column is named twice")
+    weights = extra.get("weights", {})
+    if not isinstance(weights, dict):
+        raise SceneError(f"{name}: weights must be a table of column = weight, e.g. "
+                         "weights = { u_1 = 1.0 }")
+    for column, weight in weights.items():
+        if column not in columns:
+            raise SceneError(f"{name}: weights {column}: not a fitted column: "
+                             f"{_suggest(column, columns)}")
+        _number(weight, f"{name}: weights {column}", 0.0)
+    t = values[:, header.index("t")]
+    end = scene["time.end"]
+    if t[0] < 0:
+        raise SceneError(f"{where}: t = {t[0]:g} lies before the scene's start t = 0")
+    if t[-1] > end:
+        raise SceneError(f"{where}: t = {t[-1]:g} lies after the scene's end time.end = {end:g}")
+    return Data(t, tuple(columns), values[:, [header.index(c) for c in columns]],
+                np.array([float(weights.get(c, 1.0)) for c in columns]))
+
+
+def options(study: Study) -> tuple[dict[str, float], int, float]:
+    """The fit file's ``start`` (by key, each within its range), ``max_evaluations`` and
+    ``tolerance``, checked (SceneError, one line)."""
+    name, extra = study.name, study.extra
+    if "time.end" in study.keys:
+        raise SceneError(f"{name}: parameters time.end: the end time cannot be fitted (the data "
+                         "must lie within it); set it in [set]")
+    start = extra.get("start", {})
+    if not isinstance(start, dict):
+        raise SceneError(f'{name}: start must be a table of key = value, e.g. '
+                         f'start = {{ "{study.keys[0]}" = {study.parameters[0].middle:g} }}')
+    ranges = {p.key: p for p in study.parameters}
+    for key, value in start.items():
+        if key not in ranges:
+            raise SceneError(f"{name}: start {key}: not a parameter: "
+                             f"{_suggest(key, tuple(ranges))}")
+        p = ranges[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not p.low <= value <= p.high:
+            raise SceneError(f"{name}: start {key} = {value!r} lies outside its range "
+                             f"[{p.low:g}, {p.high:g}]")
+    count = extra.get("max_evaluations", MAX_EVALUATIONS)
+    if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 100_000:
+        raise SceneError(f"{name}: max_evaluations must be an integer from 1 to 100000, got "
+                         f"{count!r}")
+    tolerance = _number(extra.get("tolerance", TOLERANCE), f"{name}: tolerance", 0.0, 1.0)
+    return ({p.key: float(start.get(p.key, p.middle)) for p in study.parameters}, count,
+            tolerance)

@@ -1,0 +1,230 @@
+"""The fit of a study file (``rodfem fit``, :func:`fit`): its inputs checked, its directory
+written (:mod:`rodfem.studies.fitfiles`), the optimiser run (:mod:`rodfem.studies.fit`), the run
+at the optimum, fit.json and fit.png; and a stopped fit resumed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import signal
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from rodfem.output import interrupts, journal
+from rodfem.output.atomic import replacing
+from rodfem.scene import SceneError
+from rodfem.studies.fit import Evaluations, Problem, jacobian, optimise, statistics
+from rodfem.studies.fitfiles import FitError, FitResult
+from rodfem.studies.parameters import Study
+
+
+def _as_study(spec) -> tuple[Study, Path]:
+    """The study of a fit file's path or TOML data, and its data file's path."""
+    from rodfem.studies import parameters
+    from rodfem.studies.fitdata import OWN
+
+    if isinstance(spec, dict):
+        study, directory = parameters.parse(spec, "<dict>", None, OWN), None
+    elif isinstance(spec, (str, Path)):
+        study, directory = parameters.load(spec, OWN), Path(spec).parent
+    else:
+        raise SceneError("fit: must be a fit file's path or its data as a dict, not "
+                         f"{type(spec).__name__}")
+    data = study.extra.get("data")
+    if not isinstance(data, str) or not data:
+        raise SceneError(f'{study.name}: data must name the CSV of the measured histories, e.g. '
+                         'data = "measured.csv"')
+    path = Path(data)
+    return study, path if directory is None or path.is_absolute() else directory / path
+
+
+def problem_of(study: Study, data_path: Path, base: tuple[dict, str] | None = None) -> Problem:
+    """The fit of ``study`` to the data at ``data_path``, every input checked (SceneError)."""
+    from rodfem.scene import read
+    from rodfem.studies.fitdata import load_data, options
+
+    start, count, tolerance = options(study)
+    problem = Problem(study, None, start, count, tolerance, base or read(study.scene))
+    scene = problem.sweep([[start[key] for key in study.keys]]).scene(0)
+    return dataclasses.replace(problem, data=load_data(study, data_path, scene))
+
+
+def run_fit(spec, out: str | Path | None = None, comm: MPI.Comm | None = None, *,
+            force: bool = False, progress: bool = False, text: str | None = None) -> FitResult:
+    """Fit a study (a fit file's path or its TOML data) into the directory ``out`` (as
+    ``rodfem fit --out``), or in memory with ``out=None``. Under mpirun every rank calls it.
+
+    Raises:
+        SceneError: a mistake in the fit file, its data or a scene (nothing run or written).
+        rodfem.OutputError: ``out`` cannot be used.
+        FitError: a run failed. WriteError: the journal could not be written.
+        rodfem.output.interrupts.Interrupted: a signal stopped it (between two batches).
+    """
+    comm = comm or MPI.COMM_WORLD
+    study, data_path = _as_study(spec)
+    problem = problem_of(study, data_path)
+    if out is None:
+        with interrupts.deferred():
+            return _solve(problem, Evaluations(problem, comm, progress=progress), comm, None)
+    out = Path(out)
+    from rodfem.output.directories import OutputError, prepare_directory
+    from rodfem.output.files import write_json, write_text
+    from rodfem.scene import validate
+    from rodfem.studies.fitfiles import FILES, meta
+
+    data_bytes = data_path.read_bytes()
+    written = meta(study, problem.base, data_bytes)  # SceneError before anything is written
+    base = validate(*problem.base).to_toml()
+    keep = Path(spec) if isinstance(spec, (str, Path)) else None
+    if keep is not None and text is None:
+        text = keep.read_text(encoding="utf-8")
+    if out.exists() and out.resolve() in data_path.resolve().parents:
+        raise OutputError(f"the data {data_path} is inside the output directory {out}")
+    with interrupts.deferred():
+        prepare_directory(out, force, comm, keep=keep, command="fit", files=FILES)
+        if text is not None:
+            write_text(out / "fit.toml", text, comm)
+        write_json(out / "study.json", written, comm)
+        write_text(out / "base.toml", base, comm)
+        if comm.rank == 0:
+            with replacing(out / "data.csv", "wb") as file:
+                file.write(data_bytes)
+    if interrupts.signal_received() is not None:
+        raise interrupts.Interrupted(interrupts.signal_received())
+    return _into(out, problem, comm, written, 0, {}, progress)
+
+
+def _into(out: Path, problem: Problem, comm: MPI.Comm, written: dict, session: int,
+          known: dict, progress: bool) -> FitResult:
+    """The fit into ``out`` (held by this command), its marker's status written however it
+    ends."""
+    from rodfem.output.directories import finish
+    from rodfem.studies.fitfiles import tag
+
+    log = journal.Journal(out, session, comm.rank, tag(written))
+    status = "failed"
+    try:
+        with interrupts.deferred():
+            try:
+                result = _solve(problem, Evaluations(problem, comm, log, known, progress), comm,
+                                out)
+            finally:
+                log.close()
+        status = "complete"
+        return result
+    except interrupts.Interrupted:
+        status = "interrupted"
+        raise
+    finally:
+        try:
+            finish(out, status, comm)
+        except OSError:
+            pass  # the marker says running, and is read as killed
+
+
+def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
+           out: Path | None) -> FitResult:
+    """Fit, then the statistics at the optimum, the fitted run, fit.json and fit.png."""
+    found = optimise(problem, evaluations)
+    u = found.x
+    r = evaluations.batch([u])[0]
+    stderr, correlation, why = statistics(problem, u, r, jacobian(evaluations, u))
+    data = problem.data
+    model = data.model(r)
+    numbers = {
+        "parameters": {key: {"value": value, "stderr": None if stderr is None else float(e)}
+                       for key, value, e in zip(problem.study.keys, problem.values(u),
+                                                stderr if stderr is not None else u,
+                                                strict=True)},
+        "correlation": None if correlation is None else correlation.tolist(),
+        "residual_norm": float(np.linalg.norm(r)), "iterations": int(found.njev),
+        "evaluations": int(found.nfev), "runs": len(evaluations.cache),
+        "status": "converged" if found.status > 0 else "stopped", "message": found.message,
+        "columns": list(data.columns), "points": len(data.t), "start": problem.start,
+        "warning": why, "model": {c: model[:, j].tolist() for j, c in enumerate(data.columns)}}
+    fitted = _fitted(problem.scene(u), comm, out)
+    if out is not None and comm.rank == 0:
+        from rodfem.output.files import write_json
+
+        write_json(out / "fit.json", numbers, MPI.COMM_SELF)
+        from rodfem.post.fit import plot_fit
+
+        plot_fit(out / "fit.png", data.t, {c: data.values[:, j] for j, c in
+                                           enumerate(data.columns)},
+                 fitted.history["t"], {c: fitted.history[c] for c in data.columns},
+                 ", ".join(f"{k} = {v['value']:.4g}" for k, v in numbers["parameters"].items()))
+    comm.barrier()
+    return FitResult(numbers, data.t, {c: data.values[:, j] for j, c in enumerate(data.columns)},
+                     {c: model[:, j] for j, c in enumerate(data.columns)}, fitted, out)
+
+
+def _fitted(scene, comm: MPI.Comm, out: Path | None):
+    """The run at the optimum: ``out/fitted`` (a run directory), or in memory."""
+    from rodfem.api import Result, load, named_history
+    from rodfem.output.columns import for_scene
+    from rodfem.run import simulate
+
+    where = None if out is None else out / "fitted"
+    if where is not None:
+        from rodfem.output.directories import prepare_directory
+        from rodfem.output.files import write_text
+
+        prepare_directory(where, True, comm)
+        write_text(where / "scene.toml", scene.to_toml(), comm)
+    run = simulate(scene, where, comm, progress=False)
+    if run.status == "interrupted":
+        raise interrupts.Interrupted(run.signal or signal.SIGINT)
+    if run.status != "complete" or run.io_error is not None:
+        raise FitError(f"the run at the optimum failed: {run.io_error or run.error}")
+    comm.barrier()
+    if where is not None:
+        return load(where)
+    return Result(scene, run.summary, named_history(run.history, for_scene(scene)))
+
+
+def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> FitResult:
+    """Continue the fit in ``out`` (held by this command with ``reopen``): replayed from its
+    start, the journalled points taken, not run.
+
+    Raises:
+        SceneError: its study.json, data.csv or journal is not this fit's (one line).
+    """
+    from rodfem.output.directories import mark_running
+    from rodfem.studies import parameters
+    from rodfem.studies.fitdata import OWN
+    from rodfem.studies.fitfiles import read_meta, tag
+
+    written = read_meta(out)
+    study = parameters.parse(written["study"], written["name"], out, OWN)
+    problem = problem_of(study, out / "data.csv", (written["base"], written["source"]))
+    known, error = {}, None
+    if comm.rank == 0:
+        try:
+            known = {bytes.fromhex(r.line): r.history()[0]
+                     for r in journal.read(out, tag(written)).values()}
+        except (journal.JournalError, ValueError, IndexError, TypeError) as err:
+            error = f"{out}: its journal is not this fit's ({err}); run the fit again with --force"
+    error, known = comm.bcast((error, known), root=0)
+    if error is not None:
+        raise SceneError(error)
+    session = comm.bcast(journal.sessions(out) if comm.rank == 0 else None, root=0)
+    mark_running(out, comm)
+    return _into(out, problem, comm, written, session, known, progress)
+
+
+def fit(study, out: str | Path | None = None, comm=None, *, force: bool = False,
+        progress: bool = False) -> FitResult:
+    """Fit a scene's parameters to measured histories: ``study`` a fit file's path or its TOML
+    data (a dict), into the directory ``out`` (as ``rodfem fit --out``) or in memory. Under
+    mpirun every rank calls it and gets the same result. A signal received during the call
+    stops it, not the next.
+
+    Raises:
+        SceneError: a mistake in the fit file, its data or a scene (nothing run or written).
+        rodfem.OutputError: ``out`` cannot be used.
+        FitError: a run failed (the message names its point).
+    """
+    with interrupts.call():
+        return run_fit(study, out, comm, force=force, progress=progress)
