@@ -19,7 +19,10 @@ _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "CoarseStepWarning": "rodfem.model.timescales", "steady": "rodfem.api",
         "Scene": "rodfem.scene", "SweepResult": "rodfem.studies.sweepfiles",
         "fit": "rodfem.studies.fitrun", "load_fit": "rodfem.studies.fitfiles",
-        "FitResult": "rodfem.studies.fitfiles", "FitError": "rodfem.studies.fitfiles"}
+        "FitResult": "rodfem.studies.fitfiles", "FitError": "rodfem.studies.fitfiles",
+        "sensitivity": "rodfem.studies.sensitivity",
+        "load_sensitivity": "rodfem.studies.sensitivityfiles",
+        "SensitivityResult": "rodfem.studies.sensitivityfiles"}
 __all__ = [*_API, "__version__"]
 
 

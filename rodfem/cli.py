@@ -4,6 +4,7 @@
     rodfem run SCENE [--out DIR] [--set section.key=value ...] [--force]
     rodfem sweep SWEEP.toml [--out DIR] [--force] [--histories]
     rodfem fit FIT.toml [--out DIR] [--force] [--progress]
+    rodfem sensitivity SENS.toml [--out DIR] [--force]
     rodfem resume DIR [--set time.end=T]
     rodfem plot DIR [DIR ...] [--out FIGDIR] [--force] [--only KINDS] [--no-animation]
                 [--window T0,T1] [--labels A,B,...] [--colour-by KEY]   (runs, or one sweep)
@@ -62,7 +63,8 @@ def parser() -> argparse.ArgumentParser:
         description="Dynamic contact of a thermoviscoelastic rod with an obstacle (Copetti).",
     )
     sub = parser.add_subparsers(dest="command", required=True)
-    for add in (_run, _sweep, _fit, _resume, _plot, _paper, _stability, _verify, _steady):
+    for add in (_run, _sweep, _fit, _sensitivity, _resume, _plot, _paper, _stability, _verify,
+                _steady):
         add(sub)
     return parser
 
@@ -123,6 +125,26 @@ def _fit(sub) -> None:
             "replace an existing fit directory")
     fit.add_argument("--quiet", action="store_true", help="no final line")
     _progress(fit, "a line per batch of runs")
+
+
+def _sensitivity(sub) -> None:
+    """``rodfem sensitivity``: which parameters a scene's measures depend on."""
+    command = sub.add_parser(
+        "sensitivity",
+        help="Sobol indices (or Morris screening) of a scene's measures over parameter ranges",
+        description="Draw points over the ranges of a sensitivity file's [parameters] "
+        "(Saltelli's sampling, or Morris' trajectories with method = \"morris\"), run them as a "
+        "sweep into DIR/runs (under mpirun the ranks share the runs), and write "
+        "sensitivity.csv: a row per measure of 'outputs' and parameter, with the first-order "
+        "and total Sobol indices S1, ST and their bootstrap confidence intervals (Morris: "
+        "mu_star, mu_star_conf, sigma), samples.csv and sensitivity.png. 'rodfem resume DIR' "
+        "continues a stopped study to the same indices.",
+    )
+    command.add_argument("file", metavar="SENS.toml", help="the sensitivity file")
+    _output(command, None, "output directory (default: results/<file's name>)",
+            "replace an existing sensitivity directory")
+    command.add_argument("--quiet", action="store_true", help="no progress and no final line")
+    _progress(command, "a progress line every few seconds even when output is not a terminal")
 
 
 def _resume(sub) -> None:
@@ -306,7 +328,7 @@ def _steady(sub) -> None:
 
 
 COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.resume,
-            "fit": commands.fit,
+            "fit": commands.fit, "sensitivity": commands.sensitivity,
             "plot": commands.plot,
             "paper": commands.paper,
             "stability": commands.stability, "verify": commands.verify,

@@ -71,6 +71,12 @@ stamp=.venv/.rodfem-installed
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ "$0" -nt "$stamp" ]; then
   echo "setup: pip install -e .[$extras] ($numpy_pin)"
   echo "$numpy_pin" > .venv/constraints.txt
+  # SALib (rodfem sensitivity) needs pandas, SciPy and matplotlib: Debian's, built for its NumPy,
+  # pinned so that pip takes the SALib that fits them (1.4.8 on Debian 12; SALib 1.5 asks for
+  # pandas 2, which pip would otherwise install over Debian's) and installs none of the three.
+  /usr/bin/python3 -c 'import importlib.metadata as m
+for name in ("pandas", "scipy", "matplotlib"):
+    print(f"{name}=={m.version(name)}")' >> .venv/constraints.txt
   # pip weighs only what it installs, not the Debian packages the venv sees, and reports (in red)
   # any of theirs it breaks: pyvista's cyclopts needs a newer rich than Debian 12's, whose newest
   # markdown-it-py (4) Debian 12's MyST and mdit-py-plugins refuse (<3). So every version bound

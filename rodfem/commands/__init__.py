@@ -9,8 +9,9 @@ from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, say
 from rodfem.commands.figures import plot
 from rodfem.commands.fit import fit
 from rodfem.commands.runs import resume, run
+from rodfem.commands.sensitivity import sensitivity
 from rodfem.commands.studies import paper, stability, steady, verify
 from rodfem.commands.sweeps import sweep
 
 __all__ = ["EXIT_DIVERGED", "EXIT_INPUT", "EXIT_IO", "fit", "paper", "plot", "resume", "run", "say",
-           "stability", "steady", "sweep", "verify"]
+           "sensitivity", "stability", "steady", "sweep", "verify"]

@@ -1,0 +1,180 @@
+"""What a sensitivity directory holds, written and read (:mod:`rodfem.studies.sensitivity`):
+``sensitivity.json`` (what resume reads), ``samples.csv``, ``sensitivity.csv``, and the
+indices read back as a :class:`SensitivityResult`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import html
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rodfem.scene import SceneError
+from rodfem.studies import indices
+from rodfem.studies.sweepfiles import digest
+
+CSV, FIGURE = "sensitivity.csv", "sensitivity.png"
+FILES = ("sensitivity.toml", "sensitivity.json", "samples.csv", "runs", CSV, FIGURE)
+FORMAT = 1
+KEYS = {"name": str, "study": dict, "scene": str, "base": dict, "source": str, "method": str,
+        "samples": int, "seed": int, "outputs": list, "runs": str, "digest": str}
+
+
+@dataclasses.dataclass(frozen=True)
+class SensitivityResult:
+    """The indices of a sensitivity study: :attr:`table` has a row per measure and parameter
+    (``S1, S1_conf, ST, ST_conf`` for Sobol, ``mu_star, mu_star_conf, sigma`` for Morris);
+    :meth:`indices` gives one measure's.
+
+    Attributes:
+        method: sobol or morris.
+        columns: the indices' columns of that method.
+        table: the rows, as dicts, measure by measure in the order of ``outputs``.
+        parameters: the parameters' keys.
+        outputs: the measures analysed (those without rows: see ``warnings``).
+        status: complete, interrupted (resume continues it) or failed (a file could not be
+            written: ``error``).
+        path: the directory, or None in memory.
+        warnings: a line for each measure left without indices (a failed run, a value that is
+            not a number, a constant).
+        failed: how many runs failed.
+        numbers: the runs' count and time, and the analysis' time.
+    """
+
+    method: str
+    columns: tuple[str, ...]
+    table: tuple[dict, ...]
+    parameters: tuple[str, ...]
+    outputs: tuple[str, ...]
+    status: str
+    path: Path | None = None
+    warnings: tuple[str, ...] = ()
+    failed: int = 0
+    error: str | None = None
+    numbers: dict = dataclasses.field(default_factory=dict)
+
+    def indices(self, measure: str) -> dict[str, dict[str, float]]:
+        """One measure's indices by parameter, e.g. ``result.indices("u_1_final")["model.zeta"]
+        ["ST"]``. KeyError for a measure without them."""
+        found = {row["parameter"]: {c: row[c] for c in self.columns}
+                 for row in self.table if row["measure"] == measure}
+        if not found:
+            raise KeyError(f"no indices of {measure!r}; measures with indices: "
+                           f"{', '.join(dict.fromkeys(r['measure'] for r in self.table))}")
+        return found
+
+    def to_pandas(self):
+        """The table as a ``pandas.DataFrame`` indexed by (measure, parameter). Needs pandas."""
+        from rodfem.output.frames import require
+
+        pd = require("pandas", "to_pandas()")
+        frame = pd.DataFrame(list(self.table), columns=["measure", "parameter", *self.columns])
+        return frame.set_index(["measure", "parameter"])
+
+    def __len__(self) -> int:
+        return len(self.table)
+
+    def __repr__(self) -> str:
+        kind = "Sobol indices" if self.method == "sobol" else "Morris screening"
+        lines = [f"<rodfem.SensitivityResult {self.status}: {kind}, {len(self.outputs)} "
+                 f"measures × {len(self.parameters)} parameters>"]
+        for row in self.table[:12]:
+            lines.append(f"    {row['measure']} / {row['parameter']}: " + ", ".join(
+                f"{c} {row[c]:.3g}" for c in self.columns))
+        if len(self.table) > 12:
+            lines.append(f"    … {len(self.table) - 12} more rows")
+        lines += [f"    warning: {w}" for w in self.warnings]
+        if self.error:
+            lines.append(f"    error: {self.error}")
+        if self.path is not None:
+            lines.append(f"    path: {self.path}")
+        return "\n".join(lines)
+
+    def _repr_html_(self) -> str:
+        head = "".join(f"<th>{html.escape(c)}</th>" for c in ("measure", "parameter",
+                                                               *self.columns))
+        body = "".join("<tr>" + "".join(
+            f"<td>{html.escape(str(row[c]))}</td>" for c in ("measure", "parameter"))
+            + "".join(f"<td>{row[c]:.4g}</td>" for c in self.columns) + "</tr>"
+            for row in self.table)
+        notes = "".join(f"<p>warning: {html.escape(w)}</p>" for w in self.warnings)
+        return (f"<p><b>{html.escape(repr(self).splitlines()[0])}</b></p>"
+                f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>{notes}")
+
+
+def meta(found, sweep: dict[str, Any]) -> dict[str, Any]:
+    """What sensitivity.json holds of a campaign (:class:`rodfem.studies.sensitivity.Campaign`;
+    ``sweep``: its runs' sweep.json), with its digest."""
+    plan = found.plan
+    data = {"format": FORMAT, "name": found.study.name, "study": found.study.data,
+            "scene": found.study.scene, "base": sweep["base"], "source": sweep["source"],
+            "method": plan.method, "samples": plan.samples, "seed": plan.seed,
+            "levels": plan.levels, "resamples": plan.resamples, "confidence": plan.confidence,
+            "parameters": [dataclasses.asdict(p) for p in plan.parameters],
+            "outputs": list(found.outputs), "runs": sweep["digest"]}
+    return {**data, "digest": digest(data)}
+
+
+def read_meta(out: Path) -> dict[str, Any]:
+    """The sensitivity.json of ``out``, checked to be one this version wrote (SceneError)."""
+    try:
+        data = json.loads((out / "sensitivity.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:
+        raise SceneError(f"{out}: no readable sensitivity.json ({err})") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise SceneError(f"{out}/sensitivity.json is not one this version of rodfem reads")
+    for key, kind in KEYS.items():
+        if not isinstance(data.get(key), kind):
+            raise SceneError(f"{out}/sensitivity.json: '{key}' is missing or not a "
+                             f"{kind.__name__} (was it edited?)")
+    if data["digest"] != digest(data):
+        raise SceneError(f"{out}/sensitivity.json is not the study this directory was run with "
+                         "(it was edited); run the edited study into another directory")
+    return data
+
+
+def samples_text(plan: indices.Plan) -> str:
+    """samples.csv: the run's index and the parameters' values, a row per run."""
+    keys = [p.key for p in plan.parameters]
+    lines = [",".join(["index", *keys])]
+    lines += [",".join([str(i), *(repr(float(v)) for v in row)])
+              for i, row in enumerate(plan.values)]
+    return "\n".join(lines) + "\n"
+
+
+def load_sensitivity(path: str | Path) -> SensitivityResult:
+    """The indices of a sensitivity directory (written by ``rodfem sensitivity``)."""
+    from rodfem.output.directories import state
+
+    path = Path(path)
+    data = read_meta(path)
+    columns = indices.COLUMNS.get(data["method"])
+    if columns is None:
+        raise SceneError(f"{path}/sensitivity.json: unknown method {data['method']!r}")
+    status = state(path) or "complete"
+    rows = []
+    if (path / CSV).is_file():
+        lines = (path / CSV).read_text(encoding="utf-8").splitlines()
+        names = ("measure", "parameter", *columns)
+        if not lines or tuple(lines[0].split(",")) != names:
+            raise SceneError(f"{path / CSV} is not a table rodfem wrote (its header is not "
+                             f"{','.join(names)})")
+        for line in lines[1:]:
+            cells = line.split(",")
+            rows.append({"measure": cells[0], "parameter": cells[1],
+                         **{c: float(v) for c, v in zip(columns, cells[2:], strict=True)}})
+    keys = tuple(p["key"] for p in data.get("parameters", ()))
+    failed = 0
+    if (path / "runs" / "results.csv").is_file():
+        from rodfem.output import results as table
+
+        _, found = table.read(path / "runs" / "results.csv")
+        failed = int(np.sum(found["status"] != "complete"))
+    return SensitivityResult(data["method"], columns, tuple(rows), keys,
+                             tuple(data["outputs"]), status, path, failed=failed,
+                             numbers={"runs": data["samples"] * (len(keys) + (
+                                 2 if data["method"] == "sobol" else 1))})
