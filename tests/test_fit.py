@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+import tomllib
 import types
 from pathlib import Path
 
@@ -21,6 +22,7 @@ import rodfem
 from conftest import COMM, serial_only
 from rodfem.cli import main
 from rodfem.output import journal
+from rodfem.output.directories import state
 from rodfem.studies import parameters
 from rodfem.studies.fit import H, Problem, statistics
 from rodfem.studies.fitdata import OWN
@@ -45,12 +47,13 @@ def synthetic() -> tuple[np.ndarray, np.ndarray]:
 
 
 def write_fit(directory: Path, fit: str = FIT, data: str | None = None) -> Path:
-    """The fit file and its data.csv in ``directory`` (rank 0 writes; every rank waits)."""
+    """The fit file and its data.csv in ``directory`` (rank 0 writes; every rank waits). The
+    data are made on every rank: the first run of a process starts PETSc, on every rank."""
+    if data is None:
+        t, u = synthetic()
+        data = "t,u_1\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(t, u, strict=True))
     if COMM.rank == 0:
         directory.mkdir(parents=True, exist_ok=True)
-        if data is None:
-            t, u = synthetic()
-            data = "t,u_1\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(t, u, strict=True))
         (directory / "data.csv").write_text(data)
         (directory / "fit.toml").write_text(fit)
     COMM.barrier()
@@ -85,9 +88,12 @@ def test_known_parameters_are_recovered_within_their_standard_errors(shared_dir)
     assert loaded.numbers == result.numbers and loaded.values == result.values
     assert (out / "fit.png").stat().st_size > 0
     assert "model.zeta" in repr(loaded) and "<table>" in loaded._repr_html_()
-    if COMM.size > 1:  # every rank ran the optimiser on the same numbers: the serial fit's
-        alone = rodfem.fit(shared_dir / "in" / "fit.toml", comm=MPI.COMM_SELF)
-        assert alone.numbers == result.numbers
+    # in memory, from the file's data, on one rank: the same fit (under mpirun every rank ran
+    # the optimiser on the same numbers, and took the same steps)
+    spec = tomllib.loads(FIT)
+    alone = rodfem.fit({**spec, "data": str(shared_dir / "in" / "data.csv")}, comm=MPI.COMM_SELF)
+    assert alone.numbers == result.numbers and alone.path is None
+    np.testing.assert_array_equal(alone.fitted.history["u_1"], fitted.history["u_1"])
 
 
 @pytest.fixture(scope="module")
@@ -121,8 +127,22 @@ def wait_for_records(out: Path, count: int, process) -> None:
     raise AssertionError(f"the fit did not record {count} points in time")
 
 
+def processes_of(out: Path) -> list[int]:
+    """The processes whose command line names ``out`` (this test's own directory)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        try:
+            words = (entry / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if entry.name.isdigit() and str(out).encode() in words:
+            found.append(int(entry.name))
+    return found
+
+
 @serial_only
-@pytest.mark.parametrize("how, ranks", [("SIGKILL", 1), ("SIGTERM", 1), ("SIGUSR1", 2)])
+@pytest.mark.parametrize("how, ranks", [("SIGKILL", 1), ("SIGTERM", 1), ("SIGUSR1", 2),
+                                        ("SIGKILL", 2)])
 def test_a_stopped_fit_resumes_to_the_same_fit_json(how, ranks, serial, tmp_path):
     fit, whole = serial
     out = tmp_path / "out"
@@ -130,11 +150,16 @@ def test_a_stopped_fit_resumes_to_the_same_fit_json(how, ranks, serial, tmp_path
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                start_new_session=True)
     wait_for_records(out, 4, process)
-    if how == "SIGKILL":  # every process of it at once
-        os.killpg(process.pid, signal.SIGKILL)
+    if how == "SIGKILL":  # every process of it at once, mpirun's ranks too (a node lost)
+        for pid in processes_of(out):
+            os.kill(pid, signal.SIGKILL)
     else:  # the command, or mpirun, which forwards SIGUSR1 to the ranks
         process.send_signal(getattr(signal, how))
     _, err = process.communicate(timeout=120)
+    deadline = time.monotonic() + 60  # every rank gone (mpirun's ranks after it), its lock too
+    while state(out) == "running":
+        assert time.monotonic() < deadline
+        time.sleep(0.1)
     if how == "SIGKILL":
         assert process.returncode != 0
     else:
@@ -163,6 +188,31 @@ def test_resume_refuses_edited_data_with_one_line(serial, tmp_path, capsys):
     assert main(["resume", str(copy)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "data.csv is not the data this fit was run with" in err
+
+
+@serial_only
+def test_a_run_that_fails_stops_the_fit_with_exit_3_naming_its_point(tmp_path, capsys):
+    """Picard's iteration cannot converge with so stiff an obstacle: the first run fails."""
+    fit = FIT.replace('"direct"', '"picard"').replace("[1e-3, 1e-1]", "[1e-7, 1e-6]")
+    out = tmp_path / "out"
+    assert main(["fit", str(write_fit(tmp_path, fit, GOOD_DATA)), "--out", str(out)]) == 3
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the run at model.zeta = " in err, err
+    assert "did not converge" in err and json.loads((out / "rodfem.json").read_text())[
+        "status"] == "failed"
+
+
+@serial_only
+def test_force_never_replaces_the_directory_that_holds_the_data(serial, tmp_path, capsys):
+    _, whole = serial
+    out = tmp_path / "out"
+    shutil.copytree(whole, out)
+    fit = write_fit(tmp_path / "in", FIT.replace('"data.csv"', f'"{out / "data.csv"}"'), "")
+    before = sorted(p.name for p in out.iterdir())
+    assert main(["fit", str(fit), "--out", str(out), "--force"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is inside the output directory" in err, err
+    assert sorted(p.name for p in out.iterdir()) == before
 
 
 # --- statistics -------------------------------------------------------------------------------

@@ -54,31 +54,38 @@ class FitResult:
 
     @property
     def parameters(self) -> dict[str, tuple[float, float | None]]:
+        """Each parameter's fitted value and standard error (None where there is none)."""
         return {key: (p["value"], p["stderr"]) for key, p in self.numbers["parameters"].items()}
 
     @property
     def values(self) -> dict[str, float]:
+        """Each parameter's fitted value."""
         return {key: p["value"] for key, p in self.numbers["parameters"].items()}
 
     @property
     def stderr(self) -> dict[str, float | None]:
+        """Each parameter's standard error (None where the data cannot give one)."""
         return {key: p["stderr"] for key, p in self.numbers["parameters"].items()}
 
     @property
     def correlation(self) -> np.ndarray | None:
+        """The parameters' correlation matrix, in their order (None without standard errors)."""
         found = self.numbers.get("correlation")
         return None if found is None else np.array(found, dtype=float)
 
     @property
     def residual_norm(self) -> float:
+        """|r| at the optimum: the norm of the weighted residuals w (model - data)."""
         return self.numbers["residual_norm"]
 
     @property
     def iterations(self) -> int:
+        """The optimiser's iterations (its Jacobians)."""
         return self.numbers["iterations"]
 
     @property
     def status(self) -> str:
+        """converged, or stopped (max_evaluations reached first)."""
         return self.numbers["status"]
 
     def _rows(self) -> list[tuple[str, str, str]]:

@@ -13,9 +13,16 @@ import numpy as np
 from mpi4py import MPI
 
 from rodfem.output import interrupts, journal
-from rodfem.output.atomic import replacing
+from rodfem.output.atomic import io_line, replacing
 from rodfem.scene import SceneError
-from rodfem.studies.fit import Evaluations, Problem, jacobian, optimise, statistics
+from rodfem.studies.fit import (
+    Evaluations,
+    Problem,
+    WriteError,
+    jacobian,
+    optimise,
+    statistics,
+)
 from rodfem.studies.fitfiles import FitError, FitResult
 from rodfem.studies.parameters import Study
 
@@ -145,16 +152,23 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
         "columns": list(data.columns), "points": len(data.t), "start": problem.start,
         "warning": why, "model": {c: model[:, j].tolist() for j, c in enumerate(data.columns)}}
     fitted = _fitted(problem.scene(u), comm, out)
+    error = None
     if out is not None and comm.rank == 0:
         from rodfem.output.files import write_json
-
-        write_json(out / "fit.json", numbers, MPI.COMM_SELF)
         from rodfem.post.fit import plot_fit
 
-        plot_fit(out / "fit.png", data.t, {c: data.values[:, j] for j, c in
-                                           enumerate(data.columns)},
-                 fitted.history["t"], {c: fitted.history[c] for c in data.columns},
-                 ", ".join(f"{k} = {v['value']:.4g}" for k, v in numbers["parameters"].items()))
+        values = {c: data.values[:, j] for j, c in enumerate(data.columns)}
+        try:  # fit.json last: a fit with one is complete
+            plot_fit(out / "fit.png", data.t, values, fitted.history["t"],
+                     {c: fitted.history[c] for c in data.columns},
+                     ", ".join(f"{k} = {v['value']:.4g}"
+                               for k, v in numbers["parameters"].items()))
+            write_json(out / "fit.json", numbers, MPI.COMM_SELF)
+        except OSError as err:
+            error = io_line(err)
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise WriteError(error)
     comm.barrier()
     return FitResult(numbers, data.t, {c: data.values[:, j] for j, c in enumerate(data.columns)},
                      {c: model[:, j] for j, c in enumerate(data.columns)}, fitted, out)
@@ -176,7 +190,9 @@ def _fitted(scene, comm: MPI.Comm, out: Path | None):
     run = simulate(scene, where, comm, progress=False)
     if run.status == "interrupted":
         raise interrupts.Interrupted(run.signal or signal.SIGINT)
-    if run.status != "complete" or run.io_error is not None:
+    if run.io_error is not None:
+        raise WriteError(run.io_error)
+    if run.status != "complete":
         raise FitError(f"the run at the optimum failed: {run.io_error or run.error}")
     comm.barrier()
     if where is not None:
