@@ -7,7 +7,8 @@ whole process on one rank (start-up included: what a user waits for), the fastes
 between runs). Reported: scenes per second of each, over the whole process and in the sweep
 engine (its summary.json: from the first scene taken to the table written); the analysis' time
 (SALib's Sobol indices and their bootstrap, of the campaign's table, in this process after SALib
-is imported) and its fraction of the campaign. The target: the analysis negligible.
+is imported) and its fraction of the campaign; the imports a campaign adds to a sweep's process
+(SALib, and the chart's matplotlib and VTK). The target: the analysis negligible.
 
     .venv/bin/python benchmarks/sensitivity_cost.py [--repeats 3]
 
@@ -74,6 +75,20 @@ def analysis_seconds(out: Path, repeats: int) -> tuple[float, int]:
     return best, len(rows)
 
 
+IMPORTS = """import time, dolfinx
+t = time.perf_counter(); import SALib.analyze.sobol, SALib.sample.sobol; a = time.perf_counter()
+import rodfem.post.sensitivity; print(a - t, time.perf_counter() - a)"""
+
+
+def import_seconds() -> tuple[float, float]:
+    """What a campaign's process pays to import SALib, and the chart (rodfem.post: matplotlib
+    and VTK), after dolfinx."""
+    done = subprocess.run([sys.executable, "-c", IMPORTS], check=True, capture_output=True,
+                          text=True)
+    salib, chart = map(float, done.stdout.split())
+    return salib, chart
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=3)
@@ -96,6 +111,7 @@ def main() -> None:
              for i in range(args.repeats)]
     scenes = len(samples) - 1
     analysis, rows = analysis_seconds(out, args.repeats)
+    salib, chart = min(import_seconds() for _ in range(args.repeats))
     report = {
         "machine": {"host": platform.node(), "processor": platform.processor(),
                     "cpus": os.cpu_count(), "python": platform.python_version(),
@@ -109,6 +125,7 @@ def main() -> None:
                                               for i in range(args.repeats)),
         "analysis_seconds": analysis, "analysis_rows": rows,
         "analysis_fraction": analysis / min(campaign),
+        "salib_import_seconds": salib, "chart_import_seconds": chart,
     }
     print(f"rodfem sensitivity of {scenes} scenes: {report['sensitivity_seconds']:.2f} s "
           f"({report['sensitivity_scenes_per_second']:.1f} scenes/s; in the engine "
@@ -118,6 +135,7 @@ def main() -> None:
           f"{report['sweep_engine_scenes_per_second']:.1f}/s)")
     print(f"analysis ({rows} rows, bootstrap of 100): {analysis * 1e3:.1f} ms = "
           f"{100 * report['analysis_fraction']:.2f} % of the campaign")
+    print(f"imports: SALib {salib:.2f} s, the chart (matplotlib and VTK) {chart:.2f} s")
     RESULTS.write_text(json.dumps(report, indent=2) + "\n")
     print(f"-> {RESULTS}")
 

@@ -8,14 +8,22 @@ Both work on the study's scale of each parameter (:class:`rodfem.studies.paramet
 
 The keys of a sensitivity file besides the study's own (:data:`KEYS`)::
 
-    method = "sobol"      # or "morris" (screening)
-    samples = 256         # Sobol: N, a power of 2, for N (D + 2) runs; Morris: trajectories,
-                          # for N (D + 1) runs
-    seed = 0              # of the sampling and of the bootstrap
+    method = "sobol"      # or "morris" (screening); default sobol
+    samples = 256         # Sobol: N, a power of 2, for N (D + 2) runs (default 64); Morris:
+                          # trajectories, for N (D + 1) runs (default 16); D parameters
+    seed = 0              # of the sampling and of the bootstrap (default 0)
     outputs = ["peak_force", "u_1_final"]   # the measures analysed (default: the declared)
-    levels = 4            # Morris: the grid's levels, even
-    resamples = 100       # bootstrap resamples of the confidence intervals
-    confidence = 0.95     # their level
+    levels = 4            # Morris: the grid's levels, even (default 4)
+    resamples = 100       # bootstrap resamples of the confidence intervals (default 100)
+    confidence = 0.95     # their level (default 0.95)
+
+Sobol indices (Saltelli's estimators, second order not computed): ``S1`` the first-order index
+of each parameter (the share of the measure's variance it explains alone), ``ST`` its total
+index (alone and with the others), each with ``_conf``, the half-width of its bootstrap
+confidence interval. Morris: ``mu_star`` the mean absolute elementary effect on the study's
+scale (a parameter's range counts as 1: ``mu_star`` of a linear measure is its coefficient times
+the range), ``mu_star_conf`` its interval's half-width, ``sigma`` the effects' spread
+(nonlinearity or interactions).
 
 Only SALib's calls common to its releases 1.4.8 (NumPy 1) and 1.5 and later (NumPy 2) are used.
 SALib takes a seed of 0 for none: it is given ``seed + 1``.

@@ -18,6 +18,7 @@ mu_star_conf, sigma``) and ``sensitivity.png`` (their bars).
 from __future__ import annotations
 
 import dataclasses
+import json
 import time
 from pathlib import Path
 from typing import Any
@@ -153,9 +154,10 @@ def run_campaign(found: Campaign, out: str | Path | None, comm: MPI.Comm, *,
 
 
 def _analysed(found: Campaign, runs: SweepResult, out: Path | None, comm: MPI.Comm,
-              seconds: float) -> SensitivityResult:
+              seconds: float, ran: int | None = None) -> SensitivityResult:
     """The indices of a campaign's runs (complete, or as far as they went), with its files
-    written (``out``: rank 0) and its marker's final status."""
+    written (``out``: rank 0) and its marker's final status; ``ran``: how many ran now (None:
+    as its sweep's summary says)."""
     rows, warnings, failed, analysis = [], [], 0, 0.0
     status = runs.status if runs.error is None else "failed"
     if status == "complete" and comm.rank == 0:
@@ -168,7 +170,14 @@ def _analysed(found: Campaign, runs: SweepResult, out: Path | None, comm: MPI.Co
             rows, warnings = indices.analyse(found.plan, {m: np.asarray(runs[m], dtype=float)
                                                           for m in found.outputs})
         analysis = time.perf_counter() - started
-    rows, warnings, failed, analysis = comm.bcast((rows, warnings, failed, analysis), root=0)
+    ran = len(found.sweep) if ran is None else ran
+    if out is not None and comm.rank == 0 and ran != 0:  # a resumed campaign's, this time
+        try:
+            ran = json.loads((out / "runs" / "summary.json").read_text())["ran_this_time"]
+        except (OSError, ValueError, KeyError, TypeError):
+            pass
+    rows, warnings, failed, analysis, ran = comm.bcast((rows, warnings, failed, analysis, ran),
+                                                       root=0)
     error = runs.error
     if out is not None:
         error = _write(out, found, rows, status, comm) or error
@@ -177,7 +186,7 @@ def _analysed(found: Campaign, runs: SweepResult, out: Path | None, comm: MPI.Co
     return SensitivityResult(found.plan.method, found.plan.columns, tuple(rows),
                              tuple(p.key for p in found.plan.parameters), found.outputs,
                              status, out, tuple(warnings), failed, error,
-                             {"runs": len(found.sweep), "run_seconds": seconds,
+                             {"runs": len(found.sweep), "ran": ran, "run_seconds": seconds,
                               "analysis_seconds": analysis})
 
 
@@ -235,6 +244,7 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SensitivityResu
         result = run_sweep(found.sweep, runs, comm, progress=progress)
     elif runs_state == "complete":
         result = comm.bcast(load_sweep(runs) if comm.rank == 0 else None, root=0)
+        return _analysed(found, result, out, comm, 0.0, ran=0)
     else:
         result = continue_sweep(runs, comm, progress)
     return _analysed(found, result, out, comm, time.perf_counter() - started)
@@ -284,7 +294,9 @@ def summary_line(result: SensitivityResult) -> str:
     """What a complete campaign found, in one line."""
     numbers = result.numbers
     kind = "Sobol indices" if result.method == "sobol" else "Morris screening"
-    return (f"{numbers['runs']} runs in {numbers['run_seconds']:.2f} s; {kind} of "
+    ran = numbers.get("ran", numbers["runs"])
+    done = f" ({ran} run now)" if ran != numbers["runs"] else ""
+    return (f"{numbers['runs']} runs{done} in {numbers['run_seconds']:.2f} s; {kind} of "
             f"{len(set(r['measure'] for r in result.table))} of {len(result.outputs)} measures "
             f"over {len(result.parameters)} parameters")
 
