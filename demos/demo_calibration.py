@@ -142,7 +142,7 @@ for key, true in TRUTH.items():
         f"{abs(value - true) / stderr:.2f} standard errors, {abs(value / true - 1):.2%} off)")
 m, n = fit.numbers["points"] * len(fit.numbers["columns"]), len(TRUTH)
 say(f"|r| / sqrt(m - n) = {fit.residual_norm / np.sqrt(m - n):.3f} "
-    f"(m = {m} residuals, n = {n} parameters: 1 if the residuals are the noise)")
+    f"(m = {m} residuals, n = {n} parameters; 1 if they are the noise)")
 say(f"correlation of ζ and ε: {fit.correlation[0, 1]:+.3f}; "
     f"{fit.numbers['runs']} runs, {fit.iterations} iterations")
 # -
@@ -184,7 +184,6 @@ contact_time = {{ column = "penetration", reduce = "time_positive" }}
 COMM.barrier()
 
 indices = rodfem.sensitivity(SENSITIVITY, out=OUT / "sensitivity", force=True)
-say(indices)
 if COMM.rank == 0:
     print(indices.to_pandas().round(3).to_string())
 # -
