@@ -121,3 +121,38 @@ def test_ranks_take_the_serial_adaptive_steps(tmp_path, scene, ranks):
     assert serial[:, 8].sum() >= 2  # contact events located
     assert np.unique(np.diff(serial[:, 0])).size > 10  # the steps did adapt
     np.testing.assert_array_equal(parallel, serial)
+
+
+@serial_only
+@pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+def test_calibration_demo_runs_under_mpirun(tmp_path):
+    """The calibration demo on two ranks: the fit recovers the values the measurement was made
+    with, within three of its standard errors and 1 %; its residual is the noise's; the Sobol
+    indices are shares of a variance, within their intervals."""
+    demo = Path(__file__).resolve().parents[1] / "demos" / "demo_calibration.py"
+    done = subprocess.run(["mpirun", "-n", "2", sys.executable, str(demo)], cwd=tmp_path,
+                          env={**MPI_ENV, "CI": "1"}, capture_output=True, text=True,
+                          timeout=600, check=True)
+    out = done.stdout
+    for key, true in (("model.zeta", 0.4), ("obstacle.epsilon", 0.004)):
+        lines = [line for line in out.splitlines() if line.startswith(f"{key} = ")]
+        assert len(lines) == 1, out  # rank 0 reports, once
+        value, stderr = (float(word) for word in lines[0].split()[2:5:2])
+        assert abs(value - true) <= 3 * stderr and abs(value / true - 1) < 0.01, lines[0]
+    # |r|² / (m - n) is χ² over m - n = 298 degrees of freedom divided by them: its root is 1
+    # within 1/sqrt(2·298) = 0.04 (one standard deviation); 0.2 is five of them
+    ratio = float(out.split("|r| / sqrt(m - n) = ")[1].split()[0])
+    assert abs(ratio - 1) < 0.2, out
+    results = tmp_path / "results" / "demo_calibration"
+    assert (results / "fit" / "fit.png").is_file()
+    assert (results / "sensitivity" / "sensitivity.png").is_file()
+    import pandas as pd
+
+    table = pd.read_csv(results / "sensitivity" / "sensitivity.csv")
+    assert sorted(zip(table["measure"], table["parameter"], strict=True)) == [
+        (m, p) for m in ("contact_time", "peak_stress")
+        for p in ("model.zeta", "obstacle.epsilon")]
+    assert (table["ST"] + table["ST_conf"] >= table["S1"] - table["S1_conf"]).all()
+    for column in ("S1", "ST"):
+        assert (table[column] + table[f"{column}_conf"] >= 0).all()
+        assert (table[column] - table[f"{column}_conf"] <= 1).all()

@@ -80,7 +80,7 @@ class FitResult:
 
     @property
     def residual_norm(self) -> float:
-        """|r| at the optimum: the norm of the weighted residuals w (model - data)."""
+        """The norm ``|r|`` at the optimum of the weighted residuals ``w (model - data)``."""
         return self.numbers["residual_norm"]
 
     @property
