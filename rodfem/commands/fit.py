@@ -28,8 +28,9 @@ def _ended(call, out: Path, quiet: bool) -> int:
     from rodfem.output import interrupts
     from rodfem.output.atomic import io_line
     from rodfem.output.directories import OutputError
+    from rodfem.studies.common import plural
     from rodfem.studies.fit import WriteError
-    from rodfem.studies.fitfiles import FitError, counted
+    from rodfem.studies.fitfiles import FitError
 
     again = f"'rodfem resume {out}' continues it"
     try:
@@ -61,7 +62,7 @@ def _ended(call, out: Path, quiet: bool) -> int:
         shown = ", ".join(f"{key} = {value:.6g}" + (f" ± {err:.2g}" if err is not None else "")
                           for key, (value, err) in result.parameters.items())
         say(f"{shown}; |r| = {numbers['residual_norm']:.4g} after "
-            f"{counted(numbers['runs'], 'run')} ({counted(numbers['iterations'], 'iteration')})"
+            f"{plural(numbers['runs'], 'run')} ({plural(numbers['iterations'], 'iteration')})"
             f" -> {out / 'fit.json'}", sys.stdout)
     return 0
 

@@ -32,9 +32,10 @@ from rodfem.output import interrupts, journal
 from rodfem.output import results as table
 from rodfem.scene import SceneError
 from rodfem.studies import design
+from rodfem.studies.common import plural
 from rodfem.studies.dealing import Progress, deal
 from rodfem.studies.fitdata import Data
-from rodfem.studies.fitfiles import FitError, counted
+from rodfem.studies.fitfiles import FitError
 from rodfem.studies.parameters import Study
 
 H = 1e-6  # the finite differences' step, in u
@@ -184,8 +185,8 @@ class Evaluations:
                            f"{why or 'no reason given'}")
         if self.progress and self.comm.rank == 0:
             norm = float(np.linalg.norm(self.cache[new[0]]))
-            print(f"fit: batch {self.batches}: {counted(len(new), 'run')} "
-                  f"({counted(len(self.cache), 'point')} in all), |r| = {norm:.6g} at "
+            print(f"fit: batch {self.batches}: {plural(len(new), 'run')} "
+                  f"({plural(len(self.cache), 'point')} in all), |r| = {norm:.6g} at "
                   f"{design.describe(sweep.points[0])}", file=sys.stderr, flush=True)
 
 
@@ -216,7 +217,7 @@ def statistics(problem: Problem, u: np.ndarray, r: np.ndarray, J: np.ndarray):
     ``r``, Jacobian ``J`` in u), or (None, None, why) where the data cannot give them."""
     m, n = J.shape
     if m <= n:
-        return None, None, (f"{counted(m, 'value')} to fit for {counted(n, 'parameter')}: no "
+        return None, None, (f"{plural(m, 'value')} to fit for {plural(n, 'parameter')}: no "
                             "standard errors")
     _, s, vt = np.linalg.svd(J, full_matrices=False)
     if s[-1] <= s[0] * max(m, n) * np.finfo(float).eps:

@@ -20,15 +20,12 @@ from typing import Any
 import numpy as np
 
 from rodfem.scene import SceneError
+from rodfem.studies.common import plural
+from rodfem.studies.sweepfiles import digest, tag  # noqa: F401 (a fit's study.json as a sweep's)
 
 FORMAT = 1
 FILES = ("fit.toml", "study.json", "base.toml", "data.csv", "journal", "fit.json", "fitted",
          "fit.png")
-
-
-def counted(count: int, noun: str) -> str:
-    """``1 run``, ``12 runs``."""
-    return f"{count} {noun}{'' if count == 1 else 's'}"
 
 
 class FitError(RuntimeError):
@@ -99,9 +96,9 @@ class FitResult:
 
     def __repr__(self) -> str:
         n = self.numbers
-        lines = [f"<rodfem.FitResult {n['status']}: {counted(len(n['parameters']), 'parameter')}"
-                 f", {counted(n['points'], 'time')} × {counted(len(n['columns']), 'column')}, "
-                 f"|r| = {n['residual_norm']:.4g}, {counted(n['runs'], 'run')}>"]
+        lines = [f"<rodfem.FitResult {n['status']}: {plural(len(n['parameters']), 'parameter')}"
+                 f", {plural(n['points'], 'time')} × {plural(len(n['columns']), 'column')}, "
+                 f"|r| = {n['residual_norm']:.4g}, {plural(n['runs'], 'run')}>"]
         lines += [f"    {key} = {value}" + (f" ± {err}" if err else " (no standard error)")
                   for key, value, err in self._rows()]
         if self.path is not None:
@@ -113,19 +110,8 @@ class FitResult:
                        for k, v, e in self._rows())
         n = self.numbers
         return (f"<p>rodfem fit, {html.escape(n['status'])}: |r| = {n['residual_norm']:.4g}, "
-                f"{counted(n['runs'], 'run')}</p><table><thead><tr><th>parameter</th><th>value</th>"
+                f"{plural(n['runs'], 'run')}</p><table><thead><tr><th>parameter</th><th>value</th>"
                 f"<th>standard error</th></tr></thead><tbody>{rows}</tbody></table>")
-
-
-def digest(data: dict[str, Any]) -> str:
-    """The SHA-256 of study.json's values but the digest."""
-    content = {k: v for k, v in data.items() if k != "digest"}
-    return hashlib.sha256(json.dumps(content, allow_nan=True).encode()).hexdigest()
-
-
-def tag(data: dict[str, Any]) -> bytes:
-    """The tag of this fit's journal records: the start of its digest."""
-    return bytes.fromhex(data["digest"][:16])
 
 
 def meta(study, base: tuple[dict, str], data_bytes: bytes) -> dict[str, Any]:
