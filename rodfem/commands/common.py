@@ -19,3 +19,32 @@ def say(message: str, stream=None) -> None:
 
     if MPI.COMM_WORLD.rank == 0:
         print(message, file=stream or sys.stderr, flush=True)
+
+
+def resume_as_written(args, out, marker: dict, what: str, complete, resume) -> int:
+    """``rodfem resume`` of the directory ``out`` of a sweep or a study (``what``; held by this
+    command, its ``marker`` read): ``--set`` refused, a complete one checked by ``complete()``
+    and left as it is, any other continued by ``resume()``, which gives the exit code. A mistake
+    either finds is one line and exit code 2."""
+    from mpi4py import MPI
+
+    from rodfem.output.directories import release
+    from rodfem.scene import SceneError
+
+    comm = MPI.COMM_WORLD
+    if args.overrides:
+        release(out, comm)
+        say(f"rodfem: error: --set: a {what} resumes as it was written; {out} is a {what} "
+            f"(change its file and run it again instead)")
+        return EXIT_INPUT
+    try:
+        if marker.get("status") == "complete":  # nothing to do: a job script's resume is fine
+            complete()
+            release(out, comm)
+            say(f"rodfem: {out} is a complete {what}; nothing was changed", sys.stdout)
+            return 0
+        return resume()
+    except SceneError as err:
+        release(out, comm)
+        say(f"rodfem: error: {err}")
+        return EXIT_INPUT

@@ -8,8 +8,7 @@ import signal
 import sys
 from pathlib import Path
 
-from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, say
-from rodfem.scene import SceneError
+from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, resume_as_written, say
 
 
 def fit(args: argparse.Namespace) -> int:
@@ -72,30 +71,12 @@ def resume_fit(args: argparse.Namespace, out: Path, marker: dict) -> int:
     read): the fit replayed, its journalled points taken, the others run."""
     from mpi4py import MPI
 
-    from rodfem.output.directories import release
     from rodfem.studies.fitfiles import numbers_of, read_meta
     from rodfem.studies.fitrun import resume
 
-    comm = MPI.COMM_WORLD
-    if args.overrides:
-        release(out, comm)
-        say(f"rodfem: error: --set: a fit resumes as it was written; {out} is a fit (change "
-            "its fit file and run it again instead)")
-        return EXIT_INPUT
-    if marker.get("status") == "complete":
-        try:
-            read_meta(out)
-            numbers_of(out)
-        except SceneError as err:
-            release(out, comm)
-            say(f"rodfem: error: {err}")
-            return EXIT_INPUT
-        release(out, comm)
-        say(f"rodfem: {out} is a complete fit; nothing was changed", sys.stdout)
-        return 0
-    try:
-        return _ended(lambda: resume(out, comm, progress=args.progress), out, args.quiet)
-    except SceneError as err:
-        release(out, comm)
-        say(f"rodfem: error: {err}")
-        return EXIT_INPUT
+    def complete() -> None:
+        read_meta(out)
+        numbers_of(out)
+
+    return resume_as_written(args, out, marker, "fit", complete, lambda: _ended(
+        lambda: resume(out, MPI.COMM_WORLD, progress=args.progress), out, args.quiet))

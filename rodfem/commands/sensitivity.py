@@ -7,8 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, say
-from rodfem.scene import SceneError
+from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, resume_as_written, say
 
 
 def sensitivity(args: argparse.Namespace) -> int:
@@ -67,23 +66,8 @@ def resume_sensitivity(args: argparse.Namespace, out: Path, marker: dict) -> int
     ``marker`` read): the runs its sweep does not hold, then the analysis."""
     from mpi4py import MPI
 
-    from rodfem.output.directories import release
     from rodfem.studies.sensitivity import resume
 
-    comm = MPI.COMM_WORLD
-    if args.overrides:
-        release(out, comm)
-        say(f"rodfem: error: --set: a sensitivity study resumes as it was written; {out} is one "
-            "(change its file and run it again instead)")
-        return EXIT_INPUT
-    if marker.get("status") == "complete":
-        release(out, comm)
-        say(f"rodfem: {out} is a complete sensitivity study; nothing was changed", sys.stdout)
-        return 0
-    try:
-        result = resume(out, comm, progress=args.progress or sys.stderr.isatty())
-    except SceneError as err:
-        release(out, comm)
-        say(f"rodfem: error: {err}")
-        return EXIT_INPUT
-    return _report(result, out, args.quiet)
+    return resume_as_written(args, out, marker, "sensitivity study", lambda: None, lambda: _report(
+        resume(out, MPI.COMM_WORLD, progress=args.progress or sys.stderr.isatty()), out,
+        args.quiet))

@@ -7,8 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, say
-from rodfem.scene import SceneError
+from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, resume_as_written, say
 
 
 def sweep(args: argparse.Namespace) -> int:
@@ -80,25 +79,10 @@ def resume_sweep(args: argparse.Namespace, out: Path, marker: dict) -> int:
     read): the scenes its journal does not hold are run."""
     from mpi4py import MPI
 
-    from rodfem.output.directories import release
     from rodfem.studies.sweep import check_complete
     from rodfem.studies.sweep import resume as continue_sweep
 
-    comm = MPI.COMM_WORLD
-    if args.overrides:
-        release(out, comm)
-        say(f"rodfem: error: --set: a sweep resumes as it was written; {out} is a sweep "
-            "(change its sweep file and run it again instead)")
-        return EXIT_INPUT
-    try:
-        if marker.get("status") == "complete":  # nothing to do: a job script's resume is fine
-            check_complete(out)
-            release(out, comm)
-            say(f"rodfem: {out} is a complete sweep; nothing was changed", sys.stdout)
-            return 0
-        result = continue_sweep(out, comm, progress=args.progress or sys.stderr.isatty())
-    except SceneError as err:
-        release(out, comm)
-        say(f"rodfem: error: {err}")
-        return EXIT_INPUT
-    return _sweep_report(result, out, args.quiet)
+    return resume_as_written(args, out, marker, "sweep", lambda: check_complete(out), lambda: (
+        _sweep_report(continue_sweep(out, MPI.COMM_WORLD,
+                                     progress=args.progress or sys.stderr.isatty()),
+                      out, args.quiet)))
