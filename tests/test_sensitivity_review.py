@@ -7,21 +7,11 @@ import tomllib
 from pathlib import Path
 
 import pytest
+from test_sensitivity import GOOD
 
 import rodfem
 from conftest import assert_refused, serial_only
 from rodfem.cli import main
-
-GOOD = """scene = "paper1"
-samples = 4
-outputs = ["u_1_final"]
-[set]
-"mesh.cells" = 8
-"time.end" = 0.2
-"solver.method" = "direct"
-[parameters]
-"model.zeta" = [0.5, 1.0]
-"""
 
 
 @serial_only
