@@ -51,7 +51,7 @@ def write_fit(directory: Path, fit: str = FIT, data: str | None = None) -> Path:
     data are made on every rank: the first run of a process starts PETSc, on every rank."""
     if data is None:
         t, u = synthetic()
-        data = "t,u_1\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(t, u, strict=True))
+        data = "t,u_1\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, u, strict=True))
     if COMM.rank == 0:
         directory.mkdir(parents=True, exist_ok=True)
         (directory / "data.csv").write_text(data)
