@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import dataclasses
 import html
-import json
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +15,7 @@ import numpy as np
 from rodfem.scene import SceneError
 from rodfem.studies import indices
 from rodfem.studies.common import plural
-from rodfem.studies.sweepfiles import digest
+from rodfem.studies.sweepfiles import checked_json, digest
 
 CSV, FIGURE = "sensitivity.csv", "sensitivity.png"
 FILES = ("sensitivity.toml", "sensitivity.json", "samples.csv", "runs", CSV, FIGURE)
@@ -123,20 +122,8 @@ def meta(found, sweep: dict[str, Any]) -> dict[str, Any]:
 
 def read_meta(out: Path) -> dict[str, Any]:
     """The sensitivity.json of ``out``, checked to be one this version wrote (SceneError)."""
-    try:
-        data = json.loads((out / "sensitivity.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError) as err:
-        raise SceneError(f"{out}: no readable sensitivity.json ({err})") from None
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
-        raise SceneError(f"{out}/sensitivity.json is not one this version of rodfem reads")
-    for key, kind in KEYS.items():
-        if not isinstance(data.get(key), kind):
-            raise SceneError(f"{out}/sensitivity.json: '{key}' is missing or not a "
-                             f"{kind.__name__} (was it edited?)")
-    if data["digest"] != digest(data):
-        raise SceneError(f"{out}/sensitivity.json is not the study this directory was run with "
-                         "(it was edited); run the edited study into another directory")
-    return data
+    return checked_json(out, "sensitivity.json", FORMAT, KEYS, "the study this directory was "
+                        "run with (it was edited); run the edited study into another directory")
 
 
 def samples_text(plan: indices.Plan) -> str:

@@ -273,20 +273,28 @@ def reserve_marker(out: Path, comm) -> None:
 
 def read_meta(out: Path) -> dict[str, Any]:
     """The sweep.json of ``out``, checked to be one this version wrote (SceneError, one line)."""
+    return checked_json(out, "sweep.json", FORMAT, KEYS, "the sweep this directory was run with "
+                        "(it was edited); a sweep resumes as it was written: run the edited "
+                        "sweep into another directory")
+
+
+def checked_json(out: Path, name: str, format: int, keys: dict[str, type],
+                 edited: str) -> dict[str, Any]:
+    """The JSON file ``name`` of the directory ``out``, checked to be one this version wrote
+    (its ``format``, each of ``keys`` of its type) and unedited (its digest); ``edited`` says
+    what it is not when it was edited (SceneError, one line)."""
     try:
-        meta = json.loads((out / "sweep.json").read_text(encoding="utf-8"))
+        meta = json.loads((out / name).read_text(encoding="utf-8"))
     except (OSError, ValueError) as err:
-        raise SceneError(f"{out}: no readable sweep.json ({err})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-        raise SceneError(f"{out}/sweep.json is not one this version of rodfem reads")
-    for key, kind in KEYS.items():
+        raise SceneError(f"{out}: no readable {name} ({err})") from None
+    if not isinstance(meta, dict) or meta.get("format") != format:
+        raise SceneError(f"{out}/{name} is not one this version of rodfem reads")
+    for key, kind in keys.items():
         if not isinstance(meta.get(key), kind):
-            raise SceneError(f"{out}/sweep.json: '{key}' is missing or not a {kind.__name__} "
+            raise SceneError(f"{out}/{name}: '{key}' is missing or not a {kind.__name__} "
                              "(was it edited?)")
     if meta["digest"] != digest(meta):
-        raise SceneError(f"{out}/sweep.json is not the sweep this directory was run with (it "
-                         "was edited); a sweep resumes as it was written: run the edited sweep "
-                         "into another directory")
+        raise SceneError(f"{out}/{name} is not {edited}")
     return meta
 
 
