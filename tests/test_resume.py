@@ -20,9 +20,11 @@ import pytest
 from test_edits import snapshot
 
 from conftest import serial_only
+from rodfem.output.atomic import TEMPORARY
 from rodfem.output.checkpoint import read_checkpoint
 from rodfem.output.directories import state
 from rodfem.output.readers import read_fields, read_history
+from rodfem.output.writers import LOCK, MARKER
 
 RODFEM = str(Path(sys.executable).with_name("rodfem"))
 ENV = {**os.environ, "PYTHONUNBUFFERED": "1", "OMPI_ALLOW_RUN_AS_ROOT": "1",
@@ -80,6 +82,19 @@ def assert_fields_whole(out: Path) -> None:
         return
     saved = read_fields(out / "fields.xdmf").t
     assert {t for _, t, _, _ in counted} <= set(saved.tolist())
+
+
+def assert_unmarked(out: Path, killed: bool) -> None:
+    """What a run stopped before it marked its directory leaves. rodfem makes the directory,
+    takes its lock (rodfem.lock), then writes its marker (write-then-rename) and scene.toml,
+    the three with signals deferred: a signal leaves nothing, and a kill (``killed``) may leave
+    the directory, empty or holding the lock and perhaps the marker's temporary file."""
+    if not killed:
+        assert not out.exists()
+        return
+    left = [p.name for p in out.iterdir()] if out.exists() else []
+    assert all(name == LOCK or ((m := TEMPORARY.match(name)) is not None and m["name"] == MARKER)
+               for name in left), left
 
 
 def assert_same_run(out: Path, reference: Path) -> None:
@@ -144,6 +159,10 @@ def stop_and_resume(out: Path, scene: list, sent: int, ranks: int, delay: float,
     if code == 0 or (out.exists() and state(out) == "complete"):
         same(out, reference)  # the run ended before the signal came
         return
+    # Under mpirun a signal outside the time loop ends the ranks by MPI_Abort (rodfem.cli), which
+    # may end rank 0 as SIGKILL would: before it has marked its directory interrupted, or made it.
+    aborted = ranks > 1 and sent != signal.SIGKILL and "stopped outside a time loop" in err
+    killed = sent == signal.SIGKILL or aborted
     if sent != signal.SIGKILL:
         lines = err.strip().splitlines()
         if ranks == 1:
@@ -151,13 +170,26 @@ def stop_and_resume(out: Path, scene: list, sent: int, ranks: int, delay: float,
         assert "Traceback" not in err
         ours = [line for line in lines if line.startswith("rodfem")]  # mpirun has its own
         assert ours and ours[-1].startswith("rodfem: interrupted"), err
-    if not (out / "rodfem.json").exists():  # stopped before anything was written
-        assert not out.exists() or not any(out.iterdir())
+    if not (out / MARKER).exists():  # stopped before the directory was marked
+        assert_unmarked(out, killed)
+        if out.exists() and any(out.iterdir()):  # what --force takes over
+            rodfem("run", *scene, "--out", out, "--quiet", "--force", ranks=ranks, check=0)
+            same(out, reference)
         return
     if sent == signal.SIGKILL:
         assert state(out) == "gone"
     else:
-        assert state(out) == "interrupted"
+        assert state(out) in (("interrupted", "gone") if aborted else ("interrupted",))
+    if not (out / "scene.toml").exists():  # killed between the marker and the scene
+        assert killed
+        files = lambda: {k: v for k, v in snapshot(out).items() if k != LOCK}  # noqa: E731
+        before = files()  # the lock's holder is named while held, wiped after
+        refused = rodfem("resume", out, ranks=ranks)
+        assert refused.returncode == 2 and "has no scene.toml" in refused.stderr, refused.stderr
+        assert len(refused.stderr.strip().splitlines()) == 1 and files() == before
+        rodfem("run", *scene, "--out", out, "--quiet", "--force", ranks=ranks, check=0)
+        same(out, reference)
+        return
     if (out / "history.h5").exists():
         whole(out)
     again = rodfem("resume", out, "--quiet", ranks=ranks)
