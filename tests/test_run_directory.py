@@ -16,6 +16,7 @@ import pytest
 from conftest import COMM, history_rows, serial_only
 from rodfem.cli import main
 from rodfem.output.directories import LOCK, MARKER
+from rodfem.output.writers import read_marker
 
 RODFEM = str(Path(sys.executable).with_name("rodfem"))
 SHORT = ["--quiet", "--set", "time.end=0.01"]
@@ -132,8 +133,10 @@ def test_a_held_directory_is_refused_naming_its_holder(shared_dir, capsys):
     holder = subprocess.Popen([RODFEM, "run", "paper1", "--out", str(out), "--force", "--quiet",
                                "--set", "time.end=1e5", "--no-size-check"])
     try:
+        # its own marker: the old one stays while --force empties the directory, then none is
+        # there (the run refused then is "not a rodfem output directory")
         deadline = time.monotonic() + 120
-        while (out / LOCK).stat().st_size == 0 or not (out / MARKER).exists():
+        while (read_marker(out) or {}).get("pid") != holder.pid:
             assert time.monotonic() < deadline and holder.poll() is None
             time.sleep(0.05)
         code, err = run(out, "--force", capsys=capsys)
