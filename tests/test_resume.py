@@ -159,9 +159,10 @@ def stop_and_resume(out: Path, scene: list, sent: int, ranks: int, delay: float,
     if code == 0 or (out.exists() and state(out) == "complete"):
         same(out, reference)  # the run ended before the signal came
         return
-    # Under mpirun a signal outside the time loop ends the ranks by MPI_Abort (rodfem.cli), which
-    # may end rank 0 as SIGKILL would: before it has marked its directory interrupted, or made it.
-    aborted = ranks > 1 and sent != signal.SIGKILL and "stopped outside a time loop" in err
+    # Under mpirun a signal outside the time loop ("stopped during start-up", "stopped outside a
+    # time loop") in one rank ends the others (MPI_Abort, or the launcher once it has exited),
+    # which may end rank 0 as SIGKILL would: before it has marked its directory interrupted.
+    aborted = ranks > 1 and sent != signal.SIGKILL and "; stopped " in err
     killed = sent == signal.SIGKILL or aborted
     if sent != signal.SIGKILL:
         lines = err.strip().splitlines()
