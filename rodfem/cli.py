@@ -388,11 +388,27 @@ def main(argv: list[str] | None = None) -> int:
 def _abort_ranks(code: int) -> None:
     """Under MPI, end every rank: a rank stopped outside the time loop may leave the others
     waiting in a collective call for ever (a signal that reached the ranks at different
-    points of their start-up). Open MPI then prints its own lines."""
-    MPI = getattr(sys.modules.get("mpi4py.MPI"), "COMM_WORLD", None)
-    if MPI is not None and MPI.Get_size() > 1:
+    points of their start-up). Open MPI then prints its own lines.
+
+    A signal during the import of mpi4py.MPI may leave MPI started and the module not kept:
+    exiting would then wait in MPI_Finalize for ranks that wait for this one. The module is
+    imported again (MPI is not started twice); failing that, the process ends without
+    MPI_Finalize, which ends the job as well."""
+    module = sys.modules.get("mpi4py.MPI")
+    if module is None and "mpi4py" in sys.modules:  # its import was stopped
+        with interrupts.deferred():
+            try:
+                from mpi4py import MPI as module
+            except Exception:  # noqa: BLE001 (whatever the half-made module raises)
+                module = None
+        if getattr(module, "COMM_WORLD", None) is None:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(code)
+    comm = getattr(module, "COMM_WORLD", None)
+    if comm is not None and comm.Get_size() > 1:
         sys.stderr.flush()
-        MPI.Abort(code)
+        comm.Abort(code)
 
 
 if __name__ == "__main__":
