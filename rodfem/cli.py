@@ -370,45 +370,19 @@ def main(argv: list[str] | None = None) -> int:
         if signum is not None:
             again = _release("interrupted")
             # said by every rank that gets here, not rank 0's alone: this rank may end the others
-            # (_abort_ranks) before rank 0 has said anything
+            # (abort_ranks) before rank 0 has said anything
             print(f"rodfem: {interrupts.Interrupted(signum)}; stopped outside a time loop, "
                   f"nothing half-written{again}", file=sys.stderr, flush=True)
-            _abort_ranks(128 + signum)
+            interrupts.abort_ranks(128 + signum)
             return 128 + signum
         if isinstance(err, OSError):  # a write that failed outside a run's loop (a figure)
             _release("failed")
             from rodfem.output.atomic import io_line
 
             commands.say(f"rodfem: error: {io_line(err)}")
-            _abort_ranks(commands.EXIT_IO)
+            interrupts.abort_ranks(commands.EXIT_IO)
             return commands.EXIT_IO
         raise
-
-
-def _abort_ranks(code: int) -> None:
-    """Under MPI, end every rank: a rank stopped outside the time loop may leave the others
-    waiting in a collective call for ever (a signal that reached the ranks at different
-    points of their start-up). Open MPI then prints its own lines.
-
-    A signal during the import of mpi4py.MPI may leave MPI started and the module not kept:
-    exiting would then wait in MPI_Finalize for ranks that wait for this one. The module is
-    imported again (MPI is not started twice); failing that, the process ends without
-    MPI_Finalize, which ends the job as well."""
-    module = sys.modules.get("mpi4py.MPI")
-    if module is None and "mpi4py" in sys.modules:  # its import was stopped
-        with interrupts.deferred():
-            try:
-                from mpi4py import MPI as module
-            except Exception:  # noqa: BLE001 (whatever the half-made module raises)
-                module = None
-        if getattr(module, "COMM_WORLD", None) is None:
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(code)
-    comm = getattr(module, "COMM_WORLD", None)
-    if comm is not None and comm.Get_size() > 1:
-        sys.stderr.flush()
-        comm.Abort(code)
 
 
 if __name__ == "__main__":
