@@ -29,6 +29,25 @@ def test_a_file_over_a_built_in_scene_is_that_scene_with_its_keys_set(shared_dir
     assert mine.description == direct.description  # the same words either way
 
 
+def test_a_byte_order_mark_is_not_part_of_a_file(shared_dir):
+    """Some editors write one first: the scene, its base file and a sweep over it read as without
+    it (tomllib alone refuses the file)."""
+    base = _write(shared_dir, "base.toml", '\ufeffscene = "paper2"\n[model]\nzeta = 0.7\n')
+    with pytest.raises(tomllib.TOMLDecodeError):
+        tomllib.loads(base.read_text(encoding="utf-8"))
+    mine = _write(shared_dir, "mine.toml", '\ufeffscene = "base.toml"\n[time]\nend = 2\n')
+    direct = load("paper2", ["model.zeta=0.7", "time.end=2"])
+    assert load(str(mine)).sections == direct.sections
+    from rodfem.studies.design import load as load_sweep_file
+
+    sweep = _write(shared_dir, "sweep.toml", '\ufeffscene = "mine.toml"\n[grid]\n'
+                   '"mesh.cells" = [10, 20]\n')
+    scenes = load_sweep_file(sweep).scenes()
+    assert [s.sections for s in scenes] == [
+        load("paper2", ["model.zeta=0.7", "time.end=2", f"mesh.cells={n}"]).sections
+        for n in (10, 20)]
+
+
 def test_set_over_a_file_over_a_base_names_each_key_once(shared_dir):
     path = _write(shared_dir, "cells.toml", 'scene = "paper2"\n[mesh]\ncells = 20\n'
                   '[output]\nprobes = [0.25, 0.5]\n')

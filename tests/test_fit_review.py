@@ -232,3 +232,17 @@ def test_data_of_times_alone_are_refused_naming_the_columns_wanted(tmp_path, cap
     err = one_line_exit_2(FIT, "t\n0.1\n0.5\n", tmp_path, capsys)
     assert "data.csv: no column beside t; it needs the measured histories' columns too, e.g. " \
         "t,u_1 (those that can be fitted: u_1, u_half" in err, err
+
+
+def test_a_data_file_from_a_spreadsheet_reads_as_a_plain_one(tmp_path):
+    """A byte-order mark, Windows line ends and quoted names, as spreadsheets export them."""
+    from rodfem.studies.fitdata import read_csv
+
+    plain, exported = tmp_path / "plain.csv", tmp_path / "exported.csv"
+    plain.write_bytes(DATA_TO_END.encode())
+    exported.write_bytes(b"\xef\xbb\xbf" + DATA_TO_END.replace("t,u_1", '"t","u_1"')
+                         .replace("\n", "\r\n").encode())
+    (header, rows), (header_exported, rows_exported) = (read_csv(plain, "fit"),
+                                                        read_csv(exported, "fit"))
+    assert header == header_exported == ["t", "u_1"]
+    assert rows.tobytes() == rows_exported.tobytes() and rows.shape == (3, 2)

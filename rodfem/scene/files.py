@@ -41,9 +41,9 @@ _KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a pipe"),
 
 
 def read_text(path: Path, what: str, form: str = "TOML") -> str | None:
-    """The text of the regular file ``path`` (a ``form`` file), or None if there is no such
-    file. The file is opened without waiting for a writer and checked once open, so what is
-    read is what was checked.
+    """The text of the regular file ``path`` (a ``form`` file; UTF-8, a leading byte-order mark
+    dropped), or None if there is no such file. The file is opened without waiting for a writer
+    and checked once open, so what is read is what was checked.
 
     Raises:
         SceneError: ``what`` and why, on one line, for a path that names something else (a
@@ -62,7 +62,8 @@ def read_text(path: Path, what: str, form: str = "TOML") -> str | None:
         if not stat.S_ISREG(mode):
             kind = next((name for test, name in _KINDS if test(mode)), "not a file")
             raise SceneError(f"{what}: not a regular file but {kind}; give a {form} file")
-        with open(fd, encoding="utf-8", closefd=False) as file:
+        # "utf-8-sig": a byte-order mark, which some editors write first, is not part of the text
+        with open(fd, encoding="utf-8-sig", closefd=False) as file:
             return file.read()
     except (OSError, UnicodeDecodeError) as err:
         raise SceneError(f"{what}: cannot be read ({err})") from None

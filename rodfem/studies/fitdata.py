@@ -90,7 +90,7 @@ def read_csv(path: Path, name: str) -> tuple[list[str], np.ndarray]:
     if text is None:
         raise SceneError(f"{name}: data '{path}': no such file")
     where = path.name
-    rows = [row for row in csv.reader(io.StringIO(text.removeprefix("\ufeff")))
+    rows = [row for row in csv.reader(io.StringIO(text))
             if any(cell.strip() for cell in row)]
     if not rows:
         raise SceneError(f"{where}: empty; it needs a header with t and history columns, e.g. "
