@@ -4,8 +4,7 @@ anything heavy is imported, so that Ctrl-C or SIGTERM at any point of start-up i
 import os
 import sys
 
-# Environment variables a launcher (mpirun, mpiexec, srun) gives each process it starts.
-LAUNCHED = ("OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE", "MPI_LOCALRANKID")
+from rodfem.output.interrupts import LAUNCHED
 
 
 def single_process_mpi() -> None:

@@ -25,6 +25,9 @@ import signal
 import sys
 import threading
 
+# Environment variables a launcher (mpirun, mpiexec, srun) gives each process it starts.
+LAUNCHED = ("OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE", "MPI_LOCALRANKID")
+
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGUSR1)
 
 _received: list[int] = []  # the signals this process has received
@@ -156,8 +159,6 @@ def abort_ranks(code: int) -> None:
     points of their start-up). Open MPI then prints its own lines. A launcher's rank stopped
     in the import of mpi4py.MPI (MPI started, the module not kept) ends without MPI_Finalize,
     which would wait for those ranks: the launcher then ends the job."""
-    from rodfem.__main__ import LAUNCHED
-
     MPI = getattr(sys.modules.get("mpi4py.MPI"), "COMM_WORLD", None)
     if MPI is None and "mpi4py" in sys.modules and any(v in os.environ for v in LAUNCHED):
         sys.stdout.flush()
