@@ -171,11 +171,14 @@ def stop_and_resume(out: Path, scene: list, sent: int, ranks: int, delay: float,
         assert "Traceback" not in err
         ours = [line for line in lines if line.startswith("rodfem")]  # mpirun has its own
         assert ours and ours[-1].startswith("rodfem: interrupted"), err
+    def taken_over_by_force():  # a directory that resume cannot continue: run again
+        rodfem("run", *scene, "--out", out, "--quiet", "--force", ranks=ranks, check=0)
+        same(out, reference)
+
     if not (out / MARKER).exists():  # stopped before the directory was marked
         assert_unmarked(out, killed)
-        if out.exists() and any(out.iterdir()):  # what --force takes over
-            rodfem("run", *scene, "--out", out, "--quiet", "--force", ranks=ranks, check=0)
-            same(out, reference)
+        if out.exists() and any(out.iterdir()):
+            taken_over_by_force()
         return
     if sent == signal.SIGKILL:
         assert state(out) == "gone"
@@ -183,13 +186,14 @@ def stop_and_resume(out: Path, scene: list, sent: int, ranks: int, delay: float,
         assert state(out) in (("interrupted", "gone") if aborted else ("interrupted",))
     if not (out / "scene.toml").exists():  # killed between the marker and the scene
         assert killed
-        files = lambda: {k: v for k, v in snapshot(out).items() if k != LOCK}  # noqa: E731
-        before = files()  # the lock's holder is named while held, wiped after
+        before = snapshot(out)
         refused = rodfem("resume", out, ranks=ranks)
         assert refused.returncode == 2 and "has no scene.toml" in refused.stderr, refused.stderr
-        assert len(refused.stderr.strip().splitlines()) == 1 and files() == before
-        rodfem("run", *scene, "--out", out, "--quiet", "--force", ranks=ranks, check=0)
-        same(out, reference)
+        after = snapshot(out)  # the lock's holder is named while held, wiped after
+        assert len(refused.stderr.strip().splitlines()) == 1
+        assert {k: v for k, v in after.items() if k != LOCK} == {
+            k: v for k, v in before.items() if k != LOCK}
+        taken_over_by_force()
         return
     if (out / "history.h5").exists():
         whole(out)
