@@ -1,7 +1,8 @@
 """What every subcommand shares: its exit codes and the one line it says.
 
 Exit codes: 0 complete; 2 bad input (nothing written); 3 a step could not be taken: the method
-did not converge, or the values overflowed (the steps before it kept); 4 a file could not be
+did not converge, the values overflowed, or adaptive steps needed one below time.dt_min (the steps
+before it kept); 4 a file could not be
 written, e.g. a full disk (the files stay whole, up to the last checkpoint); 128 + the signal's
 number when stopped by a signal: 130 Ctrl-C (SIGINT), 143 SIGTERM, 129 SIGHUP, 138 SIGUSR1.
 """

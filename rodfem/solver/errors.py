@@ -63,3 +63,16 @@ class NoUniqueStep(NotConverged):
     def __init__(self, method: str, step: int, time: float, detail: str):
         super().__init__(method, step, time, detail, 1)
         RuntimeError.__init__(self, f"step {step} (t = {time:g}) cannot be taken: {detail}")
+
+
+class StepTooSmall(NotConverged):
+    """An adaptive step whose error control asks for a step below ``time.dt_min`` (``h`` the
+    step it asks for): the tolerance cannot be met with steps that long. Not a failure of the
+    method, which solved every step it was given: the message says what to change."""
+
+    def __init__(self, method: str, step: int, time: float, h: float, dt_min: float):
+        self.h, self.dt_min = h, dt_min
+        super().__init__(method, step, time, "the error control needs a step below time.dt_min "
+                         f"= {dt_min:g} (it asks for {h:.3g}); raise time.tolerance or lower "
+                         "time.dt_min", 0)
+        RuntimeError.__init__(self, f"step {step} (t = {time:g}) cannot be taken: {self.detail}")

@@ -19,11 +19,16 @@ by the Illinois method on the step's own results, to a bracket 1e-10 wide in tim
 at the far end of the bracket, with contact already changed, and its history row is marked. The
 error estimate then starts again from that state (its derivatives jump at an impact).
 
-**The paper's first step**, U¹ = U⁰ + Δt₀ P u₁, keeps the initial velocity and solves no
-equation of motion: it is taken as the fixed-step scheme takes it, at Δt₀, with no estimate, and
-the estimate starts after it. Two halves would be that step and a step of the equations, another
-scheme, whose difference from it need not fall with the step (on the impact scene with 100 cells
-no step was accepted down to time.dt_min).
+**The paper's first step**, U¹ = U⁰ + h P u₁, keeps the initial velocity and solves no
+equation of motion. With a mass at the end its error is that of two halves (the special step,
+then a step of the equations), and it is taken smaller where they ask. A rod that starts at the
+obstacle and pushes it meets it in the second half, never in the special step: there the halves'
+error is measured all the same and only the first half kept (:meth:`AdaptiveStepper._halves`);
+the next step meets the contact. With a massless end (a redistributed mass) the end jumps to its
+equilibrium in that step whatever its size: it is taken at Δt₀ as the fixed-step scheme takes
+it, with no estimate, and the estimate starts after it (two halves, that step and a step of the
+equations, differ by what need not fall with the step: on the impact scene with 100 cells no
+step was accepted down to time.dt_min).
 
 **Failures.** A step that Picard's iteration or Newton's method does not solve is taken again at
 a quarter of its size; for Picard, whose iteration contracts only for steps short enough while in
@@ -37,6 +42,9 @@ bounding those steps too cost paper1 against 1/ε = 1e4 64,260 Picard iterations
 A direct step whose equation with a heat exchange that depends on the contact is not shown to
 have one root (rodfem.solver.methods.exchange_step: the exchange's feedback on the motion grows
 with the step) is taken again at a quarter of its size too.
+Below time.dt_min the run stops (exit code 3): with the method's failure where the method did not
+solve the last step tried (or one of its halves), else with :class:`StepTooSmall`, the error
+control's.
 """
 
 from __future__ import annotations
@@ -46,20 +54,12 @@ import numpy as np
 from rodfem.model.robin import temperature
 from rodfem.scene.schema import TOLERANCES
 from rodfem.solver.adaptive.control import Controller, ErrorNorm, extrapolate, milne, rung
-from rodfem.solver.errors import NotConverged, NoUniqueStep, PicardNotConverged
+from rodfem.solver.errors import NotConverged, NoUniqueStep, PicardNotConverged, StepTooSmall
 from rodfem.solver.linalg import free_garbage
 
 EVENT_WIDTH = 1e-10  # the located event's bracket in time
 RETRIED = (PicardNotConverged, NoUniqueStep)
 KEPT = 64  # the most step sizes of the ladder whose methods are kept (the least recent go)
-
-
-class StepTooSmall(NotConverged):
-    """The error control asks for a step below ``time.dt_min``."""
-
-    def __init__(self, method: str, step: int, time: float, h: float, dt_min: float):
-        super().__init__(method, step, time, f"the error control needs a step of {h:.3g}, "
-                         f"below time.dt_min = {dt_min:g}", 0)
 
 
 class AdaptiveStepper:
@@ -202,7 +202,8 @@ class AdaptiveStepper:
         # shrink; it is taken at Δt₀ as it is, and the estimate starts after it. With a mass at
         # the end its error is measured as any step's.
         f0 = self.contact_of(start)
-        special = self.home.first_step_special and self.home.disc.redistributed
+        first = self.home.first_step_special
+        special = first and self.home.disc.redistributed
         self._take(h, start)
         event = (self.contact() > 0.0) != before
         if event:
@@ -217,10 +218,13 @@ class AdaptiveStepper:
             self._accept([(h, event, None, y)], None, restart=special)
             return True
         else:
-            error, halves = self._halves(h, start, y)
+            error, halves = self._halves(h, start, y, first)
             if error <= 1.0:
                 self._accept(halves, error)
                 return True
+            if isinstance(halves, NotConverged):
+                self._reject(h, start, error, halves)
+                return False
         self._reject(h, start, error)
         return False
 
@@ -251,12 +255,17 @@ class AdaptiveStepper:
                 self.h = following
             self.record(h, event, whole)
 
-    def _reject(self, h: float, start: dict, error: float) -> None:
+    def _reject(self, h: float, start: dict, error: float,
+                failure: NotConverged | None = None) -> None:
+        """The step h not accepted: the next size set, or below time.dt_min the run stopped by
+        what rejected it, the error control or (``failure``) a half the method did not solve."""
         self.rejected += 1
         self.home.restore(start)
         self._home_at = start
         self.h = self.controller.rejected(h, error)
         if self.h < self.controller.dt_min:
+            if failure is not None:
+                raise failure
             raise StepTooSmall(self.home.name, self.home.n + 1, self.t + h, self.h,
                                self.controller.dt_min)
 
@@ -282,21 +291,32 @@ class AdaptiveStepper:
         difference *= milne(self.order, h, gaps)
         return self.norm(difference, y, self.tolerance)
 
-    def _halves(self, h: float, start: dict, whole: np.ndarray):
+    def _halves(self, h: float, start: dict, whole: np.ndarray, first: bool = False):
         """The step h again as two halves: (their error, [(h/2, False, state, None)] * 2), the
-        error infinite if a half fails or meets an event (the step is then taken smaller)."""
+        error infinite if a half meets an event or fails (the step is then taken smaller; in
+        place of the halves, the method's failure).
+
+        ``first``: the step is the paper scheme's first (U¹ = U⁰ + Δt P u₁), which keeps the
+        initial velocity and cannot meet an event its second half, a step of the equations, may
+        meet (a rod started at the obstacle and pushing it). There the error is measured all
+        the same, and only the first half is kept, with a quarter of it: its local error, of
+        order two, is a quarter of the whole step's. The next step then meets the event."""
         before, t0, half = self.contact_of(start) > 0.0, self.t, 0.5 * h
         kept, state = [], start
         try:
-            for _ in range(2):
+            for k in range(2):
                 self._take(half, state)
                 if (self.contact() > 0.0) != before:
-                    return np.inf, []
+                    if not (first and k == 1):
+                        return np.inf, []
+                    y = self.y()
+                    error = self.norm((y - whole) / (2.0**self.order - 1.0), y, self.tolerance)
+                    return error / 4.0, kept
                 state = self._home_at = self.home.saved_state()
                 kept.append((half, False, state, None))
                 self.t = t0 + half
-        except RETRIED:
-            return np.inf, []
+        except RETRIED as failure:
+            return np.inf, failure
         finally:
             self.t = t0
         y = self.y()
