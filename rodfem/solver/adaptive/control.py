@@ -22,7 +22,8 @@ states.
 **The norm** is relative, per field: the root mean square over the nodes of the error in Θ, in
 the velocity and in U, each over the largest max-norm that field has had in the run so far, and
 the error in p over the largest contact force or strain (a stress) so far (not for the rigid
-obstacle's multiplier at a node with mass, an impulse at an impact); the step's error is the
+obstacle's multiplier at a node with mass, an impulse at an impact), each size at least the one
+the scene gives a field that starts at nothing (:meth:`ErrorNorm.seed`); the step's error is the
 largest of these over ``time.tolerance`` (0, the default: 5e-5 for the paper's scheme, 1e-3 for
 Crank–Nicolson's, :data:`rodfem.scene.schema.TOLERANCES`), and a step is accepted where it is at
 most 1.
@@ -43,6 +44,7 @@ import numpy as np
 RUNGS = 4  # ladder rungs per doubling of the step
 SAFETY, GROW, SHRINK = 0.9, 5.0, 0.2
 TINY = 1e-10  # the smallest error the controller divides by
+ROUNDOFF = 1e-12  # Θ⁰ at most this of the temperatures: the rod starts at its steady one
 
 
 def rung(dt0: float, h: float) -> float:
@@ -91,17 +93,21 @@ class ErrorNorm:
     force: bool = True  # whether p is measured (not an impulse: see AdaptiveStepper)
     _last: tuple | None = dataclasses.field(default=None, repr=False)  # (y, maxima, grown)
 
-    def seed(self, y: np.ndarray, thermal_stress: float) -> None:
-        """Count the initial state y; for a rod at rest (U = D = 0), whose displacement and
-        velocity grow from nothing (any relative error of their first step is of order one),
-        count also the displacement and the speed that a stress S = ``thermal_stress`` (a θ
-        over the temperatures the rod starts at and is held at) makes: S over the rod's unit
-        length, and S/√b."""
+    def seed(self, y: np.ndarray, temperature: float, a: float) -> None:
+        """Count the initial state y, and the sizes the scene gives the fields that start at
+        nothing and grow from it (any relative error of their first steps is of order one):
+        ``temperature`` (the largest |θ| the rod starts at or is held at, θ_A, θ_O) for Θ = θ − L
+        where the rod starts at its steady temperature L (Θ⁰ at round-off of it); for a rod at
+        rest (U = D = 0), the displacement and the speed that the stress S = a ``temperature``
+        makes: S over the rod's unit length, and S/√b."""
         self.maxima = self.grown(y)
         n = self.nodes
-        if thermal_stress > 0.0 and not np.any(y[n:3 * n]):
-            self.maxima[2] = max(self.maxima[2], thermal_stress)
-            self.maxima[3] = max(self.maxima[3], thermal_stress)
+        if np.abs(y[:n]).max() <= ROUNDOFF * temperature:
+            self.maxima[0] = max(self.maxima[0], temperature)
+        stress = a * temperature
+        if stress > 0.0 and not np.any(y[n:3 * n]):
+            self.maxima[2] = max(self.maxima[2], stress)
+            self.maxima[3] = max(self.maxima[3], stress)
 
     def sizes(self, y: np.ndarray) -> np.ndarray:
         n = self.nodes

@@ -119,16 +119,17 @@ class AdaptiveStepper:
     def start(self) -> None:
         """Count the initial state (call once, at n = 0, before the first step)."""
         self.past_t, self.past = [self.t], [self.y()]
-        self.norm.seed(self.past[0], self._thermal_stress())
+        self.norm.seed(self.past[0], self._temperature(), self.home.disc.scene["model.a"])
 
-    def _thermal_stress(self) -> float:
-        """a max |θ| over the initial temperature, θ_A and the obstacle's θ_O: the stress the
-        temperature can put in a rod at rest (ErrorNorm.seed)."""
+    def _temperature(self) -> float:
+        """max |θ| over the initial temperature, θ_A and the obstacle's θ_O: the size of the
+        temperatures, and (times a) of the stress they can put in a rod at rest
+        (ErrorNorm.seed)."""
         scene, home = self.home.disc.scene, self.home
         x = home.disc.nodes.x
         theta = temperature(home.values[:self.nodes], x, scene)
-        return scene["model.a"] * float(max(np.abs(theta).max(), abs(scene["model.theta_A"]),
-                                            abs(scene["obstacle.temperature"])))
+        return float(max(np.abs(theta).max(), abs(scene["model.theta_A"]),
+                         abs(scene["obstacle.temperature"])))
 
     # -- one step of a given size ------------------------------------------------------------
 
