@@ -63,3 +63,13 @@ class NoUniqueStep(NotConverged):
     def __init__(self, method: str, step: int, time: float, detail: str):
         super().__init__(method, step, time, detail, 1)
         RuntimeError.__init__(self, f"step {step} (t = {time:g}) cannot be taken: {detail}")
+
+
+class KernelUnavailable(RuntimeError):
+    """The compiled loop a run needs cannot be built or loaded (on some rank): the run cannot
+    start (exit code 3), and says so in one line (:meth:`line`)."""
+
+    def line(self) -> str:
+        return (f"rodfem: error: {self}; nothing was run. Repair the cause (the C compiler, the "
+                "cache directory), or set RODFEM_KERNEL=0 to use the PETSc loop, whose last "
+                "digits differ")
