@@ -1,5 +1,7 @@
 """What a step raises when it cannot be taken. The run records the steps before it and stops with
-exit code 3; the state stays at the last step solved."""
+exit code 3; the state stays at the last step solved. And what a run raises before its first
+step when the compiled loop it needs cannot be built (:class:`KernelUnavailable`, exit code 3,
+nothing written)."""
 
 from __future__ import annotations
 

@@ -70,8 +70,13 @@ def loop_name(scene) -> str:
 def ready(scene, comm: MPI.Comm) -> None:
     """Build (or load, checked) the compiled loop a run of ``scene`` uses, on every rank of
     ``comm``; :class:`KernelUnavailable` on every rank if some rank cannot."""
-    kind = compiled_kind(scene)
-    if kind is not None:
+    ready_for({compiled_kind(scene)}, comm)
+
+
+def ready_for(kinds, comm: MPI.Comm) -> None:
+    """:func:`ready` for the scenes whose :func:`compiled_kind` are ``kinds`` (the same on every
+    rank; None among them is the PETSc loop's)."""
+    for kind in sorted(k for k in kinds if k is not None):
         _agreed(_module(kind), comm)
 
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import functools
 import hashlib
 import importlib.machinery
 import importlib.util
@@ -70,6 +71,13 @@ def _sha256(text: str) -> str:
 
 
 def inputs(source: Path) -> dict:
+    """What a build of ``source`` is made from (:func:`_inputs`), read once per process for
+    each setting of the compiler's variables."""
+    return json.loads(_inputs(source, tuple(os.environ.get(n) for n in COMPILER_VARIABLES)))
+
+
+@functools.lru_cache(maxsize=None)
+def _inputs(source: Path, variables: tuple) -> str:
     """What a build of ``source`` is made from. ``arithmetic`` is what decides the library's
     floating-point operations: the C texts (source and headers), our flags (``-std=c99``: no
     contraction into fused multiply-adds) and the compiler with its flags (the environment's and
@@ -80,14 +88,17 @@ def inputs(source: Path) -> dict:
     arithmetic = {
         "sources": _sha256("\n".join([*headers(text, source.parent), text])),
         "compile_args": COMPILE_ARGS,
-        "compiler": {name: os.environ.get(name) for name in COMPILER_VARIABLES},
+        "compiler": dict(zip(COMPILER_VARIABLES, variables)),
         "python_compiler": {name: sysconfig.get_config_var(name) for name in PYTHON_COMPILER},
     }
-    import cffi  # optional: the caller reports its absence
-
-    build = {"cffi": cffi.__version__, "python": sys.version,
+    try:
+        import cffi  # optional: without it nothing is built, and the caller says so
+        version = cffi.__version__
+    except ImportError:
+        version = None
+    build = {"cffi": version, "python": sys.version,
              "suffix": importlib.machinery.EXTENSION_SUFFIXES[0]}
-    return {"arithmetic": arithmetic, "build": build}
+    return json.dumps({"arithmetic": arithmetic, "build": build})
 
 
 def arithmetic_digest(source: Path) -> str:
