@@ -245,6 +245,9 @@ def _source_in(cache: Path, monkeypatch, compiles: list, intact_bytes: bytes | N
     from rodfem.solver.compiled import build, picard
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(cache.parent))
+    # the fallback directory beside it, not the machine's (/tmp/rodfem-<uid>)
+    (cache.parent / "tmp").mkdir(exist_ok=True)
+    monkeypatch.setattr(tempfile, "tempdir", str(cache.parent / "tmp"))
     loaded = []
     real_load = build._load
     monkeypatch.setattr(build, "_load", lambda name, data, directory: (

@@ -29,9 +29,9 @@ UNRECORDED = "unrecorded"  # the loop of the steps of a checkpoint that does not
 
 def compiled_kind(scene, method: str | None = None) -> str | None:
     """The compiled loop a run of ``scene`` uses (with its ``solver.method``, or ``method``),
-    ``"direct"`` or ``"picard"``, or None where it keeps the PETSc loop: RODFEM_KERNEL=0 in the environment, sources (the manufactured scene),
-    Newton, Picard with a = 0 or a rigid obstacle, and an eliminated massless end with the power
-    law (:func:`.loop.end_supported`)."""
+    ``"direct"`` or ``"picard"``, or None where it keeps the PETSc loop: RODFEM_KERNEL=0 in the
+    environment, sources (the manufactured scene), Newton, Picard with a = 0 or a rigid
+    obstacle, and an eliminated massless end with the power law (:func:`.loop.end_supported`)."""
     from rodfem.model.contact import of_scene
     from rodfem.solver.methods.massless import eliminated
 

@@ -114,14 +114,16 @@ def _read_regular(path: Path, limit: int | None = None) -> bytes | None:
         fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC)
     except OSError:
         return None
-    with open(fd, "rb") as file:
-        status = os.fstat(file.fileno())
+    try:
+        status = os.fstat(fd)  # before open(), which refuses a directory
         if not stat.S_ISREG(status.st_mode) or (limit is not None and status.st_size > limit):
             return None
-        try:
+        with open(fd, "rb", closefd=False) as file:
             return file.read()
-        except OSError:
-            return None
+    except OSError:
+        return None
+    finally:
+        os.close(fd)
 
 
 def intact(target: Path, record: Path, wanted: dict) -> bytes | None:
