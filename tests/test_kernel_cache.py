@@ -162,23 +162,33 @@ def no_compiler(tmp_path):
     where = tmp_path / "bin"
     where.mkdir()
     compiler = where / sysconfig.get_config_var("CC").split()[0]
-    compiler.write_text("#!/bin/sh\nexit 1\n")
+    compiler.write_text("#!/bin/sh\necho 'cc: not here' >&2\nexit 1\n")
     compiler.chmod(0o755)
     return {"PATH": f"{where}{os.pathsep}{os.environ['PATH']}"}
 
 
 @serial_only
 def test_a_library_that_cannot_be_built_again_refuses_the_run(cache, no_compiler, tmp_path):
-    """No compiler and a damaged library: one line, exit 3, no run directory; RODFEM_KERNEL=0
-    runs the PETSc loop, as asked, and records it."""
+    """No compiler and a damaged library: one line, exit 3, no run directory, and a stopped
+    run's resume changes nothing; RODFEM_KERNEL=0 runs the PETSc loop, as asked, and records
+    it."""
+    assert _run(cache, tmp_path, "run", *SCENE, "--out", "stopped").returncode == 0
+    before = {p.name: p.read_bytes() for p in (tmp_path / "stopped").iterdir() if p.is_file()}
     library, record = _libraries(cache)
     _damage("cut", library, record, library, at=0.1)
     done = _run(cache, tmp_path, "run", *SCENE, "--out", "run", env=no_compiler)
     assert done.returncode == 3
-    line = done.stderr.strip().splitlines()[-1]
+    [line] = done.stderr.splitlines()
     assert line.startswith("rodfem: error: ") and "Picard kernel is not available" in line
-    assert "RODFEM_KERNEL=0" in line
+    assert "the C compiler failed" in line and "RODFEM_KERNEL=0" in line
     assert not (tmp_path / "run").exists()
+    resumed = _run(cache, tmp_path, "resume", "stopped", "--set", "time.end=0.2",
+                   env=no_compiler)
+    assert resumed.returncode == 3
+    [line] = resumed.stderr.splitlines()
+    assert line.startswith("rodfem: error: ") and "--any-loop" in line
+    assert {p.name: p.read_bytes() for p in (tmp_path / "stopped").iterdir()
+            if p.is_file()} == before
     asked = _run(cache, tmp_path, "run", *SCENE, "--out", "petsc",
                  env={**no_compiler, "RODFEM_KERNEL": "0"})
     assert asked.returncode == 0, asked.stderr

@@ -225,7 +225,10 @@ def plan(out: Path, overrides: list[str], marker: dict, comm, large: bool = Fals
     try:
         ready(scene, comm)
     except KernelUnavailable as err:
-        raise Unrunnable(err.line()) from None
+        raise Unrunnable(f"rodfem: error: {err}; nothing was changed. Repair the cause (the C "
+                         "compiler, the cache directory), or resume with RODFEM_KERNEL=0 and "
+                         "--any-loop to continue with the PETSc loop, whose last digits "
+                         "differ") from None
     if overrides:
         error = None
         if comm.rank == 0:

@@ -157,6 +157,19 @@ def _locked(directory: Path):
         os.close(fd)  # releases the lock
 
 
+@contextlib.contextmanager
+def _stderr_to(file):
+    """The process's standard error (file descriptor 2: the compiler's, too) into ``file``."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    os.dup2(file.fileno(), 2)
+    try:
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
 def _remove(path: Path) -> None:
     """Whatever is at a library's or record's name in the cache (a directory there is not a
     library; rodfem's cache is rodfem's)."""
@@ -239,7 +252,16 @@ class CompiledSource:
             ffi.cdef("".join(declarations(text) for text in [*included, source]))
             ffi.set_source(name, source, extra_compile_args=COMPILE_ARGS,
                            include_dirs=[str(self.source.parent)])
-            built = ffi.compile(tmpdir=work, verbose=False)
+            with tempfile.TemporaryFile(dir=work) as said:
+                try:
+                    with _stderr_to(said):  # the compiler's words: in the one line, if it fails
+                        built = ffi.compile(tmpdir=work, verbose=False)
+                except Exception as error:
+                    said.seek(0)
+                    lines = [ln for ln in said.read().decode(errors="replace").splitlines()
+                             if ln.strip()]
+                    raise RuntimeError(f"the C compiler failed ({type(error).__name__}: "
+                                       f"{error})" + (f": {lines[0]}" if lines else "")) from None
             os.replace(built, target)
         finally:
             shutil.rmtree(work, ignore_errors=True)
