@@ -197,6 +197,21 @@ def test_a_library_that_cannot_be_built_again_refuses_the_run(cache, no_compiler
 
 
 @serial_only
+def test_a_sweep_whose_loop_cannot_be_built_writes_nothing(cache, no_compiler, tmp_path):
+    """A sweep builds its scenes' loops before it writes: without them, one line, exit 3."""
+    library, record = _libraries(cache, "_rodfem_kernel_")  # the direct method's
+    _damage("empty", library, record, library)
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text('scene = "paper1"\n[set]\n"time.end" = 0.01\n"solver.method" = "direct"\n'
+                     '[grid]\n"model.k" = [1, 2]\n')
+    done = _run(cache, tmp_path, "sweep", str(sweep), "--out", "run", env=no_compiler)
+    assert done.returncode == 3, done.stderr
+    [line] = done.stderr.splitlines()
+    assert line.startswith("rodfem: error: ") and "compiled kernel is not available" in line
+    assert not (tmp_path / "run").exists()
+
+
+@serial_only
 @pytest.mark.parametrize("first, then", [("1", "0"), ("0", "1")])
 def test_resume_with_another_loop_is_refused(first, then, cache, tmp_path):
     """A run made by one loop is not continued by the other: one line, exit 2, nothing changed;
