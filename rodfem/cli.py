@@ -166,6 +166,10 @@ def _resume(sub) -> None:
     _progress(resume, "draw the progress bar even when output is not a terminal (mpirun)")
     resume.add_argument("--no-size-check", dest="large", action="store_true",
                         help="go on even if the estimated output or memory exceeds what is free")
+    resume.add_argument("--any-loop", dest="any_loop", action="store_true",
+                        help="continue a run even if its steps so far were made by another time "
+                        "loop (compiled or PETSc, RODFEM_KERNEL) than this resume would use: "
+                        "the history then holds two arithmetics, listed in summary.json's loops")
 
 
 def _plot(sub) -> None:
@@ -375,6 +379,12 @@ def main(argv: list[str] | None = None) -> int:
                   f"nothing half-written{again}", file=sys.stderr, flush=True)
             interrupts.abort_ranks(128 + signum)
             return 128 + signum
+        from rodfem.solver.errors import KernelUnavailable
+
+        if isinstance(err, KernelUnavailable):  # a study's scene's loop (a run checks first)
+            _release("failed")
+            commands.say(err.line())
+            return commands.EXIT_DIVERGED
         if isinstance(err, OSError):  # a write that failed outside a run's loop (a figure)
             _release("failed")
             from rodfem.output.atomic import io_line

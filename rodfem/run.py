@@ -26,7 +26,7 @@ from rodfem.output.reductions import Reductions
 from rodfem.output.sizes import frame, save_every, save_interval
 from rodfem.output.summary import EnergyMonitor, Iterations, run_summary
 from rodfem.scene import Scene
-from rodfem.solver.compiled import compiled_loop
+from rodfem.solver.compiled import compiled_loop, loop_name, loops_of
 from rodfem.solver.errors import NotConverged, NotFinite
 from rodfem.solver.linalg import free_garbage
 from rodfem.solver.methods import make_method
@@ -154,6 +154,7 @@ class Simulation:
         if resume:
             method.restore(resume[0])
         self.kernel = compiled_loop(method, self.history)
+        self.loops = loops_of(meta if resume else None, method.n, loop_name(scene))
         self.stepper = self._stepper(resume) if scene.adaptive else None
         self.library_version = disc.library_version()
         disc.keep()
@@ -212,6 +213,7 @@ class Simulation:
                 "reductions": self.reductions.saved(),
                 "last_row": None if self.last_row is None else self.last_row[0].tolist(),
                 "loop_seconds": self.loop_before + time.perf_counter() - self.loop_started,
+                "loops": self.loops,
                 **({} if self.stepper is None else
                    {"adaptive": {"rejected": self.stepper.rejected,
                                  "events": self.stepper.events}})}
@@ -357,6 +359,7 @@ class Simulation:
         summary = run_summary(self.scene, status, error, self.iterations, self.energy,
                            setup_seconds, loop_seconds, self.comm, resumed=self.resumed,
                            dolfinx=self.library_version)
+        summary["loops"] = self.loops
         summary["contact"] = dataclasses.asdict(self.contact)
         summary["measures"] = self.measures(summary)
         if self.stepper is not None:

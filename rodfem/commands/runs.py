@@ -53,7 +53,13 @@ def run(args: argparse.Namespace) -> int:
     from rodfem.output.directories import OutputError, prepare_directory
     from rodfem.output.files import write_text
     from rodfem.output.sizes import SizeError, check_room
+    from rodfem.solver.compiled import KernelUnavailable, ready
 
+    try:  # the compiled loop built, or checked, before anything is written
+        ready(scene, MPI.COMM_WORLD)
+    except KernelUnavailable as err:
+        say(err.line())
+        return EXIT_DIVERGED
     try:
         check_room(scene, out, MPI.COMM_WORLD, allow=args.large)
         scene_file = Path(args.scene) if args.scene not in BUILTIN else None
@@ -131,9 +137,10 @@ def resume(args: argparse.Namespace) -> int:
         module, function = STUDIES[marker["command"]]
         return getattr(importlib.import_module(module), function)(args, out, marker)
     try:
-        scene, checkpoint = plan(out, args.overrides, marker, comm, large=args.large)
+        scene, checkpoint = plan(out, args.overrides, marker, comm, large=args.large,
+                                 any_loop=getattr(args, "any_loop", False))
         mark_running(out, comm)
-    except ResumeError as err:  # a complete run (exit 0), bad input (2), a full disk (4)
+    except ResumeError as err:  # complete (exit 0), bad input (2), no loop (3), a full disk (4)
         release(out, comm)  # untouched
         say(err.line(), sys.stdout if err.code == 0 else None)
         return err.code

@@ -139,6 +139,11 @@ def _wrong_meta(meta: dict) -> str | None:
         return "its metadata's saves are not those of its step and segments"
     if len(meta["digests"]["segments"]) != meta["segments"]:
         return "its metadata's digests are not those of its segments"
+    loops = meta.get("loops")  # which loop made the steps (rodfem.solver.compiled.loops_of)
+    if loops is not None and not (isinstance(loops, list) and loops and all(
+            isinstance(e, list) and len(e) == 2 and _integer(e[0]) and isinstance(e[1], str)
+            for e in loops)):
+        return f"its metadata's loops is {json.dumps(loops)[:40]}"
     return None
 
 

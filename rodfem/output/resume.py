@@ -36,6 +36,16 @@ class Complete(ResumeError):
         return f"rodfem: {self}"
 
 
+class Unrunnable(ResumeError):
+    """The loop the run needs cannot be built here (exit code 3, nothing changed:
+    :class:`rodfem.solver.compiled.KernelUnavailable`)."""
+
+    code = 3
+
+    def line(self) -> str:
+        return str(self)
+
+
 class WriteError(ResumeError):
     """The scene of an extended run could not be written (exit code 4: a full disk; the run's
     files unchanged)."""
@@ -62,7 +72,8 @@ def _resolved(data: dict) -> dict:
         return data
 
 
-def _plan(out: Path, overrides: list[str], marker: dict, ranks: int, large: bool):
+def _plan(out: Path, overrides: list[str], marker: dict, ranks: int, large: bool,
+          any_loop: bool):
     for item in overrides:
         key = item.split("=", 1)[0].strip()
         if key not in CHANGEABLE:
@@ -84,6 +95,8 @@ def _plan(out: Path, overrides: list[str], marker: dict, ranks: int, large: bool
     except CheckpointError as err:
         raise ResumeError(str(err)) from None
     _check_same_run(out, scene, base, arrays, meta, ranks)
+    if not any_loop:
+        _check_same_loop(meta, scene)
     step, steps = meta["step"], scene.steps
     reached = float(arrays["controller"][0]) if "controller" in arrays else step * scene["time.dt"]
     ended = reached >= scene["time.end"] if "controller" in arrays else steps == step
@@ -118,6 +131,42 @@ def _check_same_run(out: Path, scene, base, arrays: dict, meta: dict, ranks: int
                           f"{out / 'scene.toml'}; the run cannot continue from it")
 
 
+def _check_same_loop(meta: dict, scene) -> None:
+    """The steps still to take are made by the loop that made the run's steps so far (the
+    compiled loop of the same arithmetic, or the PETSc loop): a history of one arithmetic. A
+    checkpoint that does not record its loop (an earlier rodfem's) continues with this one."""
+    from rodfem.solver.compiled import PETSC, UNRECORDED, loop_name
+
+    recorded = (meta.get("loops") or [[0, UNRECORDED]])[-1][1]
+    now = loop_name(scene)
+    if recorded in (now, UNRECORDED):
+        return
+    if now == PETSC and recorded.startswith("compiled"):
+        how = ("resume it without RODFEM_KERNEL=0" if _kernel_off() else
+               "its compiled loop does not apply here")
+    elif recorded == PETSC:
+        how = "resume it with RODFEM_KERNEL=0 to keep the PETSc loop"
+    else:
+        how = "the compiled loop's C sources or compiler changed since (another rodfem?)"
+    raise ResumeError(f"the run's steps were made by the {_said(recorded)}, and this resume "
+                      f"would make the rest with the {_said(now)}, whose last digits differ; "
+                      f"{how}, or give --any-loop to continue with two loops in one history")
+
+
+def _kernel_off() -> bool:
+    import os
+
+    return os.environ.get("RODFEM_KERNEL", "1") == "0"
+
+
+def _said(loop: str) -> str:
+    """A loop's name (:func:`rodfem.solver.compiled.loop_name`) in a sentence."""
+    if loop.startswith("compiled "):
+        _, kind, digest = (loop.split() + ["", ""])[:3]
+        return f"compiled {kind} loop ({digest})"
+    return "PETSc loop" if loop == "petsc" else f"loop {loop!r}"
+
+
 def _written(out: Path, meta: dict) -> int:
     """The bytes a run has written up to its checkpoint (its history and fields; the files
     :func:`check_counted` found whole)."""
@@ -145,17 +194,20 @@ def _check_files(out: Path, meta: dict) -> None:
         raise ResumeError(str(err)) from None
 
 
-def plan(out: Path, overrides: list[str], marker: dict, comm, large: bool = False):
+def plan(out: Path, overrides: list[str], marker: dict, comm, large: bool = False,
+         any_loop: bool = False):
     """The scene and checkpoint (arrays, metadata) to resume ``out`` from, on every rank; the
     checkpoint is None if the run has none yet (it starts again). Everything is checked before
-    anything is written: ResumeError (or its kinds :class:`Complete`, :class:`WriteError`, with
-    their exit codes) otherwise, with nothing changed. ``large``: no size check."""
-    result, error = None, None
+    anything is written, the compiled loop the run uses built on every rank: ResumeError (or its
+    kinds :class:`Complete`, :class:`Unrunnable`, :class:`WriteError`, with their exit codes)
+    otherwise, with nothing changed. ``large``: no size check. ``any_loop``: the run may
+    continue with another loop than the one that made its steps."""
+    result, error, loaded = None, None, None
     if comm.rank == 0:
         try:
-            scene, checkpoint = _plan(Path(out), list(overrides), marker, comm.size, large)
-            if overrides:
-                _write_scene(Path(out), scene)
+            scene, checkpoint = _plan(Path(out), list(overrides), marker, comm.size, large,
+                                      any_loop)
+            loaded = scene  # written below, once the loop is ready
             source = checkpoint[1].get("source", scene.source) if checkpoint else scene.source
             result = (scene.data(), source, checkpoint)
         except ResumeError as err:
@@ -166,9 +218,28 @@ def plan(out: Path, overrides: list[str], marker: dict, comm, large: bool = Fals
     if error:
         raise error
     from rodfem.scene import validate
+    from rodfem.solver.compiled import KernelUnavailable, ready
 
     data, source, checkpoint = result
-    return validate(data, source), checkpoint
+    scene = validate(data, source)
+    try:
+        ready(scene, comm)
+    except KernelUnavailable as err:
+        raise Unrunnable(f"rodfem: error: {err}; nothing was changed. Repair the cause (the C "
+                         "compiler, the cache directory), or resume with RODFEM_KERNEL=0 and "
+                         "--any-loop to continue with the PETSc loop, whose last digits "
+                         "differ") from None
+    if overrides:
+        error = None
+        if comm.rank == 0:
+            try:
+                _write_scene(Path(out), loaded)
+            except ResumeError as err:
+                error = err
+        error = comm.bcast(error, root=0)
+        if error:
+            raise error
+    return scene, checkpoint
 
 
 def _write_scene(out: Path, scene) -> None:

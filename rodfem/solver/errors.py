@@ -1,5 +1,7 @@
 """What a step raises when it cannot be taken. The run records the steps before it and stops with
-exit code 3; the state stays at the last step solved."""
+exit code 3; the state stays at the last step solved. And what a run raises before its first
+step when the compiled loop it needs cannot be built (:class:`KernelUnavailable`, exit code 3,
+nothing written)."""
 
 from __future__ import annotations
 
@@ -76,3 +78,13 @@ class StepTooSmall(NotConverged):
                          f"= {dt_min:g} (it asks for {h:.3g}); raise time.tolerance or lower "
                          "time.dt_min", 0)
         RuntimeError.__init__(self, f"step {step} (t = {time:g}) cannot be taken: {self.detail}")
+
+
+class KernelUnavailable(RuntimeError):
+    """The compiled loop a run needs cannot be built or loaded (on some rank): the run cannot
+    start (exit code 3), and says so in one line (:meth:`line`)."""
+
+    def line(self) -> str:
+        return (f"rodfem: error: {self}; nothing was run. Repair the cause (the C compiler, the "
+                "cache directory), or set RODFEM_KERNEL=0 to use the PETSc loop, whose last "
+                "digits differ")

@@ -72,11 +72,16 @@ def _as_sweep(spec) -> Sweep:
 
 def _validate_all(sweep: Sweep, comm: MPI.Comm, progress: bool = False) -> None:
     """Every scene validated (shared among the ranks) before any runs, with a progress line on
-    rank 0 for a long sweep; SceneError on every rank for the first refused."""
+    rank 0 for a long sweep; SceneError on every rank for the first refused. The compiled loops
+    the scenes use are built on every rank (:func:`rodfem.solver.compiled.ready_for`):
+    KernelUnavailable on every rank if one cannot be."""
+    from rodfem.solver.compiled import compiled_kind, ready_for
+
     error, line = None, Progress(len(sweep), 0, progress and comm.rank == 0, doing="checked")
+    kinds = set()
     for i in range(comm.rank, len(sweep), comm.size):
         try:
-            sweep.scene(i)
+            kinds.add(compiled_kind(sweep.scene(i)))
         except SceneError as err:
             error = (i, str(err))
             break
@@ -84,6 +89,7 @@ def _validate_all(sweep: Sweep, comm: MPI.Comm, progress: bool = False) -> None:
     errors = [e for e in comm.allgather(error) if e is not None]
     if errors:
         raise SceneError(min(errors)[1])
+    ready_for(set().union(*comm.allgather(kinds)), comm)
 
 
 def run_sweep(spec, out: str | Path | None = None, comm: MPI.Comm | None = None, *,

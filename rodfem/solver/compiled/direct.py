@@ -52,8 +52,9 @@ step before it, with :class:`~rodfem.solver.errors.NoUniqueStep`. The loop is ra
 state is (every rank holds all of it and computes the same rows).
 
 **Building.** direct.c is compiled with cffi on first use and cached (:mod:`.build`);
-:func:`available` says whether it could be built and loaded (else the caller keeps the PETSc
-loop); importing this module compiles nothing and raises nothing.
+:func:`available` says whether it could be built and loaded, checked against its build's record
+(else a run that needs it refuses: :func:`rodfem.solver.compiled.compiled_loop`); importing this
+module compiles nothing and raises nothing.
 """
 
 from __future__ import annotations

@@ -33,10 +33,18 @@ from rodfem.model.contact.series import in_series
 
 
 def needed(method) -> bool:
-    """Whether a method's end x = 1 is eliminated: redistributed mass, Crank–Nicolson, ζ = 0
-    (with ζ > 0 the end has the viscosity's time derivative and stays an unknown)."""
-    scene = method.disc.scene
-    return (method.disc.redistributed and method.time_scheme.weight != 1.0 and method.inertia
+    """Whether a method's end x = 1 is eliminated (:func:`eliminated` of its scene)."""
+    return eliminated(method.disc.scene)
+
+
+def eliminated(scene) -> bool:
+    """Whether a scene's end x = 1 is eliminated: redistributed mass, Crank–Nicolson, inertia,
+    ζ = 0 (with ζ > 0 the end has the viscosity's time derivative and stays an unknown)."""
+    from rodfem.scene.schema import REDISTRIBUTED
+    from rodfem.solver.time_schemes import TIME_SCHEMES
+
+    return (scene["discretisation.mass"] in REDISTRIBUTED
+            and TIME_SCHEMES[scene["time.scheme"]].weight != 1.0 and scene["model.b"] != 0.0
             and scene["model.zeta"] == 0.0)
 
 
