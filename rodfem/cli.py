@@ -365,6 +365,11 @@ def main(argv: list[str] | None = None) -> int:
     interrupts.install()  # before anything heavy is imported: signals stop rodfem cleanly
     try:
         args = parser().parse_args(argv)
+        kernel = os.environ.get("RODFEM_KERNEL")
+        if kernel not in (None, "0", "1"):  # "false" must not mean the compiled loop
+            commands.say(f"rodfem: error: RODFEM_KERNEL is {kernel!r}; allowed: 0 (the PETSc "
+                         "loop) or 1 (the compiled loop where it applies), or unset")
+            return commands.EXIT_INPUT
         return COMMANDS[args.command](args)
     except SceneError as err:
         commands.say(f"rodfem: error: {err}")

@@ -366,3 +366,18 @@ def test_ranks_build_a_damaged_library_once_and_load_the_same(shared_dir, monkey
     assert source.available(), source.unavailable_reason()
     assert sum(COMM.allgather(len(compiles))) == 1
     assert COMM.allgather(loaded) == [[hashlib.sha256(good).hexdigest()]] * COMM.size
+
+
+@serial_only
+@pytest.mark.parametrize("value", ["false", "off", "", " 0"])
+def test_rodfem_kernel_other_than_0_or_1_is_refused(value, tmp_path, monkeypatch, capsys):
+    """RODFEM_KERNEL=false (meant as "off") must not run the compiled loop unasked: any value
+    but 0 and 1 is refused in one line, exit 2, nothing written."""
+    from rodfem.cli import main
+
+    monkeypatch.setenv("RODFEM_KERNEL", value)
+    out = tmp_path / "run"
+    assert main(["run", *SCENE, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rodfem: error: RODFEM_KERNEL"), err
+    assert not out.exists()
