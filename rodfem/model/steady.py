@@ -209,18 +209,26 @@ class Steady:
                 hi, g_hi = mid, g_mid
 
     def state(self, t: float, tangential: bool = False) -> SteadyState:
-        """The steady state at the excess t (a separated one found again in u(1),
-        :meth:`separated`), with the residual of its equation and that residual's round-off:
-        ROUNDOFF × eps × (the scale of u(1), p, g and a θ, and |t F'(t)|, by which rounding t
-        to a double moves F)."""
+        """The steady state at the excess t, or the separated one found again in u(1)
+        (:meth:`separated`) where that satisfies its equation in u(1) to round-off (it does
+        not where the exchange changes within a spacing of the doubles near g)."""
+        found = self._state(t, tangential)
         u_1 = self.separated(t) if t < 0.0 and not tangential else None
-        if u_1 is not None:
-            t = u_1 - self.gap
+        if u_1 is None:
+            return found
+        again = self._state(u_1 - self.gap, tangential, u_1)
+        return again if again.resolved else found
+
+    def _state(self, t: float, tangential: bool, u_1: float | None = None) -> SteadyState:
+        """The state at t (at u(1) = ``u_1`` if given), with the residual of its equation and
+        that residual's round-off: ROUNDOFF × eps × (the scale of u(1), p, g and a θ, and
+        |t F'(t)|, by which rounding t to a double moves F)."""
         e, p = self.end(t)
         h = self.exchange.k + self.exchange.extra_at(self.gap, e, p)
         theta_1 = self.end_temperature(h)
         contact = p > 0.0 or (self.obstacle.rigid and e >= 0.0)
-        residual = (e + p) - self.free(theta_1)
+        residual = (e + p) - self.free(theta_1) if u_1 is None else \
+            u_1 - 0.5 * self.a * (self.theta_A + theta_1)
         scale = max(abs(self.gap), abs(self.gap + e), p, abs(self.a) * max(
             abs(self.theta_A), abs(self.exchange.temperature), abs(theta_1)))
         sensitivity = abs(t * self.slope(t, e, p, h))

@@ -113,9 +113,9 @@ def balanced(A: np.ndarray, B: np.ndarray, sweeps: int = 8) -> tuple[np.ndarray,
             rows -= np.where(sums > 0.0, np.log2(sums), 0.0)
             sums = (M.T * np.exp2(rows)).sum(axis=1) * np.exp2(cols)
             cols -= np.where(sums > 0.0, np.log2(sums), 0.0)
-    left = np.exp2(np.round(np.nan_to_num(rows)))[:, None]
-    right = np.exp2(np.round(np.nan_to_num(cols)))[None, :]
-    return left * A * right, left * B * right
+        left = np.exp2(np.round(np.nan_to_num(rows)))[:, None]
+        right = np.exp2(np.round(np.nan_to_num(cols)))[None, :]
+        return left * A * right, left * B * right
 
 
 def _finite(alpha: np.ndarray, beta: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -151,7 +151,7 @@ def verdict(A: np.ndarray, B: np.ndarray, regular: bool) -> Verdict:
     (QZ is backward stable in norm): a real part beyond its bound has its sign. Unstable:
     one eigenvalue resolved right of the axis. Stable: every one resolved left of it and none
     lost (a finite eigenvalue QZ leaves with β at round-off, counted by B's rank). Neutral:
-    those not resolved lie within √eps of the spectrum's largest |λ| of the axis, their errors
+    those not resolved lie on the axis within √eps of the largest |λ| among them, their errors
     at round-off there. Unresolved otherwise, or where QZ fails or the pencil is not finite.
     ``regular``: whether B is (its rank, of the pencil before any balancing)."""
     import scipy.linalg
@@ -188,7 +188,7 @@ def verdict(A: np.ndarray, B: np.ndarray, regular: bool) -> Verdict:
         return Verdict("unresolved", rate, bound)
     if not open_.any():
         return Verdict("stable", rate, bound)
-    scale = float(np.max(np.abs(found)))
+    scale = float(np.max(np.abs(found[open_])))
     if np.all(error[open_] <= NEUTRAL * scale):
         return Verdict("neutral", rate, bound)
     return Verdict("unresolved", rate, bound)
@@ -200,7 +200,7 @@ def positive_real(A: np.ndarray, B: np.ndarray, B_sign: float) -> tuple[float, f
     changes sign an odd number of times on (0, ∞): complex eigenvalues come in pairs), found
     by bisection on that sign; None where they agree or A is too badly conditioned for the sign
     of its LU factors to be certain (cond × n × eps ≥ 1/8). ``B_sign``: the sign of det(−B),
-    B regular and well conditioned (the masses; a balancing's powers of 2 keep the sign)."""
+    B regular (:func:`regular`; a balancing's powers of 2 keep the sign)."""
     n, eps = A.shape[0], np.finfo(float).eps
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
         return None
@@ -224,14 +224,26 @@ def positive_real(A: np.ndarray, B: np.ndarray, B_sign: float) -> tuple[float, f
     return 0.5 * (lo + hi), hi - lo
 
 
-def judged(A: np.ndarray, B: np.ndarray) -> Verdict:
+def regular(ops: Operators, b: float, held: bool) -> bool:
+    """Whether B is regular: b > 0 and the masses M and M_b (without x = 1 where the end is
+    held) positive definite. B is then block triangular with these and I on its diagonal (the
+    reaction's row adds only above it), so det(−B) has the sign (−1)^N, N its order, however
+    large the reaction's entries make its condition number."""
+    Mb = ops.Mb[:-1, :-1] if held else ops.Mb
+    try:
+        np.linalg.cholesky(ops.M)
+        np.linalg.cholesky(Mb)
+    except np.linalg.LinAlgError:
+        return False
+    return b > 0.0
+
+
+def judged(A: np.ndarray, B: np.ndarray, regular: bool) -> Verdict:
     """The verdict of two QZ solves, the pencil balanced (:func:`balanced`) and as it is, and
-    of the signs of two determinants. Where the solves agree, or only one resolves the
+    of the signs of two determinants (``regular``: whether B is, :func:`regular`). Where the solves agree, or only one resolves the
     spectrum, that one (the balanced one first); where their resolved verdicts differ,
     unresolved. An odd number of positive real eigenvalues (:func:`positive_real`) makes the
     state unstable whatever QZ found: its growth rate is then at least that eigenvalue."""
-    n, eps = B.shape[0], np.finfo(float).eps
-    regular = bool(np.all(np.isfinite(B)) and np.linalg.cond(B) * n * eps < 0.125)
     Ab, Bb = balanced(A, B)
     first, second = verdict(Ab, Bb, regular), verdict(A, B, regular)
     if second.verdict in ("unresolved", first.verdict):
@@ -242,7 +254,7 @@ def judged(A: np.ndarray, B: np.ndarray) -> Verdict:
         found = Verdict("unresolved", first.growth_rate, first.error)
     if found.verdict == "unstable":
         return found
-    real = positive_real(Ab, Bb, np.linalg.slogdet(-B)[0]) if regular else None
+    real = positive_real(Ab, Bb, (-1.0) ** B.shape[0]) if regular else None
     if real is None:
         return found
     return Verdict("unstable", *real)
@@ -267,9 +279,11 @@ class Spectra:
         return self._operators[key]
 
     def pencil(self, scene, lin) -> tuple[np.ndarray, np.ndarray]:
-        """(A, B) about the state linearised as ``lin``."""
-        return pencil(self.operators(scene), scene["model.a"], scene["model.b"],
-                      scene["model.zeta"], lin)
+        """(A, B) about the state linearised as ``lin`` (infinite or NaN entries where a law's
+        slope is infinite there: its verdict is then unresolved)."""
+        with np.errstate(invalid="ignore", over="ignore"):
+            return pencil(self.operators(scene), scene["model.a"], scene["model.b"],
+                          scene["model.zeta"], lin)
 
     def eigenvalues(self, scene, lin) -> np.ndarray:
         """The finite eigenvalues about the state linearised as ``lin``, largest real first
@@ -279,7 +293,8 @@ class Spectra:
     def verdict(self, scene, lin) -> Verdict:
         """The stability of the state linearised as ``lin``, as its spectrum earns it
         (:func:`judged`)."""
-        return judged(*self.pencil(scene, lin))
+        return judged(*self.pencil(scene, lin),
+                      regular(self.operators(scene), scene["model.b"], lin.held))
 
     def growth_rate(self, scene, lin) -> float:
         """The largest real part of the spectrum: the state is stable where it is < 0 (NaN if

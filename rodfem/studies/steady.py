@@ -61,8 +61,10 @@ def parse_continuation(texts: list[str] | str, scene=None) -> tuple[str, np.ndar
     dispersion_free = scene is not None and scene["discretisation.mass"] == "dispersion-free"
     if section in INERT and not (key == "time.dt" and dispersion_free):
         raise SteadyError(f"--continue: {key} cannot change a steady state or its stability "
-                          f"(it sets {INERT[section]}); continue over a model, obstacle, "
-                          "heat_exchange or discretisation value")
+                          f"(it sets {INERT[section]}"
+                          + (", and the mass only with discretisation.mass = dispersion-free"
+                             if key == "time.dt" else "")
+                          + "); continue over a model, obstacle or heat_exchange value")
     if found.kind != "real":
         raise SteadyError(f"--continue: {key} is not a real value ({found.kind}); continue over "
                           "a real one")
