@@ -201,13 +201,11 @@ def positive_real(A: np.ndarray, B: np.ndarray, B_sign: float) -> tuple[float, f
     by bisection on that sign; None where they agree or A is too badly conditioned for the sign
     of its LU factors to be certain (cond × n × eps ≥ 1/8). ``B_sign``: the sign of det(−B),
     B regular (:func:`regular`; a balancing's powers of 2 keep the sign)."""
-    n, eps = A.shape[0], np.finfo(float).eps
+    eps = np.finfo(float).eps
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
         return None
-    if np.linalg.cond(A) * n * eps >= 0.125:
-        return None
-    at_zero, at_infinity = np.linalg.slogdet(A)[0], B_sign
-    if at_zero == at_infinity:
+    at_zero, at_infinity = _certain_sign(A), B_sign
+    if at_zero is None or at_zero == at_infinity:
         return None
     hi = 2.0 * np.linalg.norm(np.linalg.solve(B, A), np.inf)  # beyond every |λ|
     if not np.isfinite(hi) or np.linalg.slogdet(A - hi * B)[0] != at_infinity:
@@ -238,6 +236,19 @@ def regular(ops: Operators, b: float, held: bool) -> bool:
     return b > 0.0
 
 
+def _certain_sign(A: np.ndarray) -> float | None:
+    """The sign of det A from its LU factors, None where A's condition number (LAPACK's
+    estimate) × n × eps ≥ 1/8: the factors' round-off could then change it."""
+    import scipy.linalg
+
+    lu, pivots = scipy.linalg.lu_factor(A, check_finite=False)
+    rcond, info = scipy.linalg.lapack.dgecon(lu, np.linalg.norm(A, 1), norm="1")
+    if info != 0 or not rcond * 0.125 > A.shape[0] * np.finfo(float).eps:
+        return None
+    swaps = np.count_nonzero(pivots != np.arange(A.shape[0]))
+    return float(np.prod(np.sign(np.diag(lu))) * (-1.0) ** swaps)
+
+
 def judged(A: np.ndarray, B: np.ndarray, regular: bool) -> Verdict:
     """The verdict of two QZ solves, the pencil balanced (:func:`balanced`) and as it is, and
     of the signs of two determinants (``regular``: whether B is, :func:`regular`). Where the solves agree, or only one resolves the
@@ -245,7 +256,9 @@ def judged(A: np.ndarray, B: np.ndarray, regular: bool) -> Verdict:
     unresolved. An odd number of positive real eigenvalues (:func:`positive_real`) makes the
     state unstable whatever QZ found: its growth rate is then at least that eigenvalue."""
     Ab, Bb = balanced(A, B)
-    first, second = verdict(Ab, Bb, regular), verdict(A, B, regular)
+    first = verdict(Ab, Bb, regular)
+    # the second solve where the first earns no verdict (it costs as much again)
+    second = first if first.verdict in ("stable", "unstable") else verdict(A, B, regular)
     if second.verdict in ("unresolved", first.verdict):
         found = first
     elif first.verdict == "unresolved":
