@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 import scipy.optimize
 
+import rodfem
 import rodfem.scene
 from conftest import COMM, assert_refused
 from rodfem.cli import main
@@ -166,3 +167,8 @@ def test_time_step_continues_the_dispersion_free_mass(shared_dir, capsys):
     rows = read_branches(out / "branches.csv")
     rates = [r["growth_rate"] for r in rows if r["branch"] == 0]
     assert len(rates) == 2 and rates[0] != rates[1]
+
+
+def test_python_api_refuses_a_key_that_changes_no_state():
+    with pytest.raises(rodfem.SceneError, match="time.end cannot change a steady state"):
+        rodfem.steady("barber", {"mesh.cells": 10}, over=("time.end", [1.0, 2.0]))

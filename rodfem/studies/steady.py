@@ -58,13 +58,7 @@ def parse_continuation(texts: list[str] | str, scene=None) -> tuple[str, np.ndar
     if found is None:
         raise SteadyError(f"--continue: unknown scene key {key!r}; give section.key, e.g. "
                           "heat_exchange.k1")
-    dispersion_free = scene is not None and scene["discretisation.mass"] == "dispersion-free"
-    if section in INERT and not (key == "time.dt" and dispersion_free):
-        raise SteadyError(f"--continue: {key} cannot change a steady state or its stability "
-                          f"(it sets {INERT[section]}"
-                          + (", and the mass only with discretisation.mass = dispersion-free"
-                             if key == "time.dt" else "")
-                          + "); continue over a model, obstacle or heat_exchange value")
+    check_key(key, scene)
     if found.kind != "real":
         raise SteadyError(f"--continue: {key} is not a real value ({found.kind}); continue over "
                           "a real one")
@@ -80,6 +74,19 @@ def parse_continuation(texts: list[str] | str, scene=None) -> tuple[str, np.ndar
         raise SteadyError(f"--continue {text!r}: a and b must be finite and differ, and 2 <= n <= "
                           f"{MAX_POINTS}")
     return key, np.linspace(a, b, n)
+
+
+def check_key(key: str, scene=None) -> None:
+    """SteadyError for a key that changes neither a steady state nor its spectrum (a
+    :data:`INERT` section's; time.dt changes the dispersion-free mass of ``scene``)."""
+    section = key.partition(".")[0]
+    dispersion_free = scene is not None and scene["discretisation.mass"] == "dispersion-free"
+    if section in INERT and not (key == "time.dt" and dispersion_free):
+        raise SteadyError(f"--continue: {key} cannot change a steady state or its stability "
+                          f"(it sets {INERT[section]}"
+                          + (", and the mass only with discretisation.mass = dispersion-free"
+                             if key == "time.dt" else "")
+                          + "); continue over a model, obstacle or heat_exchange value")
 
 
 def scenes_over(scene_name: str, overrides: list[str], key: str, values: np.ndarray) -> list:
