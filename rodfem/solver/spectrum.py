@@ -20,7 +20,9 @@ p̃ = −(b M_b V̇ + K U + ζ K V − a Gᵀ Θ)(1), the row of x = 1, is the c
 enters the heat row through c_p = (θ(1) − θ_O) ∂q/∂p, and its V̇ term through B.
 
 A massless end (the mass redistributed) or b = 0 makes B singular: those eigenvalues are
-infinite and left out. The largest real part of the rest is the state's growth rate.
+infinite and left out. The largest real part of the rest is the state's growth rate, and
+:func:`judged` says whether round-off leaves its sign, hence the state's stability, earned:
+stable, unstable, neutral (on the imaginary axis to round-off) or unresolved.
 """
 
 from __future__ import annotations
