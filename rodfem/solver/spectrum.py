@@ -253,14 +253,14 @@ def _certain_sign(A: np.ndarray) -> float | None:
 
 def judged(A: np.ndarray, B: np.ndarray, regular: bool) -> Verdict:
     """The verdict of two QZ solves, the pencil balanced (:func:`balanced`) and as it is, and
-    of the signs of two determinants (``regular``: whether B is, :func:`regular`). Where the solves agree, or only one resolves the
-    spectrum, that one (the balanced one first); where their resolved verdicts differ,
-    unresolved. An odd number of positive real eigenvalues (:func:`positive_real`) makes the
+    of the signs of two determinants (``regular``: whether B is, :func:`regular`). The pencil
+    as it is is solved only where the balanced one is unresolved: where only one resolves the
+    spectrum, that one; where their resolved verdicts differ, unresolved. An odd number of positive real eigenvalues (:func:`positive_real`) makes the
     state unstable whatever QZ found: its growth rate is then at least that eigenvalue."""
     Ab, Bb = balanced(A, B)
     first = verdict(Ab, Bb, regular)
-    # the second solve where the first earns no verdict (it costs as much again)
-    second = first if first.verdict in ("stable", "unstable") else verdict(A, B, regular)
+    # the second solve only where the first is unresolved (it costs as much again)
+    second = first if first.verdict != "unresolved" else verdict(A, B, regular)
     if second.verdict in ("unresolved", first.verdict):
         found = first
     elif first.verdict == "unresolved":
