@@ -33,8 +33,9 @@ BRANCH_COLUMNS = ("parameter", "u_1", "sigma_1", "theta_1", "contact", "stable",
 INERT = {"time": "the time stepping", "output": "what a run writes",
          "solver": "how a run solves its steps", "initial": "a run's initial state"}
 MAX_POINTS = 10_000  # values of a continuation
-# The spectrum is a dense eigenproblem in 3 × cells unknowns: at 1000 cells about 100 s a state
-# and 0.55 GB (measured on 2 shared cores; it grows as cells³ and cells²).
+# The spectrum is a dense eigenproblem in 3 × cells unknowns, solved with both eigenvectors for
+# their error bounds: at 1000 cells about 11 minutes a state (impact, measured on 2 shared
+# cores; it grows as cells³).
 MAX_CELLS = 1000
 
 
