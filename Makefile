@@ -37,9 +37,10 @@ check: setup
 	$(PY) -m pytest -q $(CHECK_SERIAL)
 	$(MPIRUN) -n 2 $(PY) -m mpi4py -m pytest -q $(CHECK_MPI)
 
-# Scene loading fuzzed with 10^4 examples per property (the suite runs 150).
+# Scene loading fuzzed with 10^4 examples per property (the suite runs 150), and steady states
+# and their verdicts over 2,000 random scenes (the suite runs 25).
 fuzz: setup
-	HYPOTHESIS_PROFILE=fuzz $(PY) -m pytest -q tests/test_scene_fuzz.py
+	HYPOTHESIS_PROFILE=fuzz $(PY) -m pytest -q tests/test_scene_fuzz.py tests/test_steady_property.py
 
 clean:
 	rm -rf results .pytest_cache .hypothesis

@@ -324,10 +324,13 @@ def steady(scene: str | Path | Mapping | Scene, overrides=None, over=None) -> li
     Returns:
         One dict per state, in increasing u(1) (per value, with ``over``): ``u_1``, ``sigma_1``,
         ``theta_1``, ``contact``, ``stable``, ``growth_rate`` (the largest real part of the
-        spectrum of the problem linearised about it), ``h`` and ``tangential`` (on a fold).
+        spectrum of the problem linearised about it), ``h``, ``tangential`` (on a fold),
+        ``residual`` (of the steady equation), ``growth_error`` and ``trust``: ``ok``, or why
+        ``stable`` is None (``residual``, ``neutral``, ``unresolved``; ``rodfem steady``).
 
     Raises:
-        SceneError: a mistake in the scene, the overrides or a value of ``over``.
+        SceneError: a mistake in the scene, the overrides or a value of ``over``, or a key
+            of ``over`` that changes no steady state (time, output, solver, initial values).
     """
     from rodfem.solver.spectrum import Spectra
     from rodfem.studies import steady as st
@@ -337,5 +340,10 @@ def steady(scene: str | Path | Mapping | Scene, overrides=None, over=None) -> li
         return st.analyse(scene_of(scene, overrides), spectra)
     key, values = over
     base = scene_of(scene, overrides)
+    try:
+        st.check_key(key, base)
+    except st.SteadyError as err:
+        raise SceneError(str(err).removeprefix("--continue: ")) from None
     values = np.asarray(values, dtype=float)
-    return st.continuation([scene_of(base, {key: float(v)}) for v in values], values, spectra)
+    return st.continuation([scene_of(base, {key: float(v)}) for v in values], values, spectra,
+                           key)

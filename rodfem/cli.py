@@ -328,8 +328,10 @@ def _steady(sub) -> None:
             "replace an earlier result of this command in --out")
     _overrides(steady, "override a scene value, e.g. --set heat_exchange.k1=500 (repeatable)")
     steady.add_argument("--continue", dest="continuation", metavar="KEY=a:b:n",
+                        action="append",
                         help="the branches over n values of the real scene value KEY from a to "
-                        "b, e.g. obstacle.temperature=0:20:81")
+                        "b, e.g. obstacle.temperature=0:20:81 (once; not a time, output, "
+                        "solver or initial value, which change no steady state)")
 
 
 COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.resume,

@@ -93,7 +93,7 @@ def steady(args: argparse.Namespace) -> int:
     comm = MPI.COMM_WORLD
     scene = load(args.scene, args.overrides)
     try:
-        key, values = st.parse_continuation(args.continuation) if args.continuation \
+        key, values = st.parse_continuation(args.continuation, scene) if args.continuation \
             else (None, None)
         st.check_mesh(scene)
     except st.SteadyError as err:
@@ -104,7 +104,7 @@ def steady(args: argparse.Namespace) -> int:
     spectra = Spectra(comm)
     rows = st.analyse(scene, spectra)
     branch_rows = None if key is None else st.continuation(
-        st.scenes_over(args.scene, args.overrides, key, values), values, spectra)
+        st.scenes_over(args.scene, args.overrides, key, values), values, spectra, key)
     try:
         st.write(out, args.force, comm, rows, branch_rows)
     except OutputError as err:
@@ -118,9 +118,13 @@ def steady(args: argparse.Namespace) -> int:
     finish(out, "complete", comm)
     for line in st.table_lines(rows):
         say(line, sys.stdout)
+    for line in st.warning_lines(rows):
+        say(line)
     if key is not None:
         for line in st.branch_lines(branch_rows, key):
             say(line, sys.stdout)
+        for line in st.warning_lines(branch_rows):
+            say(line)
     for path in (out / st.STATES, *([out / st.BRANCHES] if key else []), *written):
         say(str(path), sys.stdout)
     comm.barrier()

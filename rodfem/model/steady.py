@@ -22,6 +22,14 @@ across what is left, the root is bisected to adjacent doubles; where it touches 
 change of sign, the root is a tangential one (a fold of the branches), to the resolution that
 round-off allows near a double root.
 
+The search runs in the excess t = s − g, the laws evaluated at the offset u(1) − g and the
+penetration themselves: near g the doubles of s are 3.5e-18 apart at g = 0.02, while a pressure
+law q = k₁ p^m with m = 0.1 puts the touching state at p = 1.5e-37 and the gap law with
+ℓ = 1e-300 puts it 8e-300 short of g. In s, F jumps across one spacing there and the bisection
+stops at a jump, not at a root. Every state carries the residual of its equation and that
+residual's round-off (:meth:`Steady.state`): a root beyond the doubles' range (m = 0.001 needs
+p ≈ 1e-3700) is still a jump, and its state says so (``resolved`` false).
+
 P1 on this 1D problem is exact at the nodes (the H¹_E projection interpolates), so the scheme's
 steady states are these at the nodes.
 """
@@ -29,6 +37,7 @@ steady states are these at the nodes.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -38,6 +47,10 @@ MAX_EVALUATIONS = 1_000_000  # of F; the search needs a few hundred per root
 # this are one tangential root to the round-off of s − F. A root where s − F changes sign is
 # then bisected to adjacent doubles.
 DEPTH = 26
+EPS = float(np.finfo(float).eps)
+# A state's residual within this × eps of its scale is round-off (the few roundings of θ(1)
+# and of a (θ_A + θ(1))/2 − g, and t's own); measured up to 11 on the tests' random scenes.
+ROUNDOFF = 32.0
 
 
 class SearchError(RuntimeError):
@@ -47,7 +60,10 @@ class SearchError(RuntimeError):
 @dataclasses.dataclass(frozen=True)
 class SteadyState:
     """One steady state: the end's displacement u(1), the contact force p = −σ(1), the end's
-    temperature θ(1) and the exchange coefficient h there, and s = u(1) + p."""
+    temperature θ(1) and the exchange coefficient h there, and s = u(1) + p; ``offset`` is
+    u(1) − g held exactly (u(1) rounds it to the doubles near g) and ``excess`` t = s − g.
+    ``residual`` is that of the steady equation u(1) + p = a (θ_A + θ(1))/2 at the state, and
+    ``tolerance`` its round-off there (:meth:`Steady.state`)."""
 
     u_1: float
     p: float
@@ -58,6 +74,16 @@ class SteadyState:
     tangential: bool  # a double root: the state sits on a fold of the branches
     theta_A: float
     a: float
+    offset: float = 0.0
+    excess: float = 0.0
+    residual: float = 0.0
+    tolerance: float = math.inf
+
+    @property
+    def resolved(self) -> bool:
+        """Whether the state satisfies its equation to round-off: a root, not a jump of the
+        equation between two adjacent doubles."""
+        return abs(self.residual) <= self.tolerance
 
     @property
     def sigma_1(self) -> float:
@@ -93,58 +119,132 @@ class Linearisation:
 class Steady:
     """The steady states of a rod with coupling ``a`` and end temperature ``theta_A`` against
     ``obstacle`` (a contact law of :mod:`rodfem.model.contact`) exchanging heat by ``exchange``
-    (a law of :mod:`rodfem.model.exchange`: its ``k``, ``temperature`` θ_O and ``extra`` q)."""
+    (a law of :mod:`rodfem.model.exchange`: its ``k``, ``temperature`` θ_O and ``extra`` q).
+
+    The search runs in the excess t = s − g, in which the laws are evaluated at the offset
+    e = u(1) − g and the penetration themselves: a state whose u(1) lies closer to g than the
+    doubles near g resolve (a contact pressure of 1e-37, a gap of 1e-300) is still found."""
 
     def __init__(self, a: float, theta_A: float, obstacle, exchange):
         self.a, self.theta_A = float(a), float(theta_A)
         self.obstacle, self.exchange = obstacle, exchange
+        self.gap = float(obstacle.gap)
         self.evaluations = 0
 
-    def end(self, s: float) -> tuple[float, float]:
-        """(u(1), p) of the end whose s = u(1) + p: p solves u + p(u) = s (the law's own solve
-        with compliance 1; the rigid obstacle's end is min(s, g))."""
-        p = self.obstacle.solve(s, 1.0)
+    def end(self, t: float) -> tuple[float, float]:
+        """(e, p) of the end whose excess is t: the offset e = u(1) − g and the force p with
+        e + p = t (the rigid obstacle's end: e = min(t, 0))."""
+        if t <= 0.0:
+            return t, 0.0
         if self.obstacle.rigid:
-            return min(s, self.obstacle.gap), p
-        return s - p, p
+            return 0.0, t
+        return self.obstacle.penetration(t)
 
     def end_temperature(self, h: float) -> float:
         """θ(1) = (θ_A + h θ_O)/(1 + h)."""
         return (self.theta_A + h * self.exchange.temperature) / (1.0 + h)
 
-    def coefficient(self, s: float) -> float:
-        """h = k + q at the end whose s is given."""
-        y, p = self.end(s)
-        return self.exchange.k + self.exchange.extra(y, p)
+    def coefficient(self, t: float) -> float:
+        """h = k + q at the end whose excess is t."""
+        e, p = self.end(t)
+        return self.exchange.k + self.exchange.extra_at(self.gap, e, p)
 
-    def F(self, s: float) -> float:
-        """a (θ_A + θ(1))/2 at the end whose s is given."""
+    def free(self, theta_1: float) -> float:
+        """a (θ_A + θ(1))/2 − g: where the end would sit, past the gap, without contact."""
+        return 0.5 * self.a * (self.theta_A + theta_1) - self.gap
+
+    def F(self, t: float) -> float:
+        """a (θ_A + θ(1))/2 − g at the end whose excess is t: its roots t = F(t) are the states."""
         self.evaluations += 1
         if self.evaluations > MAX_EVALUATIONS:
             raise SearchError(f"the steady states' search took more than {MAX_EVALUATIONS} "
                               "evaluations")
-        return 0.5 * self.a * (self.theta_A + self.end_temperature(self.coefficient(s)))
+        return self.free(self.end_temperature(self.coefficient(t)))
 
     def bracket(self) -> tuple[float, float]:
-        """[s₀, s₁] holding every root: F between h = k and h = ∞ (θ(1) = θ_O)."""
-        ends = (0.5 * self.a * (self.theta_A + self.end_temperature(self.exchange.k)),
-                0.5 * self.a * (self.theta_A + self.exchange.temperature))
+        """[t₀, t₁] holding every root: F between h = k and h = ∞ (θ(1) = θ_O)."""
+        ends = (self.free(self.end_temperature(self.exchange.k)),
+                self.free(self.exchange.temperature))
         return min(ends), max(ends)
 
-    def state(self, s: float, tangential: bool = False) -> SteadyState:
-        """The steady state at s."""
-        y, p = self.end(s)
-        h = self.exchange.k + self.exchange.extra(y, p)
-        contact = p > 0.0 or (self.obstacle.rigid and y >= self.obstacle.gap)
-        return SteadyState(u_1=y, p=p, theta_1=self.end_temperature(h), h=h, s=s,
+    def slope(self, t: float, e: float, p: float, h: float) -> float:
+        """dF/dt at the end (e, p) whose excess is t, one-sided from below where t ≤ 0."""
+        dq_dy, dq_dp = self.exchange.extra_slopes_at(self.gap, e, p)
+        if t <= 0.0:
+            de, dp = 1.0, 0.0
+        elif self.obstacle.rigid:
+            de, dp = 0.0, 1.0
+        else:
+            kappa = self.obstacle.pressure_slope(e)
+            de, dp = (1.0 / (1.0 + kappa), kappa / (1.0 + kappa)) if math.isfinite(kappa) \
+                else (0.0, 1.0)
+        dq = (dq_dy * de if de else 0.0) + (dq_dp * dp if dp else 0.0)
+        return 0.5 * self.a * (self.exchange.temperature - self.theta_A) / (1.0 + h) ** 2 * dq
+
+    def separated(self, t: float) -> float | None:
+        """The separated state near the excess t < 0 in u(1) itself: where u(1) is far from g,
+        t = u(1) − g carries round-off of g, which the root of u − a (θ_A + θ(1))/2, bisected
+        to adjacent doubles of u(1) across ROUNDOFF × eps × max(|g|, |u(1)|) about g + t, does
+        not (None where it changes no sign there: the state is t's)."""
+        def G(u: float) -> float:
+            h = self.exchange.k + self.exchange.extra_at(self.gap, u - self.gap, 0.0)
+            return u - 0.5 * self.a * (self.theta_A + self.end_temperature(h))
+
+        u = self.gap + t
+        reach = ROUNDOFF * EPS * max(abs(self.gap), abs(u))
+        lo, hi = u - reach, min(u + reach, self.gap)
+        g_lo, g_hi = G(lo), G(hi)
+        if g_lo == 0.0 or g_hi == 0.0 or (g_lo < 0.0) == (g_hi < 0.0):
+            return None
+        while True:
+            mid = lo + 0.5 * (hi - lo)
+            if not lo < mid < hi:
+                return lo if abs(g_lo) <= abs(g_hi) else hi
+            g_mid = G(mid)
+            if g_mid == 0.0:
+                return mid
+            if (g_mid < 0.0) == (g_lo < 0.0):
+                lo, g_lo = mid, g_mid
+            else:
+                hi, g_hi = mid, g_mid
+
+    def state(self, t: float, tangential: bool = False) -> SteadyState:
+        """The steady state at the excess t, or the separated one found again in u(1)
+        (:meth:`separated`) where that satisfies its equation in u(1) to round-off (it does
+        not where the exchange changes within a spacing of the doubles near g)."""
+        found = self._state(t, tangential)
+        u_1 = self.separated(t) if t < 0.0 and not tangential else None
+        if u_1 is None:
+            return found
+        again = self._state(u_1 - self.gap, tangential, u_1)
+        return again if again.resolved else found
+
+    def _state(self, t: float, tangential: bool, u_1: float | None = None) -> SteadyState:
+        """The state at t (at u(1) = ``u_1`` if given), with the residual of its equation and
+        that residual's round-off: ROUNDOFF × eps × (the scale of u(1), p, g and a θ, and
+        |t F'(t)|, by which rounding t to a double moves F)."""
+        e, p = self.end(t)
+        h = self.exchange.k + self.exchange.extra_at(self.gap, e, p)
+        theta_1 = self.end_temperature(h)
+        contact = p > 0.0 or (self.obstacle.rigid and e >= 0.0)
+        residual = (e + p) - self.free(theta_1) if u_1 is None else \
+            u_1 - 0.5 * self.a * (self.theta_A + theta_1)
+        scale = max(abs(self.gap), abs(self.gap + e), p, abs(self.a) * max(
+            abs(self.theta_A), abs(self.exchange.temperature), abs(theta_1)))
+        sensitivity = abs(t * self.slope(t, e, p, h))
+        if math.isfinite(sensitivity):
+            scale += sensitivity
+        return SteadyState(u_1=self.gap + e if u_1 is None else u_1, p=p, theta_1=theta_1, h=h, s=self.gap + t,
                            contact=bool(contact), tangential=tangential,
-                           theta_A=self.theta_A, a=self.a)
+                           theta_A=self.theta_A, a=self.a, offset=e, excess=t,
+                           residual=residual, tolerance=ROUNDOFF * EPS * scale)
 
     def linearise(self, state: SteadyState) -> Linearisation:
         """The laws at x = 1 linearised about ``state`` (one-sided slopes at a kink)."""
         held = bool(self.obstacle.rigid and state.contact)
-        kappa = 0.0 if self.obstacle.rigid else self.obstacle.slope(state.u_1)
-        dq_dy, dq_dp = self.exchange.extra_slopes(state.u_1, state.p)
+        kappa = 0.0 if self.obstacle.rigid or state.excess <= 0.0 else \
+            self.obstacle.pressure_slope(state.offset)
+        dq_dy, dq_dp = self.exchange.extra_slopes_at(self.gap, state.offset, state.p)
         jump = state.theta_1 - self.exchange.temperature
         # ∂q/∂p may be infinite at p = 0 (a pressure law with m < 1): only κ > 0 takes it
         through_p = dq_dp * kappa if kappa > 0.0 else 0.0
@@ -152,7 +252,7 @@ class Steady:
                              exchange_p=jump * dq_dp if held else 0.0, held=held)
 
     def roots(self) -> list[tuple[float, bool]]:
-        """Every root s of s = F(s), increasing, each with whether it is tangential."""
+        """Every root t of t = F(t), increasing, each with whether it is tangential."""
         lo, hi = self.bracket()
         if lo == hi:
             return [(lo, False)]
@@ -162,7 +262,7 @@ class Steady:
         while stack:
             s0, f0, s1, f1, depth = stack.pop()
             if s0 - max(f0, f1) > 0.0 or s1 - min(f0, f1) < 0.0:
-                continue  # s − F(s) cannot vanish on [s0, s1]
+                continue  # t − F(t) cannot vanish on [s0, s1]
             mid = s0 + 0.5 * (s1 - s0)
             if depth == DEPTH or not s0 < mid < s1:
                 leaves.append((s0, s0 - f0, s1, s1 - f1))
@@ -172,18 +272,18 @@ class Steady:
             stack.append((s0, f0, mid, fm, depth + 1))  # popped first: leaves come in order
         found = []
         for cluster in _clusters(leaves):
-            points = [leaf[:2] for leaf in cluster] + [cluster[-1][2:]]  # (s, s − F) in order
+            points = [leaf[:2] for leaf in cluster] + [cluster[-1][2:]]  # (t, t − F) in order
             crossing = [s for s, g in points if g == 0.0] + [
                 self._refined(s0, g0, s1, g1) for (s0, g0), (s1, g1) in zip(points, points[1:])
                 if g0 != 0.0 and g1 != 0.0 and (g0 < 0.0) != (g1 < 0.0)]
             if crossing:
                 found.extend((s, False) for s in sorted(crossing))
-            else:  # s − F touches 0 here without crossing, within the resolution: a fold
+            else:  # t − F touches 0 here without crossing, within the resolution: a fold
                 found.append((min((abs(g), s) for s, g in points)[1], True))
         return found
 
     def _refined(self, s0: float, g0: float, s1: float, g1: float) -> float:
-        """The root where s − F changes sign on [s0, s1], bisected to adjacent doubles."""
+        """The root where t − F changes sign on [s0, s1], bisected to adjacent doubles."""
         while g0 != 0.0 and g1 != 0.0:
             mid = s0 + 0.5 * (s1 - s0)
             if not s0 < mid < s1:
@@ -197,7 +297,7 @@ class Steady:
 
     def states(self) -> list[SteadyState]:
         """Every steady state, in increasing u(1) (and s)."""
-        return [self.state(s, tangential) for s, tangential in self.roots()]
+        return [self.state(t, tangential) for t, tangential in self.roots()]
 
 
 def _clusters(leaves):

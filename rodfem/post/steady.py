@@ -17,8 +17,11 @@ from rodfem.post import style
 from rodfem.post.runs import PlotError
 
 FLAGS = ("contact", "stable", "tangential")
+WORDS = ("trust", "key")  # read as they are written
 FIGURE = "branches.png"
 # The symbols of the keys a continuation runs over (rodfem.output.names).
+# stable, unstable, not decided (neutral, unresolved, or not a state to round-off: crosses)
+STYLES = {True: "-", False: "--", None: "none"}
 SYMBOLS = {key: symbol for key, (_, symbol, _) in KEYS.items()}
 
 
@@ -26,8 +29,7 @@ def read_branches(path: Path) -> list[dict]:
     """The rows of branches.csv, typed back."""
     try:
         with open(path, encoding="utf-8", newline="") as f:
-            rows = [{k: (v == "true" if k in FLAGS else int(v) if k == "branch" else float(v))
-                     for k, v in raw.items()} for raw in csv.DictReader(f)]
+            rows = [{k: _typed(k, v) for k, v in raw.items()} for raw in csv.DictReader(f)]
     except (OSError, ValueError, UnicodeDecodeError) as err:
         raise PlotError(f"cannot read {path}: {err}") from None
     if not rows:
@@ -35,9 +37,19 @@ def read_branches(path: Path) -> list[dict]:
     return rows
 
 
+def _typed(name: str, value: str):
+    """A cell of branches.csv: flags true or false (``stable`` empty, None, where its trust is
+    not ok), the branch a whole number, ``trust`` and ``key`` words, the rest reals."""
+    if name in WORDS:
+        return value
+    if name in FLAGS:
+        return None if value == "" else value == "true"
+    return int(value) if name == "branch" else float(value)
+
+
 def _runs(rows: list[dict]) -> list[tuple[bool, list[dict]]]:
     """A branch's rows cut where stability changes: (stable, rows); the segment across a change
-    is drawn as unstable."""
+    is drawn as unstable, and a row whose stability is not earned (None) as neither."""
     runs: list[tuple[bool, list[dict]]] = []
     for row in rows:
         if runs and runs[-1][0] == row["stable"]:
@@ -81,7 +93,8 @@ def plot_branches(out: Path, key: str, gap: float | None = None) -> list[Path]:
                 x = [r["parameter"] for r in part]
                 for ax, name in ((top, "u_1"), (bottom, "theta_1")):
                     ax.plot(x, [r[name] for r in part], color=style.colour(label),
-                            linestyle="-" if stable else "--", linewidth=style.MPL_LINE_WIDTH)
+                            linestyle=STYLES[stable], linewidth=style.MPL_LINE_WIDTH,
+                            marker="x" if stable is None else None)
             folds = [r for r in branch if r["tangential"]]
             for ax, name in ((top, "u_1"), (bottom, "theta_1")):
                 ax.plot([r["parameter"] for r in folds], [r[name] for r in folds], "ko")
@@ -99,9 +112,12 @@ def plot_branches(out: Path, key: str, gap: float | None = None) -> list[Path]:
             ax.grid(True, color="0.9")
         top.legend([Line2D([], [], color="k"), Line2D([], [], color="k", linestyle="--"),
                     Line2D([], [], color="0.4", linestyle=":")]
+                   + ([Line2D([], [], color="k", linestyle="none", marker="x")]
+                      if any(r["stable"] is None for r in rows) else [])
                    + ([Line2D([], [], color="0.6")] if gap is not None else []),
-                   ["stable", "unstable", "across a fold"] + (["gap g"] if gap is not None
-                                                               else []),
+                   ["stable", "unstable", "across a fold"]
+                   + (["not decided"] if any(r["stable"] is None for r in rows) else [])
+                   + (["gap g"] if gap is not None else []),
                    loc="best", fontsize=style.MPL_LEGEND_SIZE)
         fig.tight_layout()
         path = out / "figures" / FIGURE

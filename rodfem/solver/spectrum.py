@@ -20,7 +20,9 @@ p̃ = −(b M_b V̇ + K U + ζ K V − a Gᵀ Θ)(1), the row of x = 1, is the c
 enters the heat row through c_p = (θ(1) − θ_O) ∂q/∂p, and its V̇ term through B.
 
 A massless end (the mass redistributed) or b = 0 makes B singular: those eigenvalues are
-infinite and left out. The largest real part of the rest is the state's growth rate.
+infinite and left out. The largest real part of the rest is the state's growth rate, and
+:func:`judged` says whether round-off leaves its sign, hence the state's stability, earned:
+stable, unstable, neutral (on the imaginary axis to round-off) or unresolved.
 """
 
 from __future__ import annotations
@@ -31,6 +33,9 @@ import numpy as np
 
 # |β| ≤ this × eps × ‖B‖: an infinite eigenvalue α/β of the pencil (QZ leaves β at round-off)
 INFINITE = 1e3
+# An eigenvalue not resolved from the imaginary axis, its error below this × the largest |λ|
+# (√eps): a neutral one, on the axis to round-off (an undamped bar's).
+NEUTRAL = float(np.sqrt(np.finfo(float).eps))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -96,14 +101,178 @@ def pencil(ops: Operators, a: float, b: float, zeta: float, lin) -> tuple[np.nda
     return A[np.ix_(keep, keep)], B[np.ix_(keep, keep)]
 
 
+def balanced(A: np.ndarray, B: np.ndarray, sweeps: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """(D_l A D_r, D_l B D_r): the pencil with its rows and columns scaled by powers of 2 (exact)
+    so that those of |A| + |B| have sums near 1 (Sinkhorn's sweeps), the same eigenvalues. A
+    stiff contact (κ = 1/ε up to 1e12) makes entries of A twelve orders larger than the rest and
+    the eigenvector's ũ(1) = p̃/κ as much smaller: QZ's normwise round-off then swamps that
+    component, and the unstable state's eigenvalue is lost, unless the pencil is balanced."""
+    M = np.abs(A) + np.abs(B)
+    rows, cols = np.zeros(M.shape[0]), np.zeros(M.shape[1])
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        for _ in range(sweeps):
+            sums = (M * np.exp2(cols)).sum(axis=1) * np.exp2(rows)
+            rows -= np.where(sums > 0.0, np.log2(sums), 0.0)
+            sums = (M.T * np.exp2(rows)).sum(axis=1) * np.exp2(cols)
+            cols -= np.where(sums > 0.0, np.log2(sums), 0.0)
+        left = np.exp2(np.round(np.nan_to_num(rows)))[:, None]
+        right = np.exp2(np.round(np.nan_to_num(cols)))[None, :]
+        return left * A * right, left * B * right
+
+
+def _finite(alpha: np.ndarray, beta: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Which of the eigenvalues α/β are finite: |β| above round-off of ‖B‖."""
+    return np.abs(beta) > INFINITE * np.finfo(float).eps * np.linalg.norm(B, np.inf)
+
+
 def eigenvalues(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     """The finite eigenvalues of A x = λ B x, largest real part first."""
     import scipy.linalg
 
     alpha, beta = scipy.linalg.eigvals(A, B, homogeneous_eigvals=True)
-    finite = np.abs(beta) > INFINITE * np.finfo(float).eps * np.linalg.norm(B, np.inf)
+    finite = _finite(alpha, beta, B)
     found = alpha[finite] / beta[finite]
     return found[np.argsort(-found.real, kind="stable")]
+
+
+@dataclasses.dataclass(frozen=True)
+class Verdict:
+    """A state's stability as the spectrum earns it: ``stable``, ``unstable``, ``neutral`` (the
+    rightmost eigenvalues lie on the imaginary axis to round-off) or ``unresolved`` (round-off
+    of the eigenvalues, by their condition numbers, could put them on either side of it);
+    ``growth_rate`` the largest real part found, ``error`` its error bound."""
+
+    verdict: str
+    growth_rate: float
+    error: float
+
+
+def verdict(A: np.ndarray, B: np.ndarray, regular: bool) -> Verdict:
+    """The verdict of one QZ solve of A x = λ B x with left and right eigenvectors. Each
+    eigenvalue's error is bounded, to first order, by eps (‖A‖ + |λ| ‖B‖) ‖x‖ ‖y‖/|yᴴ B x|
+    (QZ is backward stable in norm): a real part beyond its bound has its sign. Unstable:
+    one eigenvalue resolved right of the axis. Stable: every one resolved left of it and none
+    lost (a finite eigenvalue QZ leaves with β at round-off, counted by B's rank). Neutral:
+    those not resolved lie on the axis within √eps of the largest |λ| among them, their errors
+    at round-off there. Unresolved otherwise, or where QZ fails or the pencil is not finite.
+    ``regular``: whether B is (its rank, of the pencil before any balancing)."""
+    import scipy.linalg
+
+    nan = float("nan")
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+        return Verdict("unresolved", nan, nan)
+    try:
+        (alpha, beta), left, right = scipy.linalg.eig(A, B, left=True, right=True,
+                                                      homogeneous_eigvals=True)
+    except (np.linalg.LinAlgError, ValueError):
+        return Verdict("unresolved", nan, nan)
+    finite = _finite(alpha, beta, B)
+    # with B regular every eigenvalue is finite: one QZ leaves with β at round-off is lost (a
+    # singular B's infinite eigenvalues may be defective, more than its rank deficiency)
+    lost = int(np.count_nonzero(~finite)) if regular else 0
+    if not finite.any():
+        return Verdict("unresolved", nan, nan)
+    found, x, y = alpha[finite] / beta[finite], right[:, finite], left[:, finite]
+    eps = np.finfo(float).eps
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        angle = np.abs(np.einsum("ij,ij->j", y.conj(), B @ x))
+        cond = np.linalg.norm(x, axis=0) * np.linalg.norm(y, axis=0) / angle
+        error = eps * (np.linalg.norm(A, "fro") + np.abs(found) * np.linalg.norm(B, "fro")) * cond
+    error = np.where(np.isfinite(error), error, np.inf)
+    top = int(np.argmax(found.real))
+    rate, bound = float(found[top].real), float(error[top])
+    if not np.isfinite(rate):
+        return Verdict("unresolved", rate, bound)
+    if np.any(found.real > error):
+        return Verdict("unstable", rate, bound)
+    open_ = found.real >= -error
+    if lost > 0:
+        return Verdict("unresolved", rate, bound)
+    if not open_.any():
+        return Verdict("stable", rate, bound)
+    scale = float(np.max(np.abs(found[open_])))
+    if np.all(error[open_] <= NEUTRAL * scale):
+        return Verdict("neutral", rate, bound)
+    return Verdict("unresolved", rate, bound)
+
+
+def positive_real(A: np.ndarray, B: np.ndarray, B_sign: float) -> tuple[float, float] | None:
+    """A real eigenvalue μ > 0 of A x = λ B x and the width of its bracket, where the signs of
+    det A and det(−B) differ (then det(A − μB), a real polynomial of degree n for B regular,
+    changes sign an odd number of times on (0, ∞): complex eigenvalues come in pairs), found
+    by bisection on that sign; None where they agree or A is too badly conditioned for the sign
+    of its LU factors to be certain (cond × n × eps ≥ 1/8). ``B_sign``: the sign of det(−B),
+    B regular (:func:`regular`; a balancing's powers of 2 keep the sign)."""
+    eps = np.finfo(float).eps
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+        return None
+    at_zero, at_infinity = _certain_sign(A), B_sign
+    if at_zero is None or at_zero == at_infinity:
+        return None
+    hi = 2.0 * np.linalg.norm(np.linalg.solve(B, A), np.inf)  # beyond every |λ|
+    if not np.isfinite(hi) or np.linalg.slogdet(A - hi * B)[0] != at_infinity:
+        return None
+    lo = 0.0
+    for _ in range(400):
+        mid = np.sqrt(lo * hi) if lo > 0.0 else 1e-6 * hi
+        if not lo < mid < hi or hi - lo <= 16.0 * eps * hi:
+            break
+        if np.linalg.slogdet(A - mid * B)[0] == at_zero:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi), hi - lo
+
+
+def regular(ops: Operators, b: float, held: bool) -> bool:
+    """Whether B is regular: b > 0 and the masses M and M_b (without x = 1 where the end is
+    held) positive definite. B is then block triangular with these and I on its diagonal (the
+    reaction's row adds only above it), so det(−B) has the sign (−1)^N, N its order, however
+    large the reaction's entries make its condition number."""
+    Mb = ops.Mb[:-1, :-1] if held else ops.Mb
+    try:
+        np.linalg.cholesky(ops.M)
+        np.linalg.cholesky(Mb)
+    except np.linalg.LinAlgError:
+        return False
+    return b > 0.0
+
+
+def _certain_sign(A: np.ndarray) -> float | None:
+    """The sign of det A from its LU factors, None where A's condition number (LAPACK's
+    estimate) × n × eps ≥ 1/8: the factors' round-off could then change it."""
+    import scipy.linalg
+
+    lu, pivots = scipy.linalg.lu_factor(A, check_finite=False)
+    rcond, info = scipy.linalg.lapack.dgecon(lu, np.linalg.norm(A, 1), norm="1")
+    if info != 0 or not rcond * 0.125 > A.shape[0] * np.finfo(float).eps:
+        return None
+    swaps = np.count_nonzero(pivots != np.arange(A.shape[0]))
+    return float(np.prod(np.sign(np.diag(lu))) * (-1.0) ** swaps)
+
+
+def judged(A: np.ndarray, B: np.ndarray, regular: bool) -> Verdict:
+    """The verdict of two QZ solves, the pencil balanced (:func:`balanced`) and as it is, and
+    of the signs of two determinants (``regular``: whether B is, :func:`regular`). The pencil
+    as it is is solved only where the balanced one is unresolved: where only one resolves the
+    spectrum, that one; where their resolved verdicts differ, unresolved. An odd number of positive real eigenvalues (:func:`positive_real`) makes the
+    state unstable whatever QZ found: its growth rate is then at least that eigenvalue."""
+    Ab, Bb = balanced(A, B)
+    first = verdict(Ab, Bb, regular)
+    # the second solve only where the first is unresolved (it costs as much again)
+    second = first if first.verdict != "unresolved" else verdict(A, B, regular)
+    if second.verdict in ("unresolved", first.verdict):
+        found = first
+    elif first.verdict == "unresolved":
+        found = second
+    else:
+        found = Verdict("unresolved", first.growth_rate, first.error)
+    if found.verdict == "unstable":
+        return found
+    real = positive_real(Ab, Bb, (-1.0) ** B.shape[0]) if regular else None
+    if real is None:
+        return found
+    return Verdict("unstable", *real)
 
 
 class Spectra:
@@ -124,11 +293,23 @@ class Spectra:
             self._operators[key] = operators(Discretisation(scene, self.comm))
         return self._operators[key]
 
+    def pencil(self, scene, lin) -> tuple[np.ndarray, np.ndarray]:
+        """(A, B) about the state linearised as ``lin`` (infinite or NaN entries where a law's
+        slope is infinite there: its verdict is then unresolved)."""
+        with np.errstate(invalid="ignore", over="ignore"):
+            return pencil(self.operators(scene), scene["model.a"], scene["model.b"],
+                          scene["model.zeta"], lin)
+
     def eigenvalues(self, scene, lin) -> np.ndarray:
-        """The finite eigenvalues about the state linearised as ``lin``, largest real first."""
-        A, B = pencil(self.operators(scene), scene["model.a"], scene["model.b"],
-                      scene["model.zeta"], lin)
-        return eigenvalues(A, B)
+        """The finite eigenvalues about the state linearised as ``lin``, largest real first
+        (of the balanced pencil)."""
+        return eigenvalues(*balanced(*self.pencil(scene, lin)))
+
+    def verdict(self, scene, lin) -> Verdict:
+        """The stability of the state linearised as ``lin``, as its spectrum earns it
+        (:func:`judged`)."""
+        return judged(*self.pencil(scene, lin),
+                      regular(self.operators(scene), scene["model.b"], lin.held))
 
     def growth_rate(self, scene, lin) -> float:
         """The largest real part of the spectrum: the state is stable where it is < 0 (NaN if

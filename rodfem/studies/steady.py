@@ -3,7 +3,11 @@ their branches over a scene value.
 
 The states come from :mod:`rodfem.model.steady` (every root, by a search that cannot miss one),
 their stability from the spectrum of the dynamic problem linearised about each, discretised like
-the scene (:mod:`rodfem.solver.spectrum`). Every rank computes the same table; rank 0 writes it.
+the scene (:mod:`rodfem.solver.spectrum`). Each row says in ``trust`` whether both are earned:
+``ok``; ``residual``, a state that does not satisfy its equation to round-off (its stability not
+given); ``neutral``, a spectrum on the imaginary axis to round-off; ``unresolved``, a spectrum
+whose round-off could put it on either side. Only an ``ok`` row has ``stable`` true or false.
+Every rank computes the same table; rank 0 writes it.
 """
 
 from __future__ import annotations
@@ -20,12 +24,18 @@ from rodfem.studies.common import deal, prepare, write_csv
 
 STATES = "steady.csv"
 BRANCHES = "branches.csv"
-COLUMNS = ("u_1", "sigma_1", "theta_1", "contact", "stable", "growth_rate", "h", "tangential")
+COLUMNS = ("u_1", "sigma_1", "theta_1", "contact", "stable", "growth_rate", "h", "tangential",
+           "residual", "growth_error", "trust")
 BRANCH_COLUMNS = ("parameter", "u_1", "sigma_1", "theta_1", "contact", "stable", "growth_rate",
-                  "branch", "h", "tangential")
+                  "branch", "h", "tangential", "residual", "growth_error", "trust", "key")
+# The scene sections whose values change neither a steady state nor its spectrum: --continue
+# over them would repeat one table (time.dt does change the dispersion-free mass).
+INERT = {"time": "the time stepping", "output": "what a run writes",
+         "solver": "how a run solves its steps", "initial": "a run's initial state"}
 MAX_POINTS = 10_000  # values of a continuation
-# The spectrum is a dense eigenproblem in 3 × cells unknowns: at 1000 cells about 100 s a state
-# and 0.55 GB (measured on 2 shared cores; it grows as cells³ and cells²).
+# The spectrum is a dense eigenproblem in 3 × cells unknowns, solved with both eigenvectors for
+# their error bounds: at 1000 cells about 11 minutes a state (impact, measured on 2 shared
+# cores; it grows as cells³).
 MAX_CELLS = 1000
 
 
@@ -33,8 +43,15 @@ class SteadyError(ValueError):
     """A ``--continue`` that cannot be read (exit code 2, nothing written)."""
 
 
-def parse_continuation(text: str) -> tuple[str, np.ndarray]:
-    """``KEY=a:b:n`` → the key and its n values from a to b (a real scene key, n ≥ 2)."""
+def parse_continuation(texts: list[str] | str, scene=None) -> tuple[str, np.ndarray]:
+    """``KEY=a:b:n`` (given once) → the key and its n values from a to b (a real scene key
+    that can change a steady state or its spectrum, n ≥ 2)."""
+    if not isinstance(texts, str):
+        if len(texts) != 1:
+            raise SteadyError(f"--continue is given {len(texts)} times; give it once: the "
+                              "branches over one scene value")
+        texts = texts[0]
+    text = texts
     key, sep, span = text.partition("=")
     key = key.strip()
     section, _, name = key.partition(".")
@@ -42,6 +59,7 @@ def parse_continuation(text: str) -> tuple[str, np.ndarray]:
     if found is None:
         raise SteadyError(f"--continue: unknown scene key {key!r}; give section.key, e.g. "
                           "heat_exchange.k1")
+    check_key(key, scene)
     if found.kind != "real":
         raise SteadyError(f"--continue: {key} is not a real value ({found.kind}); continue over "
                           "a real one")
@@ -59,6 +77,19 @@ def parse_continuation(text: str) -> tuple[str, np.ndarray]:
     return key, np.linspace(a, b, n)
 
 
+def check_key(key: str, scene=None) -> None:
+    """SteadyError for a key that changes neither a steady state nor its spectrum (a
+    :data:`INERT` section's; time.dt changes the dispersion-free mass of ``scene``)."""
+    section = key.partition(".")[0]
+    dispersion_free = scene is not None and scene["discretisation.mass"] == "dispersion-free"
+    if section in INERT and not (key == "time.dt" and dispersion_free):
+        raise SteadyError(f"--continue: {key} cannot change a steady state or its stability "
+                          f"(it sets {INERT[section]}"
+                          + (", and the mass only with discretisation.mass = dispersion-free"
+                             if key == "time.dt" else "")
+                          + "); continue over a model, obstacle or heat_exchange value")
+
+
 def scenes_over(scene_name: str, overrides: list[str], key: str, values: np.ndarray) -> list:
     """The scene at each value of ``key`` (every one checked: SceneError)."""
     return [load(scene_name, [*overrides, f"{key}={float(value)!r}"]) for value in values]
@@ -73,20 +104,29 @@ def check_mesh(scene) -> None:
 
 
 def analyse(scene, spectra: Spectra) -> list[dict]:
-    """One row per steady state of ``scene``, in increasing u(1), with its stability."""
+    """One row per steady state of ``scene``, in increasing u(1), with its stability and
+    ``trust`` (the module's doc)."""
     problem = steady.of_scene(scene)
     rows = []
     for state in problem.states():
-        rate = spectra.growth_rate(scene, problem.linearise(state))
-        rows.append({"u_1": state.u_1, "sigma_1": state.sigma_1, "theta_1": state.theta_1,
-                     "contact": state.contact, "stable": rate < 0.0, "growth_rate": rate,
-                     "h": state.h, "tangential": state.tangential})
+        row = {"u_1": state.u_1, "sigma_1": state.sigma_1, "theta_1": state.theta_1,
+               "contact": state.contact, "stable": None, "growth_rate": math.nan,
+               "h": state.h, "tangential": state.tangential, "residual": state.residual,
+               "growth_error": math.nan, "trust": "residual"}
+        if state.resolved:
+            found = spectra.verdict(scene, problem.linearise(state))
+            earned = found.verdict in ("stable", "unstable")
+            row.update(stable=found.verdict == "stable" if earned else None,
+                       growth_rate=found.growth_rate, growth_error=found.error,
+                       trust="ok" if earned else found.verdict)
+        rows.append(row)
     return rows
 
 
-def continuation(scenes: list, values: np.ndarray, spectra: Spectra) -> list[dict]:
+def continuation(scenes: list, values: np.ndarray, spectra: Spectra,
+                 key: str = "") -> list[dict]:
     """The states and their stability of each scene, the scene at each value of a continuation,
-    each row with its ``parameter`` and ``branch`` (:func:`branches`). Under MPI the scenes are
+    each row with its ``parameter``, ``branch`` (:func:`branches`) and ``key``. Under MPI the scenes are
     dealt to the ranks (their operators assembled first, together) and the table gathered on
     every rank: the serial table."""
     comm = spectra.comm
@@ -99,7 +139,7 @@ def continuation(scenes: list, values: np.ndarray, spectra: Spectra) -> list[dic
     table = [solved[i] for i in range(len(scenes))]
     rows = []
     for value, states, labels in zip(values, table, branches(table), strict=True):
-        rows.extend({"parameter": float(value), **row, "branch": label}
+        rows.extend({"parameter": float(value), **row, "branch": label, "key": key}
                     for row, label in zip(states, labels, strict=True))
     return rows
 
@@ -152,15 +192,46 @@ def write(out: Path, force: bool, comm, rows: list[dict],
             write_csv(out / BRANCHES, BRANCH_COLUMNS, branch_rows)
 
 
+VERDICTS = {"neutral": "neutral", "unresolved": "?", "residual": "?"}
+
+
 def table_lines(rows: list[dict]) -> list[str]:
-    """The states as a short table."""
+    """The states as a short table: stable yes or NO only where the row's ``trust`` is ok."""
     lines = [f"{'u(1)':>12} {'sigma(1)':>12} {'theta(1)':>10} {'contact':>8} {'stable':>7} "
              f"{'growth rate':>12}"]
     for row in rows:
         lines.append(f"{row['u_1']:12.6g} {row['sigma_1']:12.6g} {row['theta_1']:10.5g} "
                      f"{'yes' if row['contact'] else 'no':>8} "
-                     f"{'yes' if row['stable'] else 'NO':>7} {row['growth_rate']:12.5g}"
+                     f"{_verdict(row):>7} {row['growth_rate']:12.5g}"
                      + ("  (fold)" if row["tangential"] else ""))
+    return lines
+
+
+def _verdict(row: dict) -> str:
+    if row["trust"] == "ok":
+        return "yes" if row["stable"] else "NO"
+    return VERDICTS.get(row["trust"], "?")
+
+
+def warning_lines(rows: list[dict]) -> list[str]:
+    """One line for each row whose ``trust`` is not ok (a continuation's: with its value)."""
+    lines = []
+    for row in rows:
+        where = f"the state at u(1) = {row['u_1']:.6g}, sigma(1) = {row['sigma_1']:.6g}" + (
+            f" ({row['key']} = {row['parameter']:g})" if "parameter" in row else "")
+        if row["trust"] == "residual":
+            lines.append(f"rodfem: warning: {where} does not satisfy the steady equation to "
+                         f"round-off (residual {row['residual']:.3g}): the laws change there "
+                         "faster than doubles resolve; its stability is not given")
+        elif row["trust"] == "neutral":
+            lines.append(f"rodfem: warning: {where} is neutral: its rightmost eigenvalues lie "
+                         f"on the imaginary axis to round-off (growth rate "
+                         f"{row['growth_rate']:.3g}, error {row['growth_error']:.3g}), "
+                         "neither stable nor unstable")
+        elif row["trust"] != "ok":
+            lines.append(f"rodfem: warning: the stability of {where} is not resolved: "
+                         "round-off in its spectrum could put an eigenvalue on either side of "
+                         f"the imaginary axis (growth rate {row['growth_rate']:.3g})")
     return lines
 
 

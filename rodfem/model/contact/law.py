@@ -85,6 +85,26 @@ class ContactLaw:
         the rod presses the obstacle at y; it converges where this is below 1."""
         return w * self.slope(y)
 
+    # The law in the penetration d = y − g itself, for the steady states (rodfem.model.steady),
+    # whose penetration may be far below the spacing of the doubles near g.
+
+    def pressure(self, d: float) -> float:
+        """φ'(g + d) for the penetration d, without rounding g + d."""
+        raise NotImplementedError
+
+    def pressure_slope(self, d: float) -> float:
+        """φ''(g + d) for the penetration d > 0 (0 for d ≤ 0)."""
+        raise NotImplementedError
+
+    def penetration(self, t: float) -> tuple[float, float]:
+        """(d, p): the penetration and force with d + p(d) = t, the end's excess t = y + p − g
+        over the gap (0, 0 for t ≤ 0), to round-off in d and p however small t is."""
+        if t <= 0.0:
+            return 0.0, 0.0
+        d = monotone_root(lambda d: d + self.pressure(d) - t,
+                          lambda d: 1.0 + self.pressure_slope(d), 0.0, t)
+        return d, self.pressure(d)
+
     # Crank–Nicolson's force: the discrete gradient from c = Uⁿ⁻¹(1).
 
     def gradient(self, y: float, c: float) -> float:

@@ -38,6 +38,19 @@ class LinearLaw(ContactLaw):
     def energies(self, u: np.ndarray) -> np.ndarray:
         return 0.5 * np.maximum(u - self.gap, 0.0) ** 2 / self.epsilon
 
+    def pressure(self, d: float) -> float:
+        return max(d, 0.0) / self.epsilon
+
+    def pressure_slope(self, d: float) -> float:
+        return 1.0 / self.epsilon if d > 0.0 else 0.0
+
+    def penetration(self, t: float) -> tuple[float, float]:
+        """p = t/(1 + ε) and d = ε p (not t − p, which cancels for a small ε)."""
+        if t <= 0.0:
+            return 0.0, 0.0
+        p = t / (1.0 + self.epsilon)
+        return self.epsilon * p, p
+
     def stresses(self, u: np.ndarray) -> np.ndarray:
         return -np.maximum(u - self.gap, 0.0) / self.epsilon + 0.0
 

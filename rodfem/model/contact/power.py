@@ -50,6 +50,12 @@ class PowerLaw(ContactLaw):
         d = y - self.gap
         return self.exponent * _power(d, self.exponent - 1.0) / self.epsilon if d > 0.0 else 0.0
 
+    def pressure(self, d: float) -> float:
+        return _power(d, self.exponent) / self.epsilon if d > 0.0 else 0.0
+
+    def pressure_slope(self, d: float) -> float:
+        return self.exponent * _power(d, self.exponent - 1.0) / self.epsilon if d > 0.0 else 0.0
+
     def energies(self, u: np.ndarray) -> np.ndarray:
         d = np.maximum(np.asarray(u, dtype=float) - self.gap, 0.0)
         with np.errstate(over="ignore"):

@@ -32,6 +32,15 @@ class GapLaw(ExchangeLaw):
             return 0.0, 0.0
         return self.extra(y, p) / self.length, 0.0
 
+    def extra_at(self, gap: float, e: float, p: float) -> float:
+        """k₁ exp(min(e, 0)/ℓ) with e = u(1) − g given exactly (``gap`` is the law's own g)."""
+        return self.k1 * math.exp(min(e, 0.0) / self.length)
+
+    def extra_slopes_at(self, gap: float, e: float, p: float) -> tuple[float, float]:
+        if e >= 0.0:
+            return 0.0, 0.0
+        return self.extra_at(gap, e, p) / self.length, 0.0
+
     def extra_slope_bounds(self, y_lo: float, y_hi: float, p_lo: float,
                            p_hi: float) -> tuple[float, float]:
         """∂q/∂y = q/ℓ grows with y up to its left limit k₁/ℓ at g, and is 0 beyond: q(y_hi)/ℓ

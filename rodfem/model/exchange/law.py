@@ -30,6 +30,18 @@ class ExchangeLaw:
         """(∂q/∂y, ∂q/∂p), one-sided (from above) at a kink."""
         raise NotImplementedError
 
+    # The law at u(1) = g + e with the offset e from the obstacle's gap g given exactly, for the
+    # steady states (rodfem.model.steady), which may sit far closer to g than the doubles near
+    # it resolve. A law that does not depend on u(1) near g needs nothing more.
+
+    def extra_at(self, gap: float, e: float, p: float) -> float:
+        """q at u(1) = g + e under the contact pressure p."""
+        return self.extra(gap + e, p)
+
+    def extra_slopes_at(self, gap: float, e: float, p: float) -> tuple[float, float]:
+        """(∂q/∂y, ∂q/∂p) at u(1) = g + e, one-sided (from above) at a kink."""
+        return self.extra_slopes(gap + e, p)
+
     def extra_slope_bounds(self, y_lo: float, y_hi: float, p_lo: float,
                            p_hi: float) -> tuple[float, float]:
         """Upper bounds of ∂q/∂y and ∂q/∂p on [y_lo, y_hi] × [p_lo, p_hi] (the direct step's

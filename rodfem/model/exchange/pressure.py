@@ -35,7 +35,10 @@ class PressureLaw(ExchangeLaw):
     def extra_slopes(self, y: float, p: float) -> tuple[float, float]:
         m = self.exponent
         if p > 0.0:
-            return 0.0, self.k1 * m * p ** (m - 1.0)
+            try:
+                return 0.0, self.k1 * m * p ** (m - 1.0)
+            except OverflowError:  # m < 1 and p near the smallest doubles: C's pow gives inf
+                return 0.0, math.inf
         if m == 1.0:
             return 0.0, self.k1
         return 0.0, (0.0 if m > 1.0 or self.k1 == 0.0 else math.inf)
