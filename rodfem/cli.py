@@ -32,6 +32,14 @@ from rodfem.output import interrupts
 from rodfem.scene import BUILTIN, EXTRA, SceneError
 
 
+def _path(text: str) -> Path:
+    """A path given on the command line; a NUL character, which no file name holds (a caller of
+    :func:`main` can pass one, a shell cannot), is refused as a mistake in the arguments."""
+    if "\0" in text:
+        raise argparse.ArgumentTypeError(f"{text!r} holds a NUL character, which no path can")
+    return Path(text)
+
+
 def _overrides(command: argparse.ArgumentParser, help: str) -> None:
     command.add_argument("--set", dest="overrides", action="append", default=[],
                          metavar="SECTION.KEY=VALUE", help=help)
@@ -40,7 +48,7 @@ def _overrides(command: argparse.ArgumentParser, help: str) -> None:
 def _output(command: argparse.ArgumentParser, default: str | None, help: str,
             force: str) -> None:
     """--out (with its default, or none) and --force (replace what that command wrote)."""
-    command.add_argument("--out", type=Path, default=Path(default) if default else None,
+    command.add_argument("--out", type=_path, default=Path(default) if default else None,
                          help=help)
     command.add_argument("--force", action="store_true", help=force)
 
@@ -158,7 +166,7 @@ def _resume(sub) -> None:
         "stopped sensitivity study runs the rest of its runs and analyses them, to the indices "
         "an uninterrupted study writes.",
     )
-    resume.add_argument("dir", type=Path, metavar="DIR",
+    resume.add_argument("dir", type=_path, metavar="DIR",
                         help="a directory of 'rodfem run', 'rodfem sweep', 'rodfem fit' or "
                         "'rodfem sensitivity'")
     _overrides(resume, "a later end, time.end=T (the only value a resumed run may change)")
@@ -183,9 +191,9 @@ def _plot(sub) -> None:
         "measures that differ between the scenes (--measures chooses); --overlay draws the "
         "scenes' histories kept by 'rodfem sweep --histories' overlaid.",
     )
-    plot.add_argument("dirs", nargs="+", type=Path, metavar="DIR",
+    plot.add_argument("dirs", nargs="+", type=_path, metavar="DIR",
                       help="a run directory written by 'rodfem run', or one sweep directory")
-    plot.add_argument("--out", type=Path, metavar="FIGDIR",
+    plot.add_argument("--out", type=_path, metavar="FIGDIR",
                       help="figure directory (default: the first DIR's figures/, whose figures "
                       "are drawn again); if FIGDIR holds a figure of a name rodfem would write, "
                       "nothing is drawn, unless --force")
