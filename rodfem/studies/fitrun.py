@@ -29,7 +29,7 @@ from rodfem.studies.fitfiles import FitError, FitResult
 from rodfem.studies.parameters import Study
 
 
-def _as_study(spec) -> tuple[Study, Path]:
+def study_of(spec) -> tuple[Study, Path]:
     """The study of a fit file's path or TOML data, and its data file's path."""
     from rodfem.studies import parameters
     from rodfem.studies.fitdata import OWN
@@ -72,7 +72,7 @@ def run_fit(spec, out: str | Path | None = None, comm: MPI.Comm | None = None, *
         rodfem.output.interrupts.Interrupted: a signal stopped it (between two batches).
     """
     comm = comm or MPI.COMM_WORLD
-    study, data_path = _as_study(spec)
+    study, data_path = study_of(spec)
     problem = problem_of(study, data_path)
     if out is None:
         with interrupts.deferred():
