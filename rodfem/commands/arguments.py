@@ -32,7 +32,7 @@ def add_yes(command: argparse.ArgumentParser) -> None:
     """--yes: a study estimated beyond a day is run all the same."""
     command.add_argument("--yes", action="store_true",
                          help="run it even if its estimated cost (runs × steps × the µs/step "
-                         "measured on a few steps, said before it starts from a minute on) is "
+                         "measured on a few steps, said before it starts from ten minutes on) is "
                          "more than a day on the ranks given; without it such a study is "
                          "refused, nothing written")
 

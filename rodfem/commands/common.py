@@ -23,7 +23,7 @@ def say(message: str, stream=None) -> None:
 
 def said_cost(scene_of, count: int, yes: bool, quiet: bool, runs: int | None = None) -> None:
     """Say what a study of ``count`` scenes (``scene_of(i)``; ``runs``: at most so many runs of
-    them) will cost, from a minute on (unless ``quiet``); SceneError (exit 2, one line, nothing
+    them) will cost, from ten minutes on (unless ``quiet``); SceneError (exit 2, one line, nothing
     written) beyond a day unless ``yes`` (:mod:`rodfem.studies.cost`)."""
     from mpi4py import MPI
 

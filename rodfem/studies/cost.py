@@ -21,7 +21,7 @@ from rodfem.output import interrupts
 from rodfem.scene import SceneError
 
 BOUND_SECONDS = 86_400.0  # a day of wall time on the ranks given: beyond, --yes is needed
-SAY_SECONDS = 60.0  # the estimate is said from a minute on
+SAY_SECONDS = 600.0  # the estimate is said from ten minutes on
 SAMPLE = 1000  # scenes whose steps are counted
 PROBE_STEPS = 20
 SLOWEST_US = 5000.0  # µs/step, plus a µs per cell: no step measured here came near it
