@@ -28,25 +28,15 @@ import sys
 from pathlib import Path
 
 from rodfem import commands
+from rodfem.commands.arguments import (
+    add_output,
+    add_overrides,
+    add_progress,
+    add_yes,
+    path_argument,
+)
 from rodfem.output import interrupts
 from rodfem.scene import BUILTIN, EXTRA, SceneError
-
-
-def _overrides(command: argparse.ArgumentParser, help: str) -> None:
-    command.add_argument("--set", dest="overrides", action="append", default=[],
-                         metavar="SECTION.KEY=VALUE", help=help)
-
-
-def _output(command: argparse.ArgumentParser, default: str | None, help: str,
-            force: str) -> None:
-    """--out (with its default, or none) and --force (replace what that command wrote)."""
-    command.add_argument("--out", type=Path, default=Path(default) if default else None,
-                         help=help)
-    command.add_argument("--force", action="store_true", help=force)
-
-
-def _progress(command: argparse.ArgumentParser, help: str) -> None:
-    command.add_argument("--progress", action="store_true", help=help)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -81,11 +71,11 @@ def _run(sub) -> None:
     )
     run.add_argument("scene",
                      help=f"a built-in scene ({', '.join(BUILTIN + EXTRA)}) or a TOML file")
-    _output(run, None, "output directory (default: results/<scene name>)",
+    add_output(run, None, "output directory (default: results/<scene name>)",
             "replace an existing run directory")
-    _overrides(run, "override a scene value, e.g. --set model.zeta=1 (repeatable)")
+    add_overrides(run, "override a scene value, e.g. --set model.zeta=1 (repeatable)")
     run.add_argument("--quiet", action="store_true", help="no progress bar and no final line")
-    _progress(run, "draw the progress bar even when output is not a terminal (mpirun)")
+    add_progress(run, "draw the progress bar even when output is not a terminal (mpirun)")
     run.add_argument("--no-size-check", dest="large", action="store_true",
                      help="run even if the estimated output or memory exceeds what is free")
 
@@ -102,22 +92,24 @@ def _sweep(sub) -> None:
         "'rodfem resume DIR' continues a stopped sweep.",
     )
     sweep.add_argument("file", metavar="SWEEP.toml", help="the sweep file")
-    _output(sweep, None, "output directory (default: results/<sweep file's name>)",
+    add_output(sweep, None, "output directory (default: results/<sweep file's name>)",
             "replace an existing sweep directory")
     sweep.add_argument("--histories", action="store_true",
                        help="also keep every scene's history, in histories.h5")
+    add_yes(sweep)
     sweep.add_argument("--quiet", action="store_true", help="no progress and no final line")
-    _progress(sweep, "a progress line every few seconds even when output is not a terminal")
+    add_progress(sweep, "a progress line every few seconds even when output is not a terminal")
 
 
 def _study(sub, name: str, metavar: str, help: str, description: str, progress: str) -> None:
     """A study's command: its file, --out, --force, --quiet and --progress."""
     command = sub.add_parser(name, help=help, description=description)
     command.add_argument("file", metavar=metavar, help=f"the {name} file")
-    _output(command, None, f"output directory (default: results/<{name} file's name>)",
+    add_output(command, None, f"output directory (default: results/<{name} file's name>)",
             f"replace an existing {name} directory")
+    add_yes(command)
     command.add_argument("--quiet", action="store_true", help="no final line")
-    _progress(command, progress)
+    add_progress(command, progress)
 
 
 def _fit(sub) -> None:
@@ -158,12 +150,12 @@ def _resume(sub) -> None:
         "stopped sensitivity study runs the rest of its runs and analyses them, to the indices "
         "an uninterrupted study writes.",
     )
-    resume.add_argument("dir", type=Path, metavar="DIR",
+    resume.add_argument("dir", type=path_argument, metavar="DIR",
                         help="a directory of 'rodfem run', 'rodfem sweep', 'rodfem fit' or "
                         "'rodfem sensitivity'")
-    _overrides(resume, "a later end, time.end=T (the only value a resumed run may change)")
+    add_overrides(resume, "a later end, time.end=T (the only value a resumed run may change)")
     resume.add_argument("--quiet", action="store_true", help="no progress bar and no final line")
-    _progress(resume, "draw the progress bar even when output is not a terminal (mpirun)")
+    add_progress(resume, "draw the progress bar even when output is not a terminal (mpirun)")
     resume.add_argument("--no-size-check", dest="large", action="store_true",
                         help="go on even if the estimated output or memory exceeds what is free")
     resume.add_argument("--any-loop", dest="any_loop", action="store_true",
@@ -187,9 +179,9 @@ def _plot(sub) -> None:
         "measures that differ between the scenes (--measures chooses); --overlay draws the "
         "scenes' histories kept by 'rodfem sweep --histories' overlaid.",
     )
-    plot.add_argument("dirs", nargs="+", type=Path, metavar="DIR",
+    plot.add_argument("dirs", nargs="+", type=path_argument, metavar="DIR",
                       help="a run directory written by 'rodfem run', or one sweep directory")
-    plot.add_argument("--out", type=Path, metavar="FIGDIR",
+    plot.add_argument("--out", type=path_argument, metavar="FIGDIR",
                       help="figure directory (default: the first DIR's figures/, whose figures "
                       "are drawn again); if FIGDIR holds a figure of a name rodfem would write, "
                       "nothing is drawn, unless --force")
@@ -232,8 +224,8 @@ def _paper(sub) -> None:
         "which sets each figure beside what the paper says about it.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    _output(paper, "results/paper", "output directory", "replace an earlier reproduction")
-    _overrides(paper, "override a value in every experiment, e.g. --set time.end=2")
+    add_output(paper, "results/paper", "output directory", "replace an earlier reproduction")
+    add_overrides(paper, "override a value in every experiment, e.g. --set time.end=2")
 
 
 def _stability(sub) -> None:
@@ -248,11 +240,11 @@ def _stability(sub) -> None:
         "Points are shared round-robin among MPI ranks.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    _output(stability, "results/stability", "output directory",
+    add_output(stability, "results/stability", "output directory",
             "replace an earlier stability map in --out")
     stability.add_argument("--scene", default="paper1",
                            help=f"the base scene: built-in ({', '.join(BUILTIN)}) or a TOML file")
-    _overrides(stability, "override a base scene value, e.g. solver.max_iterations=500")
+    add_overrides(stability, "override a base scene value, e.g. solver.max_iterations=500")
     stability.add_argument("--methods", default="direct,newton,picard", help="methods to run")
     from rodfem.studies.stability import DEFAULT_A, DEFAULT_DT, DEFAULT_EPSILON, DEFAULT_ZETA
 
@@ -264,7 +256,7 @@ def _stability(sub) -> None:
     stability.add_argument("--zeta", default=listed(DEFAULT_ZETA), help="viscosities ζ")
     stability.add_argument("--a", default=listed(DEFAULT_A), help="thermal couplings a")
     stability.add_argument("--end", default="1", help="end time of every run")
-    _progress(stability, "a line per point even when output is not a terminal (mpirun)")
+    add_progress(stability, "a line per point even when output is not a terminal (mpirun)")
 
 
 def _verify(sub) -> None:
@@ -296,17 +288,17 @@ def _verify(sub) -> None:
     for command, default, methods in (
             (verify, "results/verify", "the built-in scenes with the direct method only"),
             (work, "results/work-precision", "the direct method only on paper1 and paper5")):
-        _output(command, default, "output directory",
+        add_output(command, default, "output directory",
                 "replace an earlier result of this command in --out")
         command.add_argument("--quick", action="store_true",
                              help=f"small ladders, {methods} (seconds)")
-        _progress(command, "a line per ladder even when output is not a terminal")
+        add_progress(command, "a line per ladder even when output is not a terminal")
     verify.add_argument("--scenes", help="scenes to verify (default: paper1, paper5, no-contact, "
                         "manufactured and manufactured-gap where rodfem.model.manufactured exists, "
                         "and impact), and scene files (.toml): each refined from its own cells "
                         "and Δt (or tolerance) by 2, 3 rungs with --quick and 4 without, "
                         "against a finer run, with the orders of its measures")
-    _overrides(verify, "override a value of the scene files in --scenes (repeatable)")
+    add_overrides(verify, "override a value of the scene files in --scenes (repeatable)")
 
 
 def _steady(sub) -> None:
@@ -324,9 +316,9 @@ def _steady(sub) -> None:
     )
     steady.add_argument("scene",
                         help=f"a built-in scene ({', '.join(BUILTIN + EXTRA)}) or a TOML file")
-    _output(steady, None, "output directory (default: results/<scene name>-steady)",
+    add_output(steady, None, "output directory (default: results/<scene name>-steady)",
             "replace an earlier result of this command in --out")
-    _overrides(steady, "override a scene value, e.g. --set heat_exchange.k1=500 (repeatable)")
+    add_overrides(steady, "override a scene value, e.g. --set heat_exchange.k1=500 (repeatable)")
     steady.add_argument("--continue", dest="continuation", metavar="KEY=a:b:n",
                         action="append",
                         help="the branches over n values of the real scene value KEY from a to "

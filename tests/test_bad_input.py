@@ -353,3 +353,42 @@ def test_a_sweep_may_not_declare_a_measure_its_scene_declares(shared_dir, capsys
     code, err = _run(["sweep", str(shared_dir / "sweep.toml"), "--out", str(out)], capsys)
     _one_line(code, err, "sweep.toml: measures.p is declared by the base scene too")
     assert not out.exists()
+
+
+@pytest.mark.parametrize("args", [
+    ["run", "paper1", "--out", "a\0b"], ["sweep", "s.toml", "--out", "a\0b"],
+    ["fit", "f.toml", "--out", "a\0b"], ["sensitivity", "s.toml", "--out", "a\0b"],
+    ["steady", "paper1", "--out", "a\0b"], ["resume", "a\0b"], ["plot", "a\0b"],
+    ["verify", "--quick", "--out", "a\0b"],
+], ids=lambda args: args[0])
+def test_a_path_with_a_nul_is_a_mistake_in_the_arguments(args, capsys):
+    """A caller of main() can pass a NUL in a path (a shell cannot): the path's first use
+    raised ValueError, a traceback; it is now refused with the other mistakes in arguments."""
+    with pytest.raises(SystemExit) as stopped:
+        main(args)
+    err = capsys.readouterr().err
+    assert stopped.value.code == 2
+    assert "holds a NUL character, which no path can" in err and err.count("\n") == 1, err
+
+
+def test_the_api_refuses_an_output_directory_with_a_nul(shared_dir):
+    with pytest.raises(rodfem.OutputError, match="a path cannot hold a NUL character"):
+        rodfem.simulate("paper1", {"time.end": 0.01}, out=str(shared_dir / "a\0b"))
+
+
+@pytest.mark.parametrize("force", [False, True])
+def test_an_output_directory_that_is_a_loop_of_links_is_refused(force, shared_dir, capsys):
+    out = shared_dir / "loop"
+    if COMM.rank == 0:
+        out.symlink_to("loop")
+    COMM.barrier()
+    code, err = _run(["run", "paper1", "--out", str(out), "--set", "time.end=0.01",
+                      *(["--force"] if force else [])], capsys)
+    assert code == 2 and out.is_symlink()
+    if COMM.rank == 0:
+        assert err.startswith("rodfem: error: ") and err.count("\n") == 1, err
+        assert ("exists and is not a directory" if force else "exists; use --force") in err
+    code, err = _run(["run", "paper1", "--out", str(out / "x"), "--set", "time.end=0.01"], capsys)
+    assert code == 2
+    if COMM.rank == 0:
+        assert "Too many levels of symbolic links" in err and err.count("\n") == 1, err

@@ -103,6 +103,27 @@ def test_bad_base_scenes_are_refused_in_one_line(files, message, shared_dir, cap
                    shared_dir / "out", message, capsys)
 
 
+@pytest.mark.parametrize("base, message", [
+    ("link.toml", "link.toml': cannot be read (Too many levels of symbolic links)"),
+    ("a\\u0000b.toml", "cannot be read (embedded null byte)"),
+])
+def test_a_base_that_is_a_loop_of_links_or_holds_a_nul_is_refused_in_one_line(
+        base, message, shared_dir, capsys):
+    """A base scene that is a link to itself raised RuntimeError from the path's resolution,
+    one whose name holds a NUL raised ValueError: tracebacks, where the same names given as the
+    scene itself were one line. A sweep over such a file is refused alike."""
+    if COMM.rank == 0:
+        (shared_dir / "link.toml").symlink_to("link.toml")
+    _write(shared_dir, "a.toml", f'scene = "{base}"\n')
+    with pytest.raises(SceneError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        load(str(shared_dir / "a.toml"))
+    assert_refused(["run", str(shared_dir / "a.toml"), "--out", str(shared_dir / "out")],
+                   shared_dir / "out", message, capsys)
+    sweep = _write(shared_dir, "sweep.toml", f'scene = "{base}"\n[grid]\n"model.zeta" = [1, 2]\n')
+    assert_refused(["sweep", str(sweep), "--out", str(shared_dir / "out")], shared_dir / "out",
+                   message, capsys)
+
+
 def test_a_sweep_over_a_file_with_a_base(shared_dir):
     from rodfem.studies.design import load as load_sweep_file
 

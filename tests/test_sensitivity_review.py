@@ -10,7 +10,7 @@ import pytest
 from test_sensitivity import GOOD
 
 import rodfem
-from conftest import assert_refused, serial_only
+from conftest import COMM, assert_refused, serial_only
 from rodfem.cli import main
 
 
@@ -86,32 +86,50 @@ def test_a_campaign_in_memory_says_how_long_its_runs_took():
     assert result.numbers["run_seconds"] > 0  # was 0.0 in memory
 
 
-@serial_only
-def test_a_signal_during_the_analysis_leaves_a_complete_study(tmp_path, capsys, monkeypatch):
-    """SIGTERM while the figure is drawn (the runs done) stopped the command with 'stopped
-    outside a time loop' and no word of resume; the analysis now finishes first."""
+@pytest.mark.parametrize("phase", ["analysis", "figure"])
+def test_a_signal_after_the_runs_stops_the_study_and_resume_finishes_it(phase, shared_dir,
+                                                                      capsys, monkeypatch):
+    """SIGTERM during the analysis or as its figure is drawn (the runs done) was let wait and
+    the study ended complete, exit 0, seconds after the signal: it now stops there, exit 143,
+    the study interrupted, and resume finishes it to the files of an unstopped study. Under
+    mpirun the signal reaches rank 0 alone (which draws), and every rank stops alike."""
     import os
     import signal
 
     import rodfem.post.sensitivity as chart
     from rodfem.output import interrupts
+    from rodfem.studies import indices
 
+    study = shared_dir / "good.toml"
+    if COMM.rank == 0:
+        study.write_text(GOOD)
+    COMM.barrier()
+    assert main(["sensitivity", str(study), "--out", str(shared_dir / "whole"), "--quiet"]) == 0
     monkeypatch.setattr(interrupts, "_received", [])  # the signal is this test's alone
-    drawn = chart.plot_indices
+    module, name = (indices, "analyse") if phase == "analysis" else (chart, "plot_indices")
+    original = getattr(module, name)
 
     def interrupted(*args):
         os.kill(os.getpid(), signal.SIGTERM)
-        return drawn(*args)
+        return original(*args)
 
-    monkeypatch.setattr(chart, "plot_indices", interrupted)
-    study = tmp_path / "good.toml"
-    study.write_text(GOOD)
-    assert main(["sensitivity", str(study), "--out", str(tmp_path / "out")]) == 0
-    assert "1 of 1 measure" in capsys.readouterr().out
-    loaded = rodfem.load_sensitivity(tmp_path / "out")
-    assert loaded.status == "complete" and len(loaded.table) == 1
-    assert (tmp_path / "out" / "sensitivity.png").is_file()
-
+    monkeypatch.setattr(module, name, interrupted)
+    out = shared_dir / "out"
+    capsys.readouterr()
+    assert main(["sensitivity", str(study), "--out", str(out)]) == 143
+    COMM.barrier()  # rank 0 marks the directory as the others end
+    err = capsys.readouterr().err
+    if COMM.rank == 0:
+        assert err.startswith("rodfem: interrupted by SIGTERM") and err.count("\n") == 1, err
+        assert f"'rodfem resume {out}'" in err
+    assert rodfem.load_sensitivity(out).status == "interrupted"
+    monkeypatch.setattr(module, name, original)
+    interrupts._received.clear()
+    assert main(["resume", str(out), "--quiet"]) == 0
+    COMM.barrier()
+    assert rodfem.load_sensitivity(out).status == "complete"
+    for name in ("sensitivity.csv", "sensitivity.png"):
+        assert (out / name).read_bytes() == (shared_dir / "whole" / name).read_bytes(), name
 
 
 def _stale(marker: Path) -> None:

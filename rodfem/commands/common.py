@@ -22,6 +22,19 @@ def say(message: str, stream=None) -> None:
         print(message, file=stream or sys.stderr, flush=True)
 
 
+def said_cost(scene_of, count: int, yes: bool, quiet: bool, runs: int | None = None) -> None:
+    """Say what a study of ``count`` scenes (``scene_of(i)``; ``runs``: at most so many runs of
+    them) will cost, from ten minutes on (unless ``quiet``); SceneError (exit 2, one line, nothing
+    written) beyond a day unless ``yes`` (:mod:`rodfem.studies.cost`)."""
+    from mpi4py import MPI
+
+    from rodfem.studies.cost import check
+
+    found = check(scene_of, count, MPI.COMM_WORLD, yes, runs)
+    if found is not None and not quiet:
+        say(f"rodfem: {found.line()}")
+
+
 def resume_as_written(args, out, marker: dict, what: str, complete, resume) -> int:
     """``rodfem resume`` of the directory ``out`` of a sweep or a study (``what``; held by this
     command, its ``marker`` read): ``--set`` refused, a complete one checked by ``complete()``

@@ -8,15 +8,28 @@ import signal
 import sys
 from pathlib import Path
 
-from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, resume_as_written, say
+from rodfem.commands.common import (
+    EXIT_DIVERGED,
+    EXIT_INPUT,
+    EXIT_IO,
+    resume_as_written,
+    said_cost,
+    say,
+)
 
 
 def fit(args: argparse.Namespace) -> int:
     """Fit the fit file args.file into args.out; report the fitted values in one line."""
     from mpi4py import MPI
 
-    from rodfem.studies.fitrun import run_fit
+    from rodfem.studies.fitrun import problem_of, run_fit, study_of
 
+    study, data_path = study_of(args.file)  # SceneError: exit 2, nothing written
+    problem = problem_of(study, data_path)
+    start = problem.sweep([[problem.start[key] for key in study.keys]])
+    # each evaluation a run, each Jacobian one per parameter
+    said_cost(start.scene, 1, args.yes, args.quiet,
+              runs=problem.max_evaluations * (len(study.keys) + 1))
     out = args.out if args.out is not None else Path("results") / Path(args.file).stem
     return _ended(lambda: run_fit(args.file, out, MPI.COMM_WORLD, force=args.force,
                                   progress=args.progress), out, args.quiet)

@@ -131,6 +131,13 @@ def resume(args: argparse.Namespace) -> int:
     except OutputError as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
+    from rodfem.studies.damage import damage
+
+    why = comm.bcast(damage(out, marker) if comm.rank == 0 else None, root=0)
+    if why is not None:  # checked before anything is done: nothing changed
+        release(out, comm)
+        say(f"rodfem: error: {why}")
+        return EXIT_INPUT
     if marker.get("command") in STUDIES:
         import importlib
 

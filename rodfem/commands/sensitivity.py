@@ -7,7 +7,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, resume_as_written, say
+from rodfem.commands.common import (
+    EXIT_DIVERGED,
+    EXIT_INPUT,
+    EXIT_IO,
+    resume_as_written,
+    said_cost,
+    say,
+)
 
 
 def sensitivity(args: argparse.Namespace) -> int:
@@ -18,6 +25,7 @@ def sensitivity(args: argparse.Namespace) -> int:
     from rodfem.studies.sensitivity import prepare, run_campaign
 
     found = prepare(args.file)  # SceneError: exit 2, nothing written
+    said_cost(found.sweep.scene, len(found.sweep), args.yes, args.quiet)
     out = args.out if args.out is not None else Path("results") / Path(args.file).stem
     try:
         result = run_campaign(found, out, MPI.COMM_WORLD, force=args.force,

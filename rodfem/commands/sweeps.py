@@ -7,7 +7,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, resume_as_written, say
+from rodfem.commands.common import (
+    EXIT_DIVERGED,
+    EXIT_INPUT,
+    EXIT_IO,
+    resume_as_written,
+    said_cost,
+    say,
+)
 
 
 def sweep(args: argparse.Namespace) -> int:
@@ -19,6 +26,7 @@ def sweep(args: argparse.Namespace) -> int:
     from rodfem.studies.sweep import run_sweep
 
     spec = design.load(args.file)  # SceneError: exit 2, nothing written
+    said_cost(spec.scene, len(spec), args.yes, args.quiet)
     out = args.out if args.out is not None else Path("results") / Path(args.file).stem
     try:
         result = run_sweep(spec, out, MPI.COMM_WORLD, histories=args.histories, force=args.force,

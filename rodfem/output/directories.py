@@ -244,6 +244,9 @@ def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None
     error = None
     if comm.rank == 0:
         try:
+            if "\0" in str(path):
+                raise OutputError(f"output directory {str(path)!r}: a path cannot hold a NUL "
+                                  "character")
             _hold(path, _claim(path, force, keep, command),
                   {"rodfem": rodfem.__version__, "command": command, "status": "running",
                    "pid": os.getpid(), "host": socket.gethostname(),

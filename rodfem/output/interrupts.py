@@ -141,6 +141,29 @@ def requested(comm, n: int, every: int, also: bool = False) -> bool:
     return n % every == 0 and comm.allreduce(local, op=MPI.LOR)
 
 
+def agreed(comm) -> int | None:
+    """The stop signal that any rank of ``comm`` received, or None: every rank answers alike (one
+    reduction), and a rank that received none notes it as received, so that it stops alike.
+    For the phases after a command's runs (an analysis, its files, its figures), which run
+    inside :func:`deferred` and check here between one and the next."""
+    signum = signal_received() or 0
+    if comm.size > 1:
+        from mpi4py import MPI
+
+        signum = comm.allreduce(signum, op=MPI.MAX)
+    if signum and not _received:
+        _received.append(signum)
+    return signum or None
+
+
+def stop_if_received(comm) -> None:
+    """Raise :class:`Interrupted` on every rank if any rank of ``comm`` received a stop signal
+    (:func:`agreed`)."""
+    signum = agreed(comm)
+    if signum is not None:
+        raise Interrupted(signum)
+
+
 def signal_behind(err: BaseException) -> int | None:
     """The stop signal that raised ``err``, or that a library turned into another error (an
     import of a compiled module reports "initialization failed"), or None."""

@@ -71,6 +71,16 @@ def read_text(path: Path, what: str, form: str = "TOML") -> str | None:
         os.close(fd)
 
 
+def _identity(path: Path) -> str:
+    """The path ``path`` names, links followed, for spotting a cycle of base scenes; the absolute
+    path where it cannot be followed (a cycle of links, a NUL character in the name), which
+    :func:`read_text` then refuses in one line."""
+    try:
+        return str(path.resolve())
+    except (OSError, RuntimeError, ValueError):  # RuntimeError: a symlink loop (Python 3.11)
+        return os.path.abspath(path) if "\0" not in str(path) else str(path)
+
+
 def read_file(path: str | Path, what: str) -> dict:
     """The TOML data of the file ``path`` (a sweep's, say), refused as ``what`` in one line where
     there is no such regular file or it cannot be read."""
@@ -104,7 +114,7 @@ def _read(scene: str, chain: tuple[str, ...]) -> tuple[dict, str]:
             if not chain else f"{what}: no such file (the base scene of '{shorten(chain[-1])}')"
         )
     return based(_parse_toml(text, what), what, Path(scene).parent,
-                 (*chain, str(Path(scene).resolve()))), \
+                 (*chain, _identity(Path(scene)))), \
         str(Path(scene))
 
 
@@ -127,7 +137,7 @@ def based(data: dict, what: str, directory: Path | None = None,
     path = name
     if name not in BUILTIN + EXTRA and directory is not None and not Path(name).is_absolute():
         path = str(directory / name)
-    again = name not in BUILTIN + EXTRA and str(Path(path).resolve()) in chain
+    again = name not in BUILTIN + EXTRA and _identity(Path(path)) in chain
     if again or len(chain) > MAX_BASES:
         raise SceneError(f"{what}: its base scene '{shorten(name)}' comes round again (a cycle "
                          "of base scenes)" if again else

@@ -14,6 +14,7 @@ from mpi4py import MPI
 
 from rodfem.output import interrupts, journal
 from rodfem.output.atomic import io_line, replacing
+from rodfem.output.files import write_json
 from rodfem.scene import SceneError
 from rodfem.studies.fit import (
     Evaluations,
@@ -28,7 +29,7 @@ from rodfem.studies.fitfiles import FitError, FitResult
 from rodfem.studies.parameters import Study
 
 
-def _as_study(spec) -> tuple[Study, Path]:
+def study_of(spec) -> tuple[Study, Path]:
     """The study of a fit file's path or TOML data, and its data file's path."""
     from rodfem.studies import parameters
     from rodfem.studies.fitdata import OWN
@@ -71,14 +72,14 @@ def run_fit(spec, out: str | Path | None = None, comm: MPI.Comm | None = None, *
         rodfem.output.interrupts.Interrupted: a signal stopped it (between two batches).
     """
     comm = comm or MPI.COMM_WORLD
-    study, data_path = _as_study(spec)
+    study, data_path = study_of(spec)
     problem = problem_of(study, data_path)
     if out is None:
         with interrupts.deferred():
             return _solve(problem, Evaluations(problem, comm, progress=progress), comm, None)
     out = Path(out)
     from rodfem.output.directories import OutputError, prepare_directory
-    from rodfem.output.files import write_json, write_text
+    from rodfem.output.files import write_text
     from rodfem.scene import validate
     from rodfem.studies.fitfiles import FILES, meta
 
@@ -140,6 +141,7 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
     r = evaluations.batch([u])[0]
     stderr, correlation, why = statistics(problem, u, r, jacobian(evaluations, u))
     warnings = [w for w in (why, at_bounds(problem, u, found.active_mask)) if w]
+    interrupts.stop_if_received(comm)  # a signal in the phases after the optimiser stops them
     data = problem.data
     model = data.model(r)
     numbers = {
@@ -155,17 +157,25 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
         "warning": "; ".join(warnings) or None,
         "model": {c: model[:, j].tolist() for j, c in enumerate(data.columns)}}
     fitted = _fitted(problem.scene(u), comm, out)
+    interrupts.stop_if_received(comm)
     error = None
     if out is not None and comm.rank == 0:
-        from rodfem.output.files import write_json
         from rodfem.post.fit import plot_fit
 
         values = {c: data.values[:, j] for j, c in enumerate(data.columns)}
-        try:  # fit.json last: a fit with one is complete
+        try:
             plot_fit(out / "fit.png", data.t, values, fitted.history["t"],
                      {c: fitted.history[c] for c in data.columns},
                      ", ".join(f"{k} = {v['value']:.4g}"
                                for k, v in numbers["parameters"].items()))
+        except OSError as err:
+            error = io_line(err)
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise WriteError(error)
+    interrupts.stop_if_received(comm)  # before fit.json: a fit with one is complete
+    if out is not None and comm.rank == 0:
+        try:
             write_json(out / "fit.json", numbers, MPI.COMM_SELF)
         except OSError as err:
             error = io_line(err)

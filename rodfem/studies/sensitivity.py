@@ -160,8 +160,9 @@ def _analysed(found: Campaign, runs: SweepResult, out: Path | None, comm: MPI.Co
     """The indices of a campaign's runs (complete, or as far as they went), with its files
     written (``out``: rank 0) and its marker's final status; ``ran``: how many ran now (None:
     as its sweep's summary says)."""
-    # The runs are done: a signal now waits for the analysis and its files (a second or two),
-    # which leave the campaign complete, rather than stopping it between them.
+    # The runs are done: a signal now is taken after the analysis, or after its files, and
+    # leaves the campaign interrupted (resume analyses its complete runs again, to the same
+    # files); the files written are whole.
     with interrupts.deferred():
         rows, warnings, failed, analysis = [], [], 0, 0.0
         status = runs.status if runs.error is None else "failed"
@@ -183,8 +184,11 @@ def _analysed(found: Campaign, runs: SweepResult, out: Path | None, comm: MPI.Co
         rows, warnings, failed, analysis, ran = comm.bcast((rows, warnings, failed, analysis, ran),
                                                            root=0)
         error = runs.error
+        if status == "complete" and interrupts.agreed(comm) is not None:
+            status, rows = "interrupted", []
         if out is not None:
-            error = _write(out, found, rows, status, comm) or error
+            written, status = _write(out, found, rows, status, comm)
+            error = written or error
             if error is not None:
                 status = "failed"
         return SensitivityResult(found.plan.method, found.plan.columns, tuple(rows),
@@ -195,9 +199,10 @@ def _analysed(found: Campaign, runs: SweepResult, out: Path | None, comm: MPI.Co
 
 
 def _write(out: Path, found: Campaign, rows: list[dict], status: str,
-           comm: MPI.Comm) -> str | None:
+           comm: MPI.Comm) -> tuple[str | None, str]:
     """sensitivity.csv and its figure (a complete campaign's), and the marker's status (rank
-    0). Returns the line of the first file that could not be written."""
+    0). Returns the line of the first file that could not be written, and the status: a stop
+    signal as they were written makes it interrupted."""
     from rodfem.output.atomic import io_line, replacing
     from rodfem.output.directories import finish
 
@@ -213,11 +218,15 @@ def _write(out: Path, found: Campaign, rows: list[dict], status: str,
                     plot_indices(found.plan.method, rows, out / FIGURE)
         except OSError as err:
             error = io_line(err)
+    error = comm.bcast(error, root=0)
+    if status == "complete" and interrupts.agreed(comm) is not None:
+        status = "interrupted"  # a signal as its files were written: taken now
+    if comm.rank == 0:
         try:
             finish(out, "failed" if error else status, comm)
         except OSError as err:
             error = error or io_line(err)
-    return comm.bcast(error, root=0)
+    return comm.bcast(error, root=0), status
 
 
 def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SensitivityResult:

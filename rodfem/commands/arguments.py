@@ -1,0 +1,41 @@
+"""The options that several ``rodfem`` subcommands share (:mod:`rodfem.cli` builds its parser
+with them): paths, ``--set``, ``--out`` and ``--force``, ``--yes``, ``--progress``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def path_argument(text: str) -> Path:
+    """A path given on the command line; a NUL character, which no file name holds (a caller of
+    :func:`main` can pass one, a shell cannot), is refused as a mistake in the arguments."""
+    if "\0" in text:
+        raise argparse.ArgumentTypeError(f"{text!r} holds a NUL character, which no path can")
+    return Path(text)
+
+
+def add_overrides(command: argparse.ArgumentParser, help: str) -> None:
+    command.add_argument("--set", dest="overrides", action="append", default=[],
+                         metavar="SECTION.KEY=VALUE", help=help)
+
+
+def add_output(command: argparse.ArgumentParser, default: str | None, help: str,
+            force: str) -> None:
+    """--out (with its default, or none) and --force (replace what that command wrote)."""
+    command.add_argument("--out", type=path_argument, default=Path(default) if default else None,
+                         help=help)
+    command.add_argument("--force", action="store_true", help=force)
+
+
+def add_yes(command: argparse.ArgumentParser) -> None:
+    """--yes: a study estimated beyond a day is run all the same."""
+    command.add_argument("--yes", action="store_true",
+                         help="run it even if its estimated cost (runs × steps × the µs/step "
+                         "measured on a few steps, said before it starts from ten minutes on) is "
+                         "more than a day on the ranks given; without it such a study is "
+                         "refused, nothing written")
+
+
+def add_progress(command: argparse.ArgumentParser, help: str) -> None:
+    command.add_argument("--progress", action="store_true", help=help)
