@@ -4,7 +4,7 @@ PY := .venv/bin/python
 MPIRUN := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 \
   PRTE_MCA_rmaps_default_mapping_policy=:oversubscribe mpirun
 
-.PHONY: setup demo test test-serial test-mpi check fuzz bench clean container-test \
+.PHONY: setup demo test test-full test-serial test-mpi check fuzz bench clean container-test \
   container-test-sid docs test-docs notebooks
 
 setup:
@@ -14,7 +14,14 @@ demo: setup
 	.venv/bin/rodfem run paper1 --out results/paper1 --force
 	.venv/bin/rodfem plot results/paper1
 
+# The suite's quick profile: every promise, the wide grids by representative cases, the long
+# property tests left out (tests/conftest.py says how).
 test: setup test-serial test-mpi
+
+# The full profile: test's, with the tests marked slow (every case of the grids, the demos under
+# mpirun, the long property tests).
+test-full: export RODFEM_TEST_PROFILE := full
+test-full: setup test-serial test-mpi
 
 test-serial:
 	$(PY) -m pytest -q tests

@@ -1,6 +1,23 @@
 """Shared fixtures. The suite runs serially and under ``mpirun -n 2 python -m mpi4py -m pytest``:
-fixtures that create files agree on one directory across ranks."""
+fixtures that create files agree on one directory across ranks.
 
+Keeping the suite quick (the native serial suite within 8 minutes on two cores):
+
+* Profiles. ``RODFEM_TEST_PROFILE=quick`` (the default) leaves out the tests marked
+  ``@pytest.mark.slow``: the long property tests and the wide grids whose promise a quick test of
+  the same file guards too (a representative case, a smaller grid). ``RODFEM_TEST_PROFILE=full``
+  (``make test-full``) runs them; so does ``-m slow`` (them alone). The header of pytest's output
+  says which profile ran and how many tests it left out. A new long test: mark it ``slow`` and
+  keep a short version (a few cases, a small mesh, a short time.end) unmarked.
+* Shared runs. An expensive run that several tests read is made once by a module- or
+  session-scoped fixture (see ``reference`` in test_resume.py); a test that changes it works on a
+  copy (``copied``).
+* In-process. ``rodfem.cli.main([...])`` runs a command in the test's process (``assert_refused``,
+  ``cli``); a process of its own is needed only for signals, kills, mpirun, and environment
+  variables read at import.
+"""
+
+import os
 import shutil
 import subprocess
 import tempfile
@@ -15,6 +32,48 @@ import rodfem.scene
 
 COMM = MPI.COMM_WORLD
 serial_only = pytest.mark.skipif(COMM.size > 1, reason="starts its own processes; run serially")
+PROFILE = os.environ.get("RODFEM_TEST_PROFILE", "quick")
+PROFILES = ("quick", "full")
+
+
+def _full(config) -> bool:
+    """Whether the tests marked slow run: the full profile, or ``-m`` naming them."""
+    return PROFILE == "full" or "slow" in (config.getoption("markexpr", "") or "")
+
+
+def pytest_configure(config):
+    if PROFILE not in PROFILES:
+        raise pytest.UsageError(f"RODFEM_TEST_PROFILE={PROFILE!r}: use one of {PROFILES}")
+
+
+def pytest_collection_modifyitems(config, items):
+    """The quick profile leaves out the tests marked slow (deselected, and counted)."""
+    if _full(config):
+        return
+    slow = [item for item in items if item.get_closest_marker("slow") is not None]
+    if slow:
+        config.hook.pytest_deselected(items=slow)
+        items[:] = [item for item in items if item.get_closest_marker("slow") is None]
+
+
+def pytest_report_header(config):
+    if _full(config):
+        return "rodfem test profile: full (the tests marked slow included)"
+    return ("rodfem test profile: quick (tests marked slow deselected; "
+            "RODFEM_TEST_PROFILE=full or make test-full runs them)")
+
+
+def cli(*args) -> int:
+    """``rodfem ARGS`` run in this process (no start-up of its own): its exit code."""
+    from rodfem.cli import main
+
+    return main([str(a) for a in args])
+
+
+def copied(source: Path, target: Path) -> Path:
+    """A copy of a shared run directory (``source``) for a test that changes it."""
+    shutil.copytree(source, target, symlinks=True)
+    return target
 
 
 @pytest.fixture
@@ -93,3 +152,14 @@ def assert_refused(args, out, message, capsys):
     if COMM.rank == 0:
         assert err.startswith("rodfem: error: ") and message in err, err
         assert err.count("\n") == 1
+
+
+def representative(cases, keep):
+    """A grid's ``cases`` for ``@pytest.mark.parametrize``, those not in ``keep`` marked slow:
+    the quick profile runs ``keep`` (each promise of the grid at least once), the full profile
+    all of them. A case of several arguments is a tuple, as parametrize takes it."""
+    missing = [k for k in keep if k not in cases]
+    assert not missing, f"representative cases not in the grid: {missing}"
+    return [case if case in keep else
+            pytest.param(*(case if isinstance(case, tuple) else (case,)), marks=pytest.mark.slow)
+            for case in cases]

@@ -12,7 +12,7 @@ import pytest
 from test_edits import read_npz, snapshot, write_npz
 from test_resume import assert_fields_whole, assert_same_run, rodfem, stop_and_resume
 
-from conftest import serial_only
+from conftest import representative, serial_only
 from rodfem.output.checkpoint import digest
 from rodfem.output.directories import state
 from rodfem.output.readers import read_history
@@ -68,10 +68,14 @@ CASES = [("paper1", signal.SIGINT, 1), ("paper1", signal.SIGKILL, 1),
          ("paper1", signal.SIGTERM, 1), ("impact", signal.SIGKILL, 1),
          ("impact", signal.SIGINT, 1), ("impact", signal.SIGTERM, 1),
          ("paper1", signal.SIGKILL, 2), ("impact", signal.SIGUSR1, 2)]
+# every signal, both scenes and both rank counts once by default; all of CASES in the full profile
+QUICK_CASES = [("paper1", signal.SIGINT, 1), ("paper1", signal.SIGKILL, 1),
+               ("impact", signal.SIGKILL, 1), ("impact", signal.SIGTERM, 1),
+               ("impact", signal.SIGUSR1, 2)]
 
 
 @serial_only
-@pytest.mark.parametrize("scene, sent, ranks", CASES,
+@pytest.mark.parametrize("scene, sent, ranks", representative(CASES, QUICK_CASES),
                          ids=[f"{s}-{signal.Signals(k).name}-n{r}" for s, k, r in CASES])
 def test_a_stopped_adaptive_run_resumes_to_the_same_run(tmp_path, references, scene, sent,
                                                          ranks):
@@ -268,7 +272,7 @@ sys.exit(main(sys.argv[2:]))
 
 
 @serial_only
-@pytest.mark.parametrize("scene", list(STOPPED))
+@pytest.mark.parametrize("scene", representative(list(STOPPED), ["impact"]))
 def test_an_adaptive_run_killed_again_and_again_resumes_to_the_same_run(tmp_path, scene):
     """SIGKILL at chosen times (after a contact event among them), each time resumed from the
     last checkpoint (one at every field save, saved nearly every step: after the first of two

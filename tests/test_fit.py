@@ -19,7 +19,7 @@ import pytest
 from mpi4py import MPI
 
 import rodfem
-from conftest import COMM, serial_only
+from conftest import COMM, representative, serial_only
 from rodfem.cli import main
 from rodfem.output import journal
 from rodfem.output.directories import state
@@ -141,8 +141,9 @@ def processes_of(out: Path) -> list[int]:
 
 
 @serial_only
-@pytest.mark.parametrize("how, ranks", [("SIGKILL", 1), ("SIGTERM", 1), ("SIGUSR1", 2),
-                                        ("SIGKILL", 2)])
+@pytest.mark.parametrize("how, ranks", representative(
+    [("SIGKILL", 1), ("SIGTERM", 1), ("SIGUSR1", 2), ("SIGKILL", 2)],
+    [("SIGKILL", 1), ("SIGUSR1", 2)]))
 def test_a_stopped_fit_resumes_to_the_same_fit_json(how, ranks, serial, tmp_path):
     fit, whole = serial
     out = tmp_path / "out"

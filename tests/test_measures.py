@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import rodfem
-from conftest import COMM, history_rows, serial_only
+from conftest import COMM, history_rows, representative, serial_only
 from rodfem.cli import main
 from rodfem.output import results as table
 from rodfem.output.measures import NAMES as BUILT_IN
@@ -169,7 +169,7 @@ def test_a_measures_column_is_recorded_and_the_scene_round_trips(shared_dir, sim
 
 
 @serial_only
-@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("ranks", representative([1, 2], [1]))
 def test_a_resumed_run_has_the_measures_of_a_whole_one(tmp_path, ranks):
     """Extended from t = 1 to 2 (a window across the resume), and stopped by a signal and
     resumed: the measures are an uninterrupted run's, bit for bit."""

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from test_plot import assert_figure
 
-from conftest import COMM, serial_only
+from conftest import COMM, representative, serial_only
 from rodfem.cli import main
 from rodfem.studies.paper import EXPERIMENTS
 
@@ -59,7 +59,8 @@ def test_paper_refuses_a_bad_override_before_running(shared_dir, capsys):
 
 @serial_only
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
-@pytest.mark.parametrize("demo", [f"demo_paper{i}" for i in range(2, 6)])
+@pytest.mark.parametrize("demo", representative([f"demo_paper{i}" for i in range(2, 6)],
+                                                ["demo_paper5"]))
 def test_experiment_demos_run_under_mpirun(tmp_path, demo):
     env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
     done = subprocess.run(

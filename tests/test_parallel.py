@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import history_rows, serial_only
+from conftest import history_rows, representative, serial_only
 
 RODFEM = Path(sys.executable).with_name("rodfem")
 MPI_ENV = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
@@ -30,10 +30,11 @@ def rodfem_run(tmp_path, ranks, *args):
 
 @serial_only
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
-@pytest.mark.parametrize("mass, method, obstacle", [
+@pytest.mark.parametrize("mass, method, obstacle", representative([
     ("lumped", "picard", "elastic"), ("consistent", "picard", "elastic"),
     ("lumped", "direct", "elastic"), ("lumped", "direct", "rigid"), ("lumped", "newton", "rigid"),
-])
+], [("lumped", "picard", "elastic"), ("consistent", "picard", "elastic"),
+    ("lumped", "direct", "elastic"), ("lumped", "direct", "rigid")]))
 def test_two_ranks_write_the_serial_history(tmp_path, mass, method, obstacle):
     args = ["paper1", "--set", f"discretisation.mass={mass}", "--set", "output.every=1000",
             "--set", f"solver.method={method}", "--set", f"obstacle.kind={obstacle}"]
@@ -70,6 +71,7 @@ def test_demo_runs_under_mpirun():
     assert done.stdout.count("energy") == 1  # rank 0 reports, once
 
 
+@pytest.mark.slow  # demo_paper1's, the API's and the redistributed demos' run by default
 @serial_only
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
 def test_contact_methods_demo_runs_under_mpirun():
@@ -84,6 +86,7 @@ def test_contact_methods_demo_runs_under_mpirun():
     assert abs(rate - 1.0) < 0.05, out  # ε/(ε + w) → the rate tends to 1 as ε/w → 0
 
 
+@pytest.mark.slow  # demo_paper1's, the API's and the redistributed demos' run by default
 @serial_only
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
 def test_time_schemes_demo_runs_under_mpirun():
@@ -109,8 +112,9 @@ ADAPTIVE = {
 
 @serial_only
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
-@pytest.mark.parametrize("scene, ranks", [("paper1", 2), ("paper1-cn", 2), ("paper5-newton", 2),
-                                          ("impact", 2), ("impact", 3)])
+@pytest.mark.parametrize("scene, ranks", representative(
+    [("paper1", 2), ("paper1-cn", 2), ("paper5-newton", 2), ("impact", 2), ("impact", 3)],
+    [("paper1", 2), ("impact", 3)]))
 def test_ranks_take_the_serial_adaptive_steps(tmp_path, scene, ranks):
     """Adaptive steps: every rank takes the same decisions (accepted, rejected, located events)
     as the serial run, so the history (its times and steps included) is the same, bit for bit."""
@@ -123,6 +127,7 @@ def test_ranks_take_the_serial_adaptive_steps(tmp_path, scene, ranks):
     np.testing.assert_array_equal(parallel, serial)
 
 
+@pytest.mark.slow  # demo_paper1's, the API's and the redistributed demos' run by default
 @serial_only
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
 def test_calibration_demo_runs_under_mpirun(tmp_path):

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import rodfem
-from conftest import COMM, serial_only
+from conftest import COMM, representative, serial_only
 from rodfem.cli import main
 from rodfem.output import journal
 from rodfem.output import results as table
@@ -250,7 +250,7 @@ FULL = ('scene = "paper1"\n[set]\n' + SMALL + '[grid]\n"model.k" = {linspace = [
 
 
 @serial_only
-@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("ranks", representative([1, 2], [1]))
 def test_a_disk_filled_by_the_journal_is_named_and_the_sweep_marked_failed(small_disk, ranks):
     sweep = small_disk.parent / f"full-{ranks}.toml"
     sweep.write_text(FULL)

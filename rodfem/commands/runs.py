@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
 
     from mpi4py import MPI
 
-    from rodfem.output import interrupts
+    from rodfem.output import handover, interrupts
     from rodfem.output.directories import OutputError, prepare_directory
     from rodfem.output.files import write_text
     from rodfem.output.sizes import SizeError, check_room
@@ -73,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_INPUT
     if interrupts.signal_received() is not None:
         raise interrupts.Interrupted(interrupts.signal_received())
+    handover.pause_for_tests(MPI.COMM_WORLD)
     from rodfem.run import simulate
 
     result = simulate(scene, out, MPI.COMM_WORLD, progress=not args.quiet,

@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import rodfem
+from rodfem.output import handover
 from rodfem.output.atomic import TEMPORARY
 from rodfem.output.writers import LOCK, MARKER, in_use, marker_error, read_marker, write_marker
 
@@ -241,23 +242,25 @@ def prepare_directory(path: Path, force: bool, comm: MPI.Comm, keep: Path | None
     Raises:
         OutputError: on every rank, with one line saying why, and nothing touched.
     """
-    error = None
+    error, marker = None, None
     if comm.rank == 0:
+        marker = {"rodfem": rodfem.__version__, "command": command, "status": "running",
+                  "pid": os.getpid(), "host": socket.gethostname(),
+                  "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": list(files)}
         try:
             if "\0" in str(path):
                 raise OutputError(f"output directory {str(path)!r}: a path cannot hold a NUL "
                                   "character")
-            _hold(path, _claim(path, force, keep, command),
-                  {"rodfem": rodfem.__version__, "command": command, "status": "running",
-                   "pid": os.getpid(), "host": socket.gethostname(),
-                   "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": list(files)})
+            _hold(path, _claim(path, force, keep, command), marker)
         except OSError as err:
             error = f"cannot create output directory {path}: {err.strerror or err}"
         except OutputError as err:
             error = str(err)
-    error = comm.bcast(error, root=0)
+    handover.meet(comm)  # rank 0 answers signals, and the other ranks' stops, till all are here
+    error, marker = comm.bcast((error, marker), root=0)
     if error:
         raise OutputError(error)
+    handover.remember(path, marker, comm)
 
 
 def keep_lock(path: Path) -> None:
@@ -286,6 +289,7 @@ def finish(path: Path, status: str, comm: MPI.Comm) -> None:
     """Record the command's final ``status`` in the marker (complete, failed, interrupted) and
     release the directory's lock (rank 0; nothing if this process does not hold it)."""
     if comm.rank != 0:
+        handover.forget(path)
         return
     held = _held.pop(path.resolve(), None)
     if held is None:
@@ -335,17 +339,19 @@ def reopen(path: Path, comm: MPI.Comm) -> dict:
 def mark_running(path: Path, comm: MPI.Comm) -> None:
     """The marker of a directory held by :func:`reopen` says ``running`` again, with this
     process (rank 0)."""
-    if comm.rank != 0:
-        return
-    fd, before = _held.pop(path.resolve())
-    marker = {**before, "status": "running", "pid": os.getpid(), "host": socket.gethostname(),
-              "resumed": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-    marker.pop("finished", None)
-    _hold(path, fd, marker)
+    marker = None
+    if comm.rank == 0:
+        fd, before = _held.pop(path.resolve())
+        marker = {**before, "status": "running", "pid": os.getpid(),
+                  "host": socket.gethostname(), "resumed": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+        marker.pop("finished", None)
+        _hold(path, fd, marker)
+    handover.remember(path, comm.bcast(marker, root=0), comm)
 
 
 def release(path: Path, comm: MPI.Comm) -> None:
     """Let a held directory go without writing anything (rank 0)."""
+    handover.forget(path)
     if comm.rank == 0:
         held = _held.pop(path.resolve(), None)
         if held is not None:
@@ -376,7 +382,8 @@ def state(path: Path) -> str | None:
 
 def release_all(status: str) -> dict[Path, str]:
     """Record ``status`` in every directory this process still holds, and release them (a
-    command stopped before it could finish them itself). Errors are ignored: the lock is freed
+    command stopped before it could finish them itself), and in those rank 0 holds whose marker
+    still says running (:mod:`rodfem.output.handover`). Errors are ignored: the lock is freed
     when the process ends anyway, and a marker that still says running is read as 'gone'.
     Returns them, with the command of each."""
     from mpi4py import MPI  # here: reading a directory (rodfem.load) needs no MPI
@@ -387,4 +394,4 @@ def release_all(status: str) -> dict[Path, str]:
             finish(path, status, MPI.COMM_SELF)
         except OSError:
             pass
-    return released
+    return {**released, **handover.mark(status)}  # rank 0's, from a rank that ends it

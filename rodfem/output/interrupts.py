@@ -181,7 +181,8 @@ def abort_ranks(code: int) -> None:
     waiting in a collective call for ever (a signal that reached the ranks at different
     points of their start-up). Open MPI then prints its own lines. A launcher's rank stopped
     in the import of mpi4py.MPI (MPI started, the module not kept) ends without MPI_Finalize,
-    which would wait for those ranks: the launcher then ends the job."""
+    which would wait for those ranks: the launcher then ends the job. Rank 0's markers are
+    written first (:mod:`rodfem.output.handover`)."""
     MPI = getattr(sys.modules.get("mpi4py.MPI"), "COMM_WORLD", None)
     if MPI is None and "mpi4py" in sys.modules and any(v in os.environ for v in LAUNCHED):
         sys.stdout.flush()
@@ -189,4 +190,7 @@ def abort_ranks(code: int) -> None:
         os._exit(code)
     if MPI is not None and MPI.Get_size() > 1:
         sys.stderr.flush()
+        from rodfem.output.handover import notify
+
+        notify(code)  # rank 0 records how the command stopped before it is ended
         MPI.Abort(code)
