@@ -105,7 +105,7 @@ def test_bad_base_scenes_are_refused_in_one_line(files, message, shared_dir, cap
 
 @pytest.mark.parametrize("base, message", [
     ("link.toml", "link.toml': cannot be read (Too many levels of symbolic links)"),
-    ("a\\u0000b.toml", "cannot be read (embedded null byte)"),
+    ("a\\u0000b.toml", "cannot be read (a path cannot hold a NUL character)"),
 ])
 def test_a_base_that_is_a_loop_of_links_or_holds_a_nul_is_refused_in_one_line(
         base, message, shared_dir, capsys):

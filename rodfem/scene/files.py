@@ -50,11 +50,13 @@ def read_text(path: Path, what: str, form: str = "TOML") -> str | None:
             directory, a device, a pipe) or cannot be read (no permission, a name longer than
             the system allows, text that is not UTF-8).
     """
+    if "\0" in str(path):  # Python's own words for it differ from version to version
+        raise SceneError(f"{what}: cannot be read (a path cannot hold a NUL character)")
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY)
     except (FileNotFoundError, NotADirectoryError):
         return None
-    except (OSError, ValueError) as err:  # ValueError: a NUL character in the name
+    except OSError as err:
         raise SceneError(f"{what}: cannot be read "
                          f"({getattr(err, 'strerror', None) or err})") from None
     try:
