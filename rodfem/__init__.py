@@ -6,8 +6,10 @@ contact with an elastic obstacle at x = 1, P1 elements and a Picard loop per tim
 From Python: :func:`simulate` runs a scene, :func:`load` reads a run directory, both give a
 :class:`Result`; :func:`sweep` runs a sweep file (:mod:`rodfem.studies.sweep`);
 :func:`read_fields` reads any run's ``fields.xdmf`` into NumPy (:class:`Fields`); :func:`steady`
-gives a scene's steady states and their stability. They are
-imported on first use, so that ``import rodfem`` stays light.
+gives a scene's steady states and their stability. The errors they raise are here too
+(:class:`SceneError`, :class:`OutputError`, :class:`RunDirectoryError`, :class:`ResultsError`,
+:class:`FieldsError`, :class:`FitError`). Every name of :data:`__all__` is imported on first use,
+so that ``import rodfem`` stays light, and ``dir(rodfem)`` lists them all.
 """
 
 __version__ = "0.1.0"
@@ -22,7 +24,9 @@ _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "load_sensitivity": "rodfem.studies.sensitivityfiles",
         "SensitivityResult": "rodfem.studies.sensitivityfiles",
         "fit": "rodfem.studies.fitrun", "load_fit": "rodfem.studies.fitfiles",
-        "FitResult": "rodfem.studies.fitfiles", "FitError": "rodfem.studies.fitfiles"}
+        "FitResult": "rodfem.studies.fitfiles", "FitError": "rodfem.studies.fitfiles",
+        "RunDirectoryError": "rodfem.output.readers", "ResultsError": "rodfem.output.results",
+        "FieldsError": "rodfem.output.readers"}
 __all__ = [*_API, "__version__"]
 
 
@@ -33,3 +37,8 @@ def __getattr__(name: str):
         module = importlib.import_module(_API[name])
         return getattr(module, name)
     raise AttributeError(f"module 'rodfem' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    """The package's own names and the API's, which :func:`__getattr__` imports when asked."""
+    return sorted({*globals(), *__all__})

@@ -32,6 +32,7 @@ from rodfem.commands.arguments import (
     add_output,
     add_overrides,
     add_progress,
+    add_version,
     add_yes,
     path_argument,
 )
@@ -53,6 +54,7 @@ def parser() -> argparse.ArgumentParser:
         prog="rodfem",
         description="Dynamic contact of a thermoviscoelastic rod with an obstacle (Copetti).",
     )
+    add_version(parser)
     sub = parser.add_subparsers(dest="command", required=True)
     for add in (_run, _sweep, _fit, _sensitivity, _resume, _plot, _paper, _stability, _verify,
                 _steady):

@@ -1,5 +1,6 @@
 """The options that several ``rodfem`` subcommands share (:mod:`rodfem.cli` builds its parser
-with them): paths, ``--set``, ``--out`` and ``--force``, ``--yes``, ``--progress``."""
+with them): paths, ``--set``, ``--out`` and ``--force``, ``--yes``, ``--progress``, and the
+command's own ``--version``."""
 
 from __future__ import annotations
 
@@ -39,3 +40,37 @@ def add_yes(command: argparse.ArgumentParser) -> None:
 
 def add_progress(command: argparse.ArgumentParser, help: str) -> None:
     command.add_argument("--progress", action="store_true", help=help)
+
+
+def version_line() -> str:
+    """What ``rodfem --version`` prints: rodfem's version and the FEniCSx and PETSc it runs on,
+    read from their installed metadata (nothing heavy is imported)."""
+    from importlib import metadata
+
+    import rodfem
+
+    found = []
+    for shown, distribution in (("dolfinx", "fenics-dolfinx"), ("petsc4py", "petsc4py")):
+        try:
+            found.append(f"{shown} {metadata.version(distribution)}")
+        except metadata.PackageNotFoundError:
+            continue
+    return f"rodfem {rodfem.__version__}" + (f" ({', '.join(found)})" if found else "")
+
+
+class _Version(argparse.Action):
+    """--version: :func:`version_line` on standard output, exit code 0 (the metadata is read
+    only then: a tenth of a second no other command should pay)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS,
+                 help=None):
+        super().__init__(option_strings, dest, nargs=0, default=default, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(version_line(), flush=True)
+        parser.exit(0)
+
+
+def add_version(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--version", action=_Version,
+                        help="print rodfem's version (and dolfinx's, petsc4py's) and exit")
