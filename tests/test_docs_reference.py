@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from rodfem.cli import parser
-from rodfem.scene.schema import SCHEMA, TOP_LEVEL
+from rodfem.scene import measures
+from rodfem.scene.schema import SCHEMA, TOP_KEYS, TOP_LEVEL
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "docs" / "_ext"))
 import rodfem_reference  # noqa: E402
@@ -52,11 +53,54 @@ def test_scene_reference_lists_every_key(scene_page):
         _row(scene_page, name)
 
 
+def _tables(page: str) -> list[list[list[str]]]:
+    """Every table of a page: its rows (header first), each a list of cells."""
+    tables, current = [], None
+    for line in [*page.splitlines(), ""]:
+        if line.startswith("|"):
+            cells = [cell.strip() for cell in line.strip("|").split(" | ")]
+            current = [cells] if current is None else [*current, cells]
+        elif current is not None:
+            tables.append(current)
+            current = None
+    return tables
+
+
+def test_scene_reference_rows_are_the_schemas_keys_with_their_kinds(scene_page):
+    """Every row of every table names a key rodfem reads, with its kind, and every key has one:
+    the top-level keys (the base scene's included), each section's, and a [measures] entry's."""
+    expected = {name: key.kind for name, key in TOP_KEYS.items()}
+    expected |= {f"{section}.{name}": rodfem_reference.KINDS[key.kind]
+                 for section, keys in SCHEMA.items() for name, key in keys.items()}
+    expected |= {f"measures.NAME.{name}": kind for name, (kind, _, _) in measures.ENTRIES.items()}
+    found = {}
+    for table in _tables(scene_page):
+        header, rule, *rows = table
+        assert header[:3] == ["key", "kind", "default"], header  # no row outside a table
+        assert set("".join(rule)) <= {"-", "|"}
+        for row in rows:
+            assert len(row) == len(header), row
+            name = row[0].strip("`")
+            assert name not in found, name
+            found[name] = row[1]
+    assert found == expected
+    assert set(TOP_LEVEL) | {"scene"} == set(TOP_KEYS)
+    assert set(measures.ENTRY_KEYS) == set(measures.ENTRIES)
+    measures_section = scene_page.split("## `[measures]`", 1)[1]
+    for name in (*measures.COLUMN_NAMES, *measures.REDUCTIONS, *measures.RESERVED):
+        assert f"`{name}`" in measures_section, name
+
+
 def test_scene_reference_list_kinds(scene_page):
     """The list kinds "reals" and "choices" say they are lists, with their values' range."""
     probes, fields = _row(scene_page, "output.probes"), _row(scene_page, "output.fields")
     assert "list of reals" in probes and "0 ≤ value ≤ 1" in probes
     assert "list of choices" in fields and '`["theta", "u", "sigma"]`' in fields
+
+
+def test_cli_reference_lists_rodfems_own_options(cli_page):
+    for option in ("-h, --help", "--version"):
+        assert f"| `{option}` |" in cli_page
 
 
 def test_cli_reference_lists_every_option(cli_page):

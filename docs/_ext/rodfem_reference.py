@@ -1,5 +1,7 @@
-"""The generated reference pages: every scene key from :data:`rodfem.scene.schema.SCHEMA` and every
-subcommand and option from :func:`rodfem.cli.parser`, as MyST Markdown.
+"""The generated reference pages: every scene key from :data:`rodfem.scene.schema.SCHEMA` (those
+at the top of a file from ``TOP_KEYS``, the entries of ``[measures]`` from
+:mod:`rodfem.scene.measures`) and every subcommand and option from :func:`rodfem.cli.parser`, as
+MyST Markdown.
 
 Written from the objects rodfem itself reads, at every build, so they cannot fall out of date.
 Plain Python (no Sphinx): ``tests/test_docs_reference.py`` runs these functions in ``make test``.
@@ -10,7 +12,8 @@ from __future__ import annotations
 import argparse
 import re
 
-from rodfem.scene.schema import SCHEMA, TOP_LEVEL, Key
+from rodfem.scene import measures
+from rodfem.scene.schema import SCHEMA, TOP_KEYS, Key
 
 _SPECIAL = re.compile(r"([\\`*_\[\]<>|$#{}])")
 
@@ -86,17 +89,14 @@ def scene_reference() -> str:
         "(\"list of reals\", \"list of choices\") holds distinct values, each within the range "
         "or among the choices shown.",
         "",
-        "| key | kind | default |",
-        "|---|---|---|",
+        "At the top of the file, before its first section:",
+        "",
+        "| key | kind | default | meaning |",
+        "|---|---|---|---|",
     ]
-    for name, default in TOP_LEVEL.items():
-        lines.append(f"| `{name}` | text | `{toml(default)}` |")
-    lines.append("")
-    lines.append("| `scene` | text | none |")
-    lines.append("")
-    lines.append("`description` is free text, recorded with the run; setting keys over a scene "
-                 "names them in it. `scene` names a base scene (a built-in name, or a file "
-                 "relative to this one) whose keys this file's are set over.")
+    for name, key in TOP_KEYS.items():
+        default = "none" if key.default is None else f"`{toml(key.default)}`"
+        lines.append(f"| `{name}` | {key.kind} | {default} | {escape(key.help)} |")
     for section, keys in SCHEMA.items():
         lines += ["", f"## `[{section}]`", "",
                   "| key | kind | default | allowed | meaning |", "|---|---|---|---|---|"]
@@ -104,7 +104,35 @@ def scene_reference() -> str:
             name = f"{section}.{key_name}"
             lines.append(f"| `{name}` | {KINDS[key.kind]} | `{toml(key.default)}` | "
                          f"{allowed(name, key)} | {escape(key.help) or '–'} |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + measures_reference()) + "\n"
+
+
+def entry_allowed(name: str) -> str:
+    """What an entry key of ``[measures]`` accepts, in words."""
+    if name == "column":
+        probes = ", ".join(f"`{field}@x`" for field in measures.PROBE_FIELDS)
+        fixed = ", ".join(f"`{c}`" for c in measures.COLUMN_NAMES if "@" not in c)
+        adaptive = " and ".join(f"`{c}`" for c in measures.ADAPTIVE_COLUMNS)
+        return (f"one of {fixed}, or a probe {probes} with 0 ≤ x ≤ 1; {adaptive} only with "
+                "`time.adaptive = true`")
+    if name == "reduce":
+        return "one of " + ", ".join(f"`{r}`" for r in measures.REDUCTIONS)
+    return r"\[t0, t1\] with 0 ≤ t0 < t1, t0 before `time.end`"
+
+
+def measures_reference() -> list[str]:
+    """The ``[measures]`` section: the keys of each entry, from :mod:`rodfem.scene.measures`."""
+    lines = ["", "## `[measures]`", "",
+             "Each entry declares a measure: `NAME = { column = ..., reduce = ... }`. NAME is "
+             "lower-case letters, digits and `_`, not starting with a digit, and none of the "
+             "names results.csv uses already (" + ", ".join(f"`{n}`" for n in measures.RESERVED)
+             + "). {doc}`../outputs` shows what each reduction gives.",
+             "", "| key | kind | default | allowed | meaning |", "|---|---|---|---|---|"]
+    for name, (kind, required, meaning) in measures.ENTRIES.items():
+        default = "required" if required else "none"
+        lines.append(f"| `measures.NAME.{name}` | {kind} | {default} | {entry_allowed(name)} | "
+                     f"{escape(meaning)} |")
+    return lines
 
 
 def _subcommands(parser: argparse.ArgumentParser):
@@ -148,6 +176,11 @@ def cli_reference(parser: argparse.ArgumentParser) -> str:
         "parser (`rodfem.cli.parser`), so it lists exactly what `rodfem SUBCOMMAND --help` "
         "prints. Every command checks all its arguments before it starts: a mistake is one line "
         "and exit code 2 ({doc}`../running` lists the exit codes).",
+        "",
+        f"| option of `{parser.prog}` itself | meaning |",
+        "|---|---|",
+        *(f"| `{_argument(action)}` | {escape(action.help or '')} |"
+          for action in parser._actions if action.option_strings),
         "",
         "| subcommand | what it does |",
         "|---|---|",

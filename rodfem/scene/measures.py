@@ -32,7 +32,15 @@ COLUMN_NAMES = (*DEFAULT_COLUMNS, *ADAPTIVE_COLUMNS, *QUANTITIES,
                 *(f"{field}@x" for field in PROBE_FIELDS))
 REDUCTIONS = ("max", "min", "max_abs", "mean", "integral", "final", "time_of_max_abs",
               "time_positive")
-ENTRY_KEYS = ("column", "reduce", "window")
+# An entry's keys and what each holds: (kind, required, meaning); the reference page shows them.
+ENTRIES = {
+    "column": ("choice", True, "the history column reduced; a column the scene does not "
+               "record otherwise is recorded for it"),
+    "reduce": ("choice", True, "what is made of the column over the window"),
+    "window": ("list of reals", False, "the interval of time [t0, t1] reduced over; without "
+               "one, the whole run"),
+}
+ENTRY_KEYS = tuple(ENTRIES)
 # The built-in measures' names (rodfem.output.measures.NAMES) and results.csv's own columns.
 BUILTIN_NAMES = ("t_final", "u_1_final", "sigma_1_final", "max_penetration", "contact_fraction",
                  "contact_intervals", "last_contact_change", "energy_final", "iterations_max",

@@ -189,7 +189,32 @@ SCHEMA: dict[str, dict[str, Key]] = {
                           "the last one; 0: at every field save"),
     },
 }
-TOP_LEVEL = {"description": "", "measures": {}}
+
+
+@dataclasses.dataclass(frozen=True)
+class TopKey:
+    """A key at the top of a scene file, outside its sections: its kind in words ("text", a
+    "table"), its default (None: none) and meaning."""
+
+    kind: str
+    default: Any
+    help: str
+
+
+# The keys at the top of a scene file. BASE names the scene this one is set over; it is read
+# first (rodfem.scene.files.based) and is not part of the resolved scene, whose top-level keys
+# are TOP_LEVEL, with their defaults. The entries of [measures]: rodfem.scene.measures.
+BASE = "scene"
+TOP_KEYS = {
+    "description": TopKey("text", "", "free text, recorded with the run; setting keys over a "
+                          "scene names them in its description"),
+    BASE: TopKey("text", None, "the base scene whose keys this file's are set over, key by "
+                 "key: a built-in name, or a TOML file relative to this one (which may name a "
+                 "base of its own)"),
+    "measures": TopKey("table", {}, "the measures every run reduces from its history, one "
+                       "entry each (their keys: the [measures] section below)"),
+}
+TOP_LEVEL = {name: key.default for name, key in TOP_KEYS.items() if name != BASE}
 MODEL_NAMES = tuple(SCHEMA["model"])
 SOURCE_NAMES = (*MODEL_NAMES, "t")
 BUILTIN = tuple(f"paper{i}" for i in range(1, 6))  # the paper's experiments
