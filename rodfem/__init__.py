@@ -8,8 +8,9 @@ From Python: :func:`simulate` runs a scene, :func:`load` reads a run directory, 
 :func:`read_fields` reads any run's ``fields.xdmf`` into NumPy (:class:`Fields`); :func:`steady`
 gives a scene's steady states and their stability. The errors they raise are here too
 (:class:`SceneError`, :class:`OutputError`, :class:`RunDirectoryError`, :class:`ResultsError`,
-:class:`FieldsError`, :class:`FitError`). Every name of :data:`__all__` is imported on first use,
-so that ``import rodfem`` stays light, and ``dir(rodfem)`` lists them all.
+:class:`FieldsError`, :class:`FitError`, and :class:`Interrupted` for a stop signal). Every
+name of :data:`__all__` is imported on first use, so that ``import rodfem`` stays light, and
+``dir(rodfem)`` lists them all.
 """
 
 __version__ = "0.1.0"
@@ -26,7 +27,7 @@ _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "fit": "rodfem.studies.fitrun", "load_fit": "rodfem.studies.fitfiles",
         "FitResult": "rodfem.studies.fitfiles", "FitError": "rodfem.studies.fitfiles",
         "RunDirectoryError": "rodfem.output.readers", "ResultsError": "rodfem.output.results",
-        "FieldsError": "rodfem.output.readers"}
+        "FieldsError": "rodfem.output.readers", "Interrupted": "rodfem.output.interrupts"}
 __all__ = [*_API, "__version__"]
 
 

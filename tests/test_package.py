@@ -52,7 +52,7 @@ def test_the_errors_are_exported_and_are_the_ones_raised(tmp_path):
               and issubclass(getattr(rodfem, name), Exception)
               and not issubclass(getattr(rodfem, name), Warning)}
     assert errors >= {"SceneError", "OutputError", "RunDirectoryError", "ResultsError",
-                      "FieldsError", "FitError"}
+                      "FieldsError", "FitError", "Interrupted"}
     with pytest.raises(rodfem.RunDirectoryError):
         rodfem.load(tmp_path)
     with pytest.raises(rodfem.FieldsError):

@@ -36,7 +36,8 @@ _depth_calls = [0]  # > 0 inside call()
 
 
 class Interrupted(Exception):
-    """A stop signal outside the time loop."""
+    """A stop signal (Ctrl-C, SIGTERM, SIGUSR1 …) that stopped a command or a study outside a
+    run's time loop; ``signum`` is the signal's number."""
 
     def __init__(self, signum: int):
         self.signum = signum
@@ -44,6 +45,7 @@ class Interrupted(Exception):
 
     @property
     def exit_code(self) -> int:
+        """128 + the signal's number, the exit code of a command stopped so."""
         return 128 + self.signum
 
 
