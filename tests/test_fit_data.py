@@ -152,6 +152,7 @@ def test_a_sheet_with_empty_cells_is_fitted_to_its_values(partial):
     r = np.concatenate([result.model[c] - result.data[c] for c in COLUMNS])
     assert np.linalg.norm(r[~np.isnan(r)]) == pytest.approx(result.residual_norm, rel=1e-11)
     assert "40 times × 2 columns (60 values)" in repr(result)
+    assert (out / "fit.png").stat().st_size > 0
 
 
 @serial_only
