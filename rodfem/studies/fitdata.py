@@ -118,7 +118,7 @@ def separator(text: str, where: str) -> str:
         return ","
     if not splits:
         raise SceneError(f"{where}: its header {line.strip()!r} has no comma, semicolon or tab "
-                         f"between its names; separate the columns by one of those")
+                         "between its names; separate the columns by one of those")
     names = [SEPARATORS[s] for s in splits]
     raise SceneError(f"{where}: the separator of its columns cannot be decided: its header "
                      f"{line.strip()!r} holds {', '.join(names[:-1])} and {names[-1]}; "
