@@ -140,7 +140,7 @@ for key, true in TRUTH.items():
     value, stderr = fit.parameters[key]
     say(f"{key} = {value:.6g} ± {stderr:.2g} (true {true:g}: "
         f"{abs(value - true) / stderr:.2f} standard errors, {abs(value / true - 1):.2%} off)")
-m, n = fit.numbers["points"] * len(fit.numbers["columns"]), len(TRUTH)
+m, n = sum(fit.numbers["counts"].values()), len(TRUTH)  # the values measured, by column
 say(f"|r| / sqrt(m - n) = {fit.residual_norm / np.sqrt(m - n):.3f} "
     f"(m = {m} residuals, n = {n} parameters; 1 if they are the noise)")
 say(f"correlation of ζ and ε: {fit.correlation[0, 1]:+.3f}; "

@@ -9,7 +9,8 @@ points are one batch of runs, a sweep dealt to the ranks (:func:`rodfem.studies.
 each run alone on ``MPI.COMM_SELF``. Every rank runs the optimiser on the same numbers, so every
 rank takes the same steps: the fit is bit for bit the serial one.
 
-**Statistics.** At the optimum, ``s² = |r|² / (m - n)`` and ``cov = s² (JᵀJ)⁻¹`` in ``u``,
+**Statistics.** At the optimum, with m residuals (one per value measured: an empty cell of
+the data has none) and n parameters, ``s² = |r|² / (m - n)`` and ``cov = s² (JᵀJ)⁻¹`` in ``u``,
 mapped to the parameters' values by the delta method (``dv/du``: the range on the study scale,
 times ``v ln 10`` where log-scaled); standard errors are its diagonal's roots. A Jacobian of rank
 below n (or m <= n) gives none.

@@ -10,9 +10,10 @@ A fit file is a study file (:mod:`rodfem.studies.parameters`) with these keys of
     max_evaluations = 100             # of the residuals, at most
     tolerance = 1e-8                  # of the optimiser's stopping tests
 
-The data are any times in ``[0, time.end]``, strictly increasing, every value a finite number;
-the model's history is interpolated linearly at them. A residual is ``w (model - data)``, column
-after column.
+The data are any times in ``[0, time.end]``, strictly increasing, every value a finite number
+or an empty cell (not measured then); their columns are separated by commas, semicolons or tabs.
+The model's history is interpolated linearly at the times. A residual is ``w (model - data)``
+of each value measured, column after column: an empty cell has none.
 """
 
 from __future__ import annotations
@@ -43,7 +44,8 @@ def shown(t: float) -> str:
 
 @dataclasses.dataclass(frozen=True)
 class Data:
-    """Measured histories: the times ``t`` and, per fitted column, its values and weight."""
+    """Measured histories: the times ``t`` and, per fitted column, its values (NaN where it
+    was not measured) and weight."""
 
     t: np.ndarray
     columns: tuple[str, ...]
@@ -51,16 +53,26 @@ class Data:
     weights: np.ndarray  # per column
 
     @property
+    def present(self) -> np.ndarray:
+        """Where a value was measured (times × columns)."""
+        return ~np.isnan(self.values)
+
+    @property
     def count(self) -> int:
-        """How many residuals: the values fitted."""
-        return self.values.size
+        """How many residuals: the values measured in the fitted columns."""
+        return int(self.present.sum())
+
+    def counts(self) -> dict[str, int]:
+        """The values measured, by column."""
+        return {c: int(n) for c, n in zip(self.columns, self.present.sum(axis=0), strict=True)}
 
     def residuals(self, rows: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
         """``w (model - data)`` of a run's history ``rows`` (its columns ``names``), the model
-        interpolated at the data's times, column after column."""
-        t = rows[:, names.index("t")]
+        interpolated at the times of each value measured, column after column."""
+        t, present = rows[:, names.index("t")], self.present
         return np.concatenate([
-            w * (np.interp(self.t, t, rows[:, names.index(c)]) - self.values[:, j])
+            w * (np.interp(self.t[present[:, j]], t, rows[:, names.index(c)])
+                 - self.values[present[:, j], j])
             for j, (c, w) in enumerate(zip(self.columns, self.weights, strict=True))])
 
     def after(self, t: np.ndarray, scene) -> str | None:
@@ -74,14 +86,64 @@ class Data:
                                           f"{every})" if every > 1 else ""))
 
     def model(self, residuals: np.ndarray) -> np.ndarray:
-        """The model at the data's times (times × columns) from its residuals."""
-        r = np.asarray(residuals).reshape(len(self.columns), len(self.t)).T
-        return self.values + r / self.weights
+        """The model where a value was measured (times × columns, NaN elsewhere) from its
+        residuals."""
+        r, present = np.asarray(residuals), self.present
+        model, first = np.full_like(self.values, np.nan), 0
+        for j, w in enumerate(self.weights):
+            here = present[:, j]
+            end = first + int(here.sum())
+            model[here, j] = self.values[here, j] + r[first:end] / w
+            first = end
+        return model
+
+
+SEPARATORS = {",": "a comma", ";": "a semicolon", "\t": "a tab"}
+ALLOWED = "a comma, a semicolon or a tab"
+
+
+def separator(text: str, where: str) -> str:
+    """The separator of the data ``text``, decided on its header (its first line with a name):
+    the one of comma, semicolon and tab that splits it into cells, quotes respected. A header
+    of ``t`` alone has none (it is taken as comma-separated).
+
+    Raises:
+        SceneError: none of them splits it, or more than one does (one line).
+    """
+    line = next((line for line in text.splitlines() if line.strip(' ,;\t"')), "")
+    splits = [s for s in SEPARATORS if len(next(csv.reader([line], delimiter=s), [])) > 1]
+    if len(splits) == 1:
+        return splits[0]
+    if not splits and line.strip(' "') in ("", "t"):
+        return ","
+    if not splits:
+        raise SceneError(f"{where}: its header {line.strip()!r} has no comma, semicolon or tab "
+                         "between its names; separate the columns by one of those")
+    names = [SEPARATORS[s] for s in splits]
+    raise SceneError(f"{where}: the separator of its columns cannot be decided: its header "
+                     f"{line.strip()!r} holds {', '.join(names[:-1])} and {names[-1]}; "
+                     f"separate the columns by one of {ALLOWED}, and no other")
+
+
+def _cell(cell: str, sep: str) -> float:
+    """The number of a cell: NaN where it is empty (not measured); a decimal comma read as a
+    decimal point where the columns are separated by semicolons or tabs (ValueError else)."""
+    cell = cell.strip()
+    if not cell:
+        return math.nan
+    try:
+        return float(cell)
+    except ValueError:
+        if sep == "," or cell.count(",") != 1 or "." in cell:
+            raise
+        return float(cell.replace(",", "."))
 
 
 def read_csv(path: Path, name: str) -> tuple[list[str], np.ndarray]:
     """The header and rows of the data file ``path`` (``name`` in messages): UTF-8 (a BOM
-    allowed), a header with ``t``, every cell a finite number, the times strictly increasing.
+    allowed), its columns separated by commas, semicolons or tabs (:func:`separator`), a
+    header with ``t``, every row a time and every other cell a finite number or empty (NaN in
+    the rows: not measured then), the times strictly increasing.
 
     Raises:
         SceneError: one line naming the file and what is wrong.
@@ -90,7 +152,8 @@ def read_csv(path: Path, name: str) -> tuple[list[str], np.ndarray]:
     if text is None:
         raise SceneError(f"{name}: data '{path}': no such file")
     where = path.name
-    rows = [row for row in csv.reader(io.StringIO(text))
+    sep = separator(text, where)
+    rows = [row for row in csv.reader(io.StringIO(text), delimiter=sep)
             if any(cell.strip() for cell in row)]
     if not rows:
         raise SceneError(f"{where}: empty; it needs a header with t and history columns, e.g. "
@@ -105,25 +168,40 @@ def read_csv(path: Path, name: str) -> tuple[list[str], np.ndarray]:
     if len(rows) < 2:
         raise SceneError(f"{where}: no rows of data after its header")
     values = np.empty((len(rows) - 1, len(header)))
+    time = header.index("t")
     for n, row in enumerate(rows[1:]):
         if len(row) != len(header):
             raise SceneError(f"{where}: row {n + 2} has {len(row)} cells; the header has "
                              f"{len(header)}")
         for j, cell in enumerate(row):
             try:
-                values[n, j] = float(cell)
+                values[n, j] = _cell(cell, sep)
             except ValueError:
                 raise SceneError(f"{where}: row {n + 2}, column {header[j]}: {cell.strip()!r} "
                                  "is not a number") from None
-            if not math.isfinite(values[n, j]):
+            if math.isnan(values[n, j]) and not cell.strip():
+                if j == time:
+                    raise SceneError(f"{where}: row {n + 2} has no time t; every row needs one "
+                                     "(an empty cell elsewhere is a value not measured)")
+            elif not math.isfinite(values[n, j]):
                 raise SceneError(f"{where}: row {n + 2}, column {header[j]}: {cell.strip()} is "
                                  "not a finite number")
-    t = values[:, header.index("t")]
+    t = values[:, time]
     if len(t) > 1 and not np.all(np.diff(t) > 0):
         n = int(np.argmin(np.diff(t) > 0))
         raise SceneError(f"{where}: the times must increase strictly; row {n + 3} has t = "
                          f"{shown(t[n + 1])} after t = {shown(t[n])}")
     return header, values
+
+
+def measured(header: list[str], values: np.ndarray,
+             columns: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """The times and values (times × ``columns``, NaN where not measured) of the rows of a
+    data file (its ``header`` and ``values``) with a value in at least one of ``columns``;
+    the others play no part in a fit of them."""
+    chosen = values[:, [header.index(c) for c in columns]]
+    kept = ~np.all(np.isnan(chosen), axis=1)
+    return values[kept, header.index("t")], chosen[kept]
 
 
 def allowed(scene) -> tuple[str, ...]:
@@ -183,6 +261,12 @@ def load_data(study: Study, path: Path, scene) -> Data:
             raise SceneError(f"{name}: weights {column}: must be from {WEIGHTS[0]:g} to "
                              f"{WEIGHTS[1]:g} (the squares of the residuals must stay within "
                              f"float64's range), got {weight!r}")
+    for column in columns:
+        if np.all(np.isnan(values[:, header.index(column)])):
+            others = ", ".join(f'"{c}"' for c in columns if c != column)
+            raise SceneError(f"{where}: column {column} has no values (every cell of it is "
+                             "empty); fill it" + (f", or fit the others alone: columns = "
+                                                  f"[{others}]" if others else ""))
     t = values[:, header.index("t")]
     end = scene["time.end"]
     if t[0] < 0:
@@ -196,7 +280,8 @@ def load_data(study: Study, path: Path, scene) -> Data:
         raise SceneError(f"{where}: t = {shown(t[-1])} lies after the last row of the scene's "
                          f"history, at t = {last:g} (output.history_every = {every} keeps one "
                          f"row in {every} of its {steps} steps)")
-    return Data(t, tuple(columns), values[:, [header.index(c) for c in columns]],
+    times, chosen = measured(header, values, tuple(columns))
+    return Data(times, tuple(columns), chosen,
                 np.array([float(weights.get(c, 1.0)) for c in columns]))
 
 

@@ -40,9 +40,9 @@ class FitResult:
 
     Attributes:
         numbers: what fit.json holds.
-        t: the data's times.
-        data: the measured values by column.
-        model: the fitted model at the data's times, by column.
+        t: the data's times (those with a value in a fitted column).
+        data: the measured values by column (NaN where a column was not measured).
+        model: the fitted model at the data's times, by column (NaN where the data have none).
         fitted: the run at the optimum (a :class:`rodfem.Result`), where there is one.
         path: the fit directory, or None for a fit in memory.
     """
@@ -96,9 +96,11 @@ class FitResult:
 
     def __repr__(self) -> str:
         n = self.numbers
+        fitted = sum(n.get("counts", {}).values()) or n["points"] * len(n["columns"])
+        some = "" if fitted == n["points"] * len(n["columns"]) else f" ({fitted} values)"
         lines = [f"<rodfem.FitResult {n['status']}: {plural(len(n['parameters']), 'parameter')}"
-                 f", {plural(n['points'], 'time')} × {plural(len(n['columns']), 'column')}, "
-                 f"|r| = {n['residual_norm']:.4g}, {plural(n['runs'], 'run')}>"]
+                 f", {plural(n['points'], 'time')} × {plural(len(n['columns']), 'column')}{some}"
+                 f", |r| = {n['residual_norm']:.4g}, {plural(n['runs'], 'run')}>"]
         lines += [f"    {key} = {value}" + (f" ± {err}" if err else " (no standard error)")
                   for key, value, err in self._rows()]
         if self.path is not None:
@@ -175,15 +177,15 @@ def load_fit(path: str | Path) -> FitResult:
             data.csv was edited since (one line).
     """
     from rodfem.api import load
-    from rodfem.studies.fitdata import read_csv
+    from rodfem.studies.fitdata import measured, read_csv
 
     path = Path(path)
     numbers = numbers_of(path)
     read_meta(path)  # the data are those fitted
     header, values = read_csv(path / "data.csv", str(path))
-    t = values[:, header.index("t")]
     columns = numbers["columns"]
-    data = {c: values[:, header.index(c)] for c in columns}
+    t, chosen = measured(header, values, tuple(columns))
+    data = {c: chosen[:, j] for j, c in enumerate(columns)}
     model = {c: np.array(numbers["model"][c], dtype=float) for c in columns}
     fitted = load(path / "fitted") if (path / "fitted").is_dir() else None
     return FitResult(numbers, t, data, model, fitted, path)

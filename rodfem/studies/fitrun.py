@@ -153,9 +153,10 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
         "residual_norm": float(np.linalg.norm(r)), "iterations": int(found.njev),
         "evaluations": int(found.nfev), "runs": len(evaluations.cache),
         "status": "converged" if found.status > 0 else "stopped", "message": found.message,
-        "columns": list(data.columns), "points": len(data.t), "start": problem.start,
-        "warning": "; ".join(warnings) or None,
-        "model": {c: model[:, j].tolist() for j, c in enumerate(data.columns)}}
+        "columns": list(data.columns), "points": len(data.t), "counts": data.counts(),
+        "start": problem.start, "warning": "; ".join(warnings) or None,
+        "model": {c: [None if np.isnan(x) else x for x in model[:, j].tolist()]
+                  for j, c in enumerate(data.columns)}}
     fitted = _fitted(problem.scene(u), comm, out)
     interrupts.stop_if_received(comm)
     error = None
