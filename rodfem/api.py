@@ -333,7 +333,7 @@ def steady(scene: str | Path | Mapping | Scene, overrides=None, over=None) -> li
             of ``over`` that changes no steady state (time, output, solver, initial values).
     """
     from rodfem.solver.spectrum import Spectra
-    from rodfem.studies import steady as st
+    from rodfem.studies.steady import states as st
 
     spectra = Spectra()
     if over is None:

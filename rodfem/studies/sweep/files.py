@@ -23,8 +23,8 @@ from rodfem.output.columns import NAMES as HISTORY_COLUMNS
 from rodfem.output.columns import for_scene, named
 from rodfem.scene import SceneError
 from rodfem.scene.expressions import shorten
-from rodfem.studies import design
-from rodfem.studies.design import Sweep
+from rodfem.studies.sweep import design
+from rodfem.studies.sweep.design import Sweep
 
 HISTORIES = table.HISTORIES
 FORMAT = 2  # 2: with the digest of the sweep, which tags its journal's records

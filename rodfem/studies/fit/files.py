@@ -21,7 +21,7 @@ import numpy as np
 
 from rodfem.scene import SceneError
 from rodfem.studies.common import plural
-from rodfem.studies.sweepfiles import digest, tag  # noqa: F401 (a fit's study.json as a sweep's)
+from rodfem.studies.sweep.files import digest, tag  # noqa: F401 (a fit's study.json as a sweep's)
 
 FORMAT = 1
 FILES = ("fit.toml", "study.json", "base.toml", "data.csv", "journal", "fit.json", "fitted",
@@ -175,7 +175,7 @@ def load_fit(path: str | Path) -> FitResult:
             data.csv was edited since (one line).
     """
     from rodfem.api import load
-    from rodfem.studies.fitdata import read_csv
+    from rodfem.studies.fit.data import read_csv
 
     path = Path(path)
     numbers = numbers_of(path)
