@@ -174,7 +174,7 @@ def load_fit(path: str | Path) -> FitResult:
         rodfem.SceneError: ``path`` is not a complete fit's directory, or its study.json or
             data.csv was edited since (one line).
     """
-    from rodfem.api import load
+    from rodfem.output.result import load
     from rodfem.studies.fit.data import read_csv
 
     path = Path(path)

@@ -189,8 +189,8 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
 
 def _fitted(scene, comm: MPI.Comm, out: Path | None):
     """The run at the optimum: ``out/fitted`` (a run directory), or in memory."""
-    from rodfem.api import Result, load, named_history
     from rodfem.output.columns import for_scene
+    from rodfem.output.result import Result, load, named_history
     from rodfem.run import simulate
 
     where = None if out is None else out / "fitted"

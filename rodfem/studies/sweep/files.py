@@ -104,7 +104,7 @@ class SweepResult:
         Raises:
             KeyError: the sweep kept no histories, or none for that scene.
         """
-        from rodfem.api import named_history
+        from rodfem.output.result import named_history
 
         if self._histories is not None:
             return named_history(*self._histories[index])
