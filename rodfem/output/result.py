@@ -143,13 +143,17 @@ def load(path: str | Path) -> Result:
     file holds, and must be the scene's; the fields when first asked for (``result.fields``).
 
     Raises:
-        rodfem.output.readers.RunDirectoryError: ``path`` is not a readable run directory, or
-            its scene.toml does not describe its history (edited).
+        rodfem.output.readers.RunDirectoryError: ``path`` is not a readable run directory (a
+            directory of another command is named with its loader), or its scene.toml does not
+            describe its history (edited).
     """
     from rodfem.output.directories import read_marker, state
+    from rodfem.output.kinds import other_kind
     from rodfem.output.readers import RunDirectoryError, history_path, read_history
 
     path = Path(path)
+    if (other := other_kind(path, "run")) is not None:
+        raise RunDirectoryError(other)
     if not (path / "scene.toml").is_file() or read_marker(path) is None:
         raise RunDirectoryError(f"{path} is not a rodfem run directory (it has no scene.toml "
                                 "or rodfem.json)")

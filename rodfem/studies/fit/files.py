@@ -171,13 +171,17 @@ def load_fit(path: str | Path) -> FitResult:
     """The :class:`FitResult` of a complete fit directory (``rodfem fit --out``).
 
     Raises:
-        rodfem.SceneError: ``path`` is not a complete fit's directory, or its study.json or
-            data.csv was edited since (one line).
+        rodfem.SceneError: ``path`` is not a complete fit's directory (a directory of another
+            command is named with its loader), or its study.json or data.csv was edited since
+            (one line).
     """
+    from rodfem.output.kinds import other_kind
     from rodfem.output.result import load
     from rodfem.studies.fit.data import read_csv
 
     path = Path(path)
+    if (other := other_kind(path, "fit")) is not None:
+        raise SceneError(other)
     numbers = numbers_of(path)
     read_meta(path)  # the data are those fitted
     header, values = read_csv(path / "data.csv", str(path))

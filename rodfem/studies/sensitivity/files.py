@@ -136,10 +136,18 @@ def samples_text(plan: indices.Plan) -> str:
 
 
 def load_sensitivity(path: str | Path) -> SensitivityResult:
-    """The indices of a sensitivity directory (written by ``rodfem sensitivity``)."""
+    """The indices of a sensitivity directory (written by ``rodfem sensitivity``).
+
+    Raises:
+        SceneError: ``path`` is not a sensitivity directory (a directory of another command is
+            named with its loader), or its files were edited (one line).
+    """
     from rodfem.output.directories import state
+    from rodfem.output.kinds import other_kind
 
     path = Path(path)
+    if (other := other_kind(path, "sensitivity")) is not None:
+        raise SceneError(other)
     data = read_meta(path)
     columns = indices.COLUMNS.get(data["method"])
     if columns is None:

@@ -201,10 +201,19 @@ def write_histories(path: Path, records: dict[int, journal.Record], sweep) -> No
 
 
 def load_sweep(path: str | Path) -> SweepResult:
-    """The table of a sweep directory (complete or stopped: the rows it has)."""
+    """The table of a sweep directory (complete or stopped: the rows it has).
+
+    Raises:
+        rodfem.output.results.ResultsError: ``path`` holds no sweep table (a directory of
+            another command is named with its loader), or its results.csv is not rodfem's.
+        SceneError: a stopped sweep's sweep.json or journal is not this sweep's (edited).
+    """
     from rodfem.output.directories import state
+    from rodfem.output.kinds import other_kind
 
     path = Path(path)
+    if (other := other_kind(path, "sweep")) is not None:
+        raise table.ResultsError(other)
     if journal.exists(path):  # stopped: its rows are in the journal
         written = read_meta(path)
         sweep = parsed(path, written)
