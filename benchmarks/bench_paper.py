@@ -56,7 +56,7 @@ def parts(root: Path) -> dict:
     from rodfem.post.pool import Drawer, cpus
     from rodfem.post.tasks import draw
     from rodfem.run import simulate
-    from rodfem.studies.paper import EXPERIMENTS, FIGURE5_DIR, _figures
+    from rodfem.studies.verification.paper import EXPERIMENTS, FIGURE5_DIR, _figures
 
     comm = MPI.COMM_SELF
     warm = root / "warm"

@@ -59,8 +59,9 @@ def analysis_seconds(out: Path, repeats: int) -> tuple[float, int]:
     import numpy as np
     from SALib.analyze import sobol  # noqa: F401 (imported before the clock starts)
 
-    from rodfem.studies import indices, parameters
-    from rodfem.studies.sweep import load_sweep
+    from rodfem.studies.sensitivity import indices
+    from rodfem.studies.sweep import parameters
+    from rodfem.studies.sweep.run import load_sweep
 
     data = json.loads((out / "sensitivity.json").read_text())
     keys = tuple(parameters.Parameter(**p) for p in data["parameters"])

@@ -41,8 +41,8 @@ import rodfem
 import rodfem.scene
 from rodfem.post import style
 from rodfem.post.steady import plot_branches
-from rodfem.studies import barber
-from rodfem.studies import steady as analysis
+from rodfem.studies.steady import barber
+from rodfem.studies.steady import states as analysis
 
 COMM = MPI.COMM_WORLD
 SHORT = bool(os.environ.get("CI"))

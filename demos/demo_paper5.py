@@ -26,7 +26,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from rodfem.studies.paper import run_experiment
+from rodfem.studies.verification.paper import run_experiment
 
 # -
 

@@ -4,7 +4,7 @@ Copetti's scheme: a heat equation coupled to a Kelvin–Voigt wave equation on (
 contact with an elastic obstacle at x = 1, P1 elements and a Picard loop per time step.
 
 From Python: :func:`simulate` runs a scene, :func:`load` reads a run directory, both give a
-:class:`Result`; :func:`sweep` runs a sweep file (:mod:`rodfem.studies.sweep`);
+:class:`Result`; :func:`sweep` runs a sweep file (:mod:`rodfem.studies.sweep.run`);
 :func:`read_fields` reads any run's ``fields.xdmf`` into NumPy (:class:`Fields`); :func:`steady`
 gives a scene's steady states and their stability. The errors they raise are here too
 (:class:`SceneError`, :class:`OutputError`, :class:`RunDirectoryError`, :class:`ResultsError`,
@@ -17,15 +17,15 @@ __version__ = "0.1.0"
 
 _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "SceneError": "rodfem.scene", "OutputError": "rodfem.output.directories",
-        "sweep": "rodfem.studies.sweep", "load_sweep": "rodfem.studies.sweep",
+        "sweep": "rodfem.studies.sweep.run", "load_sweep": "rodfem.studies.sweep.run",
         "read_fields": "rodfem.output.readers", "Fields": "rodfem.output.readers",
         "CoarseStepWarning": "rodfem.model.timescales", "steady": "rodfem.api",
-        "Scene": "rodfem.scene", "SweepResult": "rodfem.studies.sweepfiles",
-        "sensitivity": "rodfem.studies.sensitivity",
-        "load_sensitivity": "rodfem.studies.sensitivityfiles",
-        "SensitivityResult": "rodfem.studies.sensitivityfiles",
-        "fit": "rodfem.studies.fitrun", "load_fit": "rodfem.studies.fitfiles",
-        "FitResult": "rodfem.studies.fitfiles", "FitError": "rodfem.studies.fitfiles",
+        "Scene": "rodfem.scene", "SweepResult": "rodfem.studies.sweep.files",
+        "sensitivity": "rodfem.studies.sensitivity.run",
+        "load_sensitivity": "rodfem.studies.sensitivity.files",
+        "SensitivityResult": "rodfem.studies.sensitivity.files",
+        "fit": "rodfem.studies.fit.run", "load_fit": "rodfem.studies.fit.files",
+        "FitResult": "rodfem.studies.fit.files", "FitError": "rodfem.studies.fit.files",
         "RunDirectoryError": "rodfem.output.readers", "ResultsError": "rodfem.output.results",
         "FieldsError": "rodfem.output.readers", "Interrupted": "rodfem.output.interrupts"}
 __all__ = [*_API, "__version__"]

@@ -1,6 +1,7 @@
 """The layers of the package: each imports only the layers before it (function-level imports
-included), every registry agrees with the scene schema, and the compiled loops' C tables agree
-with the Python ones."""
+included), the API above the studies and never imported by them, the study families apart, every
+registry agrees with the scene schema, and the compiled loops' C tables agree with the Python
+ones."""
 
 import ast
 import types
@@ -20,7 +21,11 @@ from rodfem.solver.time_schemes import TIME_SCHEMES
 ROOT = Path(rodfem.__file__).parent
 # The flow, first to last: a module may import its own layer and the layers before it.
 LAYERS = ["scene", "model", "forms", "discrete", "solver", "output", "run", "post", "studies",
-          "commands", "cli"]
+          "api", "commands", "cli"]
+# Within the studies: a family (a subpackage) imports its own modules, the shared ones and the
+# sweep engine it runs on; the shared modules import no family.
+SHARED = {"common", "cost", "damage"}
+ENGINE = "sweep"
 
 
 def layer(module: str) -> str | None:
@@ -56,16 +61,50 @@ def modules():
         yield path, "forms." + path.stem
 
 
+def layer_faults(path: Path, module: str) -> list[str]:
+    """The imports of ``module`` from a layer after its own."""
+    own = layer(module)
+    if own is None:
+        return []
+    return [f"{module} imports {target}" for target in sorted(imports(path, module))
+            if layer(target) is not None and LAYERS.index(layer(target)) > LAYERS.index(own)]
+
+
+def family(module: str) -> str | None:
+    """The study family (``fit``, ``sweep``...) or shared module (``common``...) of a module."""
+    parts = module.split(".")
+    return parts[2] if parts[:2] == ["rodfem", "studies"] and len(parts) > 2 else None
+
+
+def family_faults(path: Path, module: str) -> list[str]:
+    """The imports of a study module from a family it may not use."""
+    own = family(module)
+    if own is None:
+        return []
+    allowed = SHARED if own in SHARED else {own, ENGINE, *SHARED}
+    return [f"{module} imports {target}" for target in sorted(imports(path, module))
+            if family(target) is not None and family(target) not in allowed]
+
+
 def test_each_layer_imports_only_the_layers_before_it():
-    wrong = []
-    for path, module in modules():
-        own = layer(module)
-        if own is None:
-            continue
-        for target in imports(path, module):
-            other = layer(target)
-            if other is not None and LAYERS.index(other) > LAYERS.index(own):
-                wrong.append(f"{module} imports {target}")
+    wrong = [fault for path, module in modules() for fault in layer_faults(path, module)]
+    assert not wrong, wrong
+
+
+def test_the_studies_never_import_the_api():
+    """rodfem.api imports the studies (``rodfem.steady``), never the other way round: what the
+    studies read runs with (:mod:`rodfem.output.result`) lies below both."""
+    below = LAYERS[: LAYERS.index("studies") + 1]
+    wrong = [f"{module} imports {target}" for path, module in modules()
+             if layer(module) in below for target in imports(path, module)
+             if target == "rodfem.api" or target.startswith("rodfem.api.")]
+    assert not wrong, wrong
+
+
+def test_each_study_family_imports_only_itself_the_shared_modules_and_the_sweep_engine():
+    families = {family(module) for _, module in modules()} - {None}
+    assert {"sweep", "fit", "sensitivity", "verification", "steady"} | SHARED <= families
+    wrong = [fault for path, module in modules() for fault in family_faults(path, module)]
     assert not wrong, wrong
 
 
@@ -76,11 +115,20 @@ def test_forms_import_nothing_but_ufl():
 
 
 def test_the_layer_check_can_fail(tmp_path):
-    """A module of the solver importing the output layer is reported."""
+    """A module of the solver importing the output layer is reported, and a study importing the
+    API; a fit importing the sensitivity study, and a shared study module importing the sweep
+    engine, are reported too; a fit importing the sweep engine is not."""
     module = tmp_path / "bad.py"
     module.write_text("def f():\n    from rodfem.output import files\n")
-    targets = imports(module, "rodfem.solver.bad")
-    assert any(LAYERS.index(layer(t)) > LAYERS.index("solver") for t in targets if layer(t))
+    assert layer_faults(module, "rodfem.solver.bad") == [
+        "rodfem.solver.bad imports rodfem.output", "rodfem.solver.bad imports rodfem.output.files"]
+    module.write_text("def f():\n    from rodfem.api import load\n")
+    assert layer_faults(module, "rodfem.studies.sweep.bad")
+    module.write_text("import rodfem.studies.sensitivity.indices\n")
+    assert family_faults(module, "rodfem.studies.fit.bad")
+    module.write_text("from rodfem.studies.sweep import design\n")
+    assert family_faults(module, "rodfem.studies.common") and not family_faults(
+        module, "rodfem.studies.fit.bad")
 
 
 def test_registries_agree_with_the_schema():

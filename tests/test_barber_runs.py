@@ -3,9 +3,9 @@ and leave an unstable state as its critical eigenvalues say (direct method, pape
 
 The paper's scheme is backward Euler on (Θ, U, δ), so about a steady state a step multiplies the
 mode of an eigenvalue λ of the linearised problem by exactly 1/(1 − λΔt): the run's rate is
-μ = −ln(1 − λΔt)/Δt (rodfem.studies.barber.step_rate), not λ. The steady states are the scheme's
-own (P1 is exact at the nodes at rest), so what is left between a run and μ is the share of the
-faster modes, which shrinks as e^{(Re λ₂ − Re λ₁)t}, and the sampling of the envelope at steps.
+μ = −ln(1 − λΔt)/Δt (rodfem.studies.steady.barber.step_rate), not λ. The steady states are the
+scheme's own (P1 is exact at the nodes at rest), so what is left between a run and μ is the share of
+the faster modes, which shrinks as e^{(Re λ₂ − Re λ₁)t}, and the sampling of the envelope at steps.
 
 The cold start is the scene's (θ = 0, u = 0); the hot start is the rod at the obstacle's
 temperature (θ = 10 x), at rest, which expands into the obstacle.
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import rodfem.scene
-from rodfem.studies import barber
+from rodfem.studies.steady import barber
 
 COARSE = ["mesh.cells=20", "time.dt=0.001", "solver.method=direct"]
 # A hot rod (θ_A = 10) against a cool obstacle (θ_O = 0) exchanging k + k₁p²: its one steady

@@ -38,7 +38,7 @@ def test_a_byte_order_mark_is_not_part_of_a_file(shared_dir):
     mine = _write(shared_dir, "mine.toml", '\ufeffscene = "base.toml"\n[time]\nend = 2\n')
     direct = load("paper2", ["model.zeta=0.7", "time.end=2"])
     assert load(str(mine)).sections == direct.sections
-    from rodfem.studies.design import load as load_sweep_file
+    from rodfem.studies.sweep.design import load as load_sweep_file
 
     sweep = _write(shared_dir, "sweep.toml", '\ufeffscene = "mine.toml"\n[grid]\n'
                    '"mesh.cells" = [10, 20]\n')
@@ -125,7 +125,7 @@ def test_a_base_that_is_a_loop_of_links_or_holds_a_nul_is_refused_in_one_line(
 
 
 def test_a_sweep_over_a_file_with_a_base(shared_dir):
-    from rodfem.studies.design import load as load_sweep_file
+    from rodfem.studies.sweep.design import load as load_sweep_file
 
     _write(shared_dir, "mine.toml", 'scene = "paper2"\n[time]\nend = 0.5\n')
     path = _write(shared_dir, "sweep.toml", 'scene = "mine.toml"\n[grid]\n"model.k" = [1, 2]\n')

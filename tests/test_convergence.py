@@ -1,5 +1,6 @@
-"""The verification harness: the error measures and rate fits of ``rodfem.studies.convergence``, and
-the ``rodfem verify`` and ``rodfem work-precision`` commands at their quick sizes."""
+"""The verification harness: the error measures and rate fits of
+``rodfem.studies.verification.convergence``, and the ``rodfem verify`` and ``rodfem work-precision``
+commands at their quick sizes."""
 
 import csv
 import json
@@ -12,8 +13,8 @@ import pytest
 from conftest import COMM
 from rodfem.cli import main
 from rodfem.output.columns import INDEX
-from rodfem.studies import convergence as cv
-from rodfem.studies.verify import schemes
+from rodfem.studies.verification import convergence as cv
+from rodfem.studies.verification.verify import schemes
 
 EPS = np.finfo(float).eps
 

@@ -23,9 +23,9 @@ from conftest import COMM, representative, serial_only
 from rodfem.cli import main
 from rodfem.output import journal
 from rodfem.output.directories import state
-from rodfem.studies import parameters
-from rodfem.studies.fit import H, Problem, statistics
-from rodfem.studies.fitdata import OWN
+from rodfem.studies.fit.data import OWN
+from rodfem.studies.fit.optimiser import H, Problem, statistics
+from rodfem.studies.sweep import parameters
 
 RODFEM = str(Path(sys.executable).with_name("rodfem"))
 ENV = {**os.environ, "PYTHONUNBUFFERED": "1", "OMPI_ALLOW_RUN_AS_ROOT": "1",

@@ -15,8 +15,8 @@ import rodfem
 from conftest import serial_only
 from rodfem.api import scene_of
 from rodfem.cli import main
-from rodfem.studies.fit import statistics
-from rodfem.studies.fitdata import Data
+from rodfem.studies.fit.data import Data
+from rodfem.studies.fit.optimiser import statistics
 
 DATA_TO_END = "t,u_1\n0.1,0.03\n0.5,0.12\n1.0,0.1\n"
 
@@ -120,7 +120,7 @@ def test_the_lines_count_one_in_the_singular(tmp_path, capsys):
 @serial_only
 def test_plot_of_a_fit_directory_says_where_its_figures_are(tmp_path, capsys):
     from rodfem.output.directories import finish, prepare_directory
-    from rodfem.studies.fitfiles import FILES
+    from rodfem.studies.fit.files import FILES
 
     out = tmp_path / "fit"
     prepare_directory(out, False, MPI.COMM_SELF, command="fit", files=FILES)
@@ -216,7 +216,7 @@ def test_an_optimum_held_at_an_end_of_its_range_is_warned_of(tmp_path, capsys):
 @serial_only
 def test_resume_of_a_fit_stopped_before_its_study_json_says_to_run_it_again(tmp_path, capsys):
     from rodfem.output.directories import finish, prepare_directory
-    from rodfem.studies.fitfiles import FILES
+    from rodfem.studies.fit.files import FILES
 
     out = tmp_path / "fit"
     prepare_directory(out, False, MPI.COMM_SELF, command="fit", files=FILES)
@@ -236,7 +236,7 @@ def test_data_of_times_alone_are_refused_naming_the_columns_wanted(tmp_path, cap
 
 def test_a_data_file_from_a_spreadsheet_reads_as_a_plain_one(tmp_path):
     """A byte-order mark, Windows line ends and quoted names, as spreadsheets export them."""
-    from rodfem.studies.fitdata import read_csv
+    from rodfem.studies.fit.data import read_csv
 
     plain, exported = tmp_path / "plain.csv", tmp_path / "exported.csv"
     plain.write_bytes(DATA_TO_END.encode())

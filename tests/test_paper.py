@@ -14,7 +14,7 @@ from test_plot import assert_figure
 
 from conftest import COMM, representative, serial_only
 from rodfem.cli import main
-from rodfem.studies.paper import EXPERIMENTS
+from rodfem.studies.verification.paper import EXPERIMENTS
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -44,7 +44,7 @@ def test_paper_index_sets_each_figure_beside_the_paper(shared_dir, capsys):
 
 
 def test_plural():
-    from rodfem.studies.paper import plural
+    from rodfem.studies.verification.paper import plural
 
     assert [plural(n, "interval") for n in (0, 1, 2)] == ["0 intervals", "1 interval",
                                                            "2 intervals"]

@@ -579,7 +579,7 @@ def test_a_signal_stops_one_simulate_call_and_not_the_next(monkeypatch):
 def test_a_signal_stops_one_sweep_call_and_not_the_next(monkeypatch):
     """Ctrl-C during rodfem.sweep stops that sweep (interrupted); the next call runs whole."""
     import rodfem
-    from rodfem.studies import dealing
+    from rodfem.studies.sweep import dealing
 
     run_scene = dealing.run_scene
 

@@ -19,8 +19,8 @@ import rodfem
 from conftest import COMM, assert_refused, serial_only
 from rodfem.cli import main
 from rodfem.output import journal
-from rodfem.studies import indices
-from rodfem.studies.parameters import Parameter
+from rodfem.studies.sensitivity import indices
+from rodfem.studies.sweep.parameters import Parameter
 
 RODFEM = str(Path(sys.executable).with_name("rodfem"))
 ENV = {**os.environ, "PYTHONUNBUFFERED": "1", "OMPI_ALLOW_RUN_AS_ROOT": "1",

@@ -64,7 +64,7 @@ def test_the_help_of_resume_names_sensitivity_studies(capsys):
 
 
 def test_the_repr_of_one_measure_and_one_parameter_is_singular():
-    from rodfem.studies.sensitivityfiles import SensitivityResult
+    from rodfem.studies.sensitivity.files import SensitivityResult
 
     row = {"measure": "u_1_final", "parameter": "model.zeta", "S1": 0.5, "S1_conf": 0.1,
            "ST": 0.6, "ST_conf": 0.1}
@@ -98,7 +98,7 @@ def test_a_signal_after_the_runs_stops_the_study_and_resume_finishes_it(phase, s
 
     import rodfem.post.sensitivity as chart
     from rodfem.output import interrupts
-    from rodfem.studies import indices
+    from rodfem.studies.sensitivity import indices
 
     study = shared_dir / "good.toml"
     if COMM.rank == 0:
@@ -181,8 +181,8 @@ def test_a_study_leaves_the_callers_random_numbers_alone(method, samples):
     random numbers after a screening were the same whatever its seed."""
     import numpy as np
 
-    from rodfem.studies import indices
-    from rodfem.studies.parameters import Parameter
+    from rodfem.studies.sensitivity import indices
+    from rodfem.studies.sweep.parameters import Parameter
 
     parameters = (Parameter("a", 0.0, 1.0, False), Parameter("b", 0.0, 1.0, False))
     np.random.seed(123)
@@ -221,7 +221,7 @@ def test_a_signal_before_the_runs_begin_says_how_to_resume(tmp_path, capsys, mon
     said 'stopped outside a time loop, nothing half-written' and no word of resume."""
     import signal
 
-    import rodfem.studies.sweep as engine
+    import rodfem.studies.sweep.run as engine
     from rodfem.output import interrupts
 
     def stopped(*args, **kwargs):

@@ -24,7 +24,7 @@ import rodfem.scene
 from conftest import COMM, assert_refused, history_rows, serial_only
 from rodfem.cli import main
 from rodfem.output.directories import finish
-from rodfem.studies import stability as st
+from rodfem.studies.verification import stability as st
 
 # Far from every boundary: w/ε is 0.011-0.25 or 1.96-50 at these points (w = 2.2e-3, 9.8e-3,
 # 2.2e-2, 5.0e-2 for (ζ, Δt) = (0.2, 0.01), (0, 0.01), (0.2, 0.05), (0, 0.05)).

@@ -14,7 +14,7 @@ from conftest import COMM, assert_refused, serial_only
 from rodfem.cli import main
 from rodfem.model import steady
 from rodfem.output.directories import finish
-from rodfem.studies import steady as st
+from rodfem.studies.steady import states as st
 
 MPI_ENV = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
            "OMPI_MCA_rmaps_base_oversubscribe": "1"}

@@ -22,7 +22,7 @@ from conftest import COMM
 from rodfem.model import steady
 from rodfem.scene.schema import SMALL
 from rodfem.solver.spectrum import Spectra
-from rodfem.studies.steady import analyse
+from rodfem.studies.steady.states import analyse
 
 EPS = np.finfo(float).eps
 EXAMPLES = 2000 if os.environ.get("HYPOTHESIS_PROFILE") == "fuzz" else 25

@@ -27,7 +27,7 @@ from rodfem.cli import main
 from rodfem.model import steady
 from rodfem.post.steady import read_branches
 from rodfem.solver.spectrum import Spectra
-from rodfem.studies.steady import analyse
+from rodfem.studies.steady.states import analyse
 
 EPS = np.finfo(float).eps
 SPECTRA = Spectra()

@@ -9,7 +9,7 @@ import pytest
 from conftest import COMM, assert_refused
 from rodfem.cli import main
 from rodfem.studies import cost
-from rodfem.studies.design import parse
+from rodfem.studies.sweep.design import parse
 
 VALUES = [round(0.5 + i / 100, 3) for i in range(100)]
 # 10,000 scenes of 1,000,000 steps each: days at any speed of a step measured here

@@ -47,7 +47,7 @@ def test_a_signal_after_the_optimiser_stops_the_fit_and_resume_finishes_it(
     ended complete, exit 0. It now stops there, exit 143, no fit.json, and resume replays the
     journal to the same fit.json and fit.png."""
     import rodfem.post.fit as chart
-    from rodfem.studies import fitrun
+    from rodfem.studies.fit import run as fitrun
 
     monkeypatch.setattr(interrupts, "_received", [])  # the signal is this test's alone
     module, name = {"statistics": (fitrun, "statistics"), "fitted run": (fitrun, "_fitted"),

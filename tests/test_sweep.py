@@ -22,8 +22,8 @@ from rodfem.output.measures import NAMES as MEASURES
 from rodfem.output.measures import TIMINGS
 from rodfem.run import SetUps
 from rodfem.run import simulate as run_scene
-from rodfem.studies import design
-from rodfem.studies.sweep import load_sweep, run_sweep
+from rodfem.studies.sweep import design
+from rodfem.studies.sweep.run import load_sweep, run_sweep
 
 RODFEM = str(Path(sys.executable).with_name("rodfem"))
 ENV = {**os.environ, "PYTHONUNBUFFERED": "1", "OMPI_ALLOW_RUN_AS_ROOT": "1",

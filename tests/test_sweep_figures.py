@@ -21,7 +21,7 @@ from rodfem.output.results import HISTORIES
 from rodfem.post import choice, scenes
 from rodfem.post.runs import PlotError, Run, legend_labels
 from rodfem.post.sweep import plot_sweep
-from rodfem.studies.sweep import run_sweep
+from rodfem.studies.sweep.run import run_sweep
 
 pytestmark = serial_only  # each sweep runs on this process alone (MPI.COMM_SELF)
 

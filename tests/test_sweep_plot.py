@@ -13,7 +13,7 @@ from rodfem.output.directories import FIGURE_NAMES
 from rodfem.output.measures import NAMES
 from rodfem.post.runs import PlotError
 from rodfem.post.sweep import plot_sweep
-from rodfem.studies.sweep import run_sweep
+from rodfem.studies.sweep.run import run_sweep
 
 pytestmark = serial_only  # each sweep runs on this process alone (MPI.COMM_SELF)
 

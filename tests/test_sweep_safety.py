@@ -232,8 +232,8 @@ def test_an_edited_table_of_a_complete_sweep_is_refused(shared_dir, capsys):
 
 
 def test_a_long_validation_shows_its_progress(monkeypatch, capsys):
-    from rodfem.studies import design
-    from rodfem.studies import sweep as engine
+    from rodfem.studies.sweep import design
+    from rodfem.studies.sweep import run as engine
 
     monkeypatch.setattr(engine, "Progress", functools.partial(engine.Progress, every=0.0))
     sweep = design.parse({"scene": "paper1", "grid": {"model.k": [1.0, 2.0, 3.0, 4.0]}}, "p")

@@ -256,7 +256,7 @@ def test_errors_in_time_of_uneven_steps_against_a_fine_run():
     """An adaptive run's u(1, ·) against a fine fixed-step one: the reference at its own times
     where they are the fine run's, interpolated between them elsewhere; its norms weigh each
     step by its length."""
-    from rodfem.studies import convergence as cv
+    from rodfem.studies.verification import convergence as cv
 
     t_fine = np.arange(9) * 0.125
     y_fine = t_fine ** 2

@@ -18,9 +18,9 @@ from rodfem.model import impact
 from rodfem.output.columns import INDEX
 from rodfem.scene import METHODS, SceneError
 from rodfem.scene.schema import MASSES
-from rodfem.studies import convergence as cv
-from rodfem.studies import verify, workprecision
-from rodfem.studies.verify import schemes
+from rodfem.studies.verification import convergence as cv
+from rodfem.studies.verification import verify, workprecision
+from rodfem.studies.verification.verify import schemes
 
 
 def _csv(path):

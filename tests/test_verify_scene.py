@@ -20,8 +20,8 @@ import pytest
 
 from conftest import COMM, assert_refused
 from rodfem.cli import main
-from rodfem.studies import convergence as cv
-from rodfem.studies import refine, verify
+from rodfem.studies.verification import convergence as cv
+from rodfem.studies.verification import refine, verify
 
 EPS = np.finfo(float).eps
 SCENE = """description = "paper5's soft obstacle, short"

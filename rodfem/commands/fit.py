@@ -22,7 +22,7 @@ def fit(args: argparse.Namespace) -> int:
     """Fit the fit file args.file into args.out; report the fitted values in one line."""
     from mpi4py import MPI
 
-    from rodfem.studies.fitrun import problem_of, run_fit, study_of
+    from rodfem.studies.fit.run import problem_of, run_fit, study_of
 
     study, data_path = study_of(args.file)  # SceneError: exit 2, nothing written
     problem = problem_of(study, data_path)
@@ -41,8 +41,8 @@ def _ended(call, out: Path, quiet: bool) -> int:
     from rodfem.output.atomic import io_line
     from rodfem.output.directories import OutputError
     from rodfem.studies.common import plural
-    from rodfem.studies.fit import WriteError
-    from rodfem.studies.fitfiles import FitError
+    from rodfem.studies.fit.files import FitError
+    from rodfem.studies.fit.optimiser import WriteError
 
     again = f"'rodfem resume {out}' continues it"
     try:
@@ -84,8 +84,8 @@ def resume_fit(args: argparse.Namespace, out: Path, marker: dict) -> int:
     read): the fit replayed, its journalled points taken, the others run."""
     from mpi4py import MPI
 
-    from rodfem.studies.fitfiles import numbers_of, read_meta
-    from rodfem.studies.fitrun import resume
+    from rodfem.studies.fit.files import numbers_of, read_meta
+    from rodfem.studies.fit.run import resume
 
     def complete() -> None:
         read_meta(out)

@@ -22,7 +22,7 @@ def sensitivity(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
     from rodfem.output.directories import OutputError
-    from rodfem.studies.sensitivity import prepare, run_campaign
+    from rodfem.studies.sensitivity.run import prepare, run_campaign
 
     found = prepare(args.file)  # SceneError: exit 2, nothing written
     said_cost(found.sweep.scene, len(found.sweep), args.yes, args.quiet)
@@ -38,8 +38,8 @@ def sensitivity(args: argparse.Namespace) -> int:
 
 def _report(result, out: Path, quiet: bool) -> int:
     """The lines that say how a campaign ended, and its exit code."""
-    from rodfem.studies.sensitivity import summary_line
-    from rodfem.studies.sensitivityfiles import CSV
+    from rodfem.studies.sensitivity.files import CSV
+    from rodfem.studies.sensitivity.run import summary_line
 
     for line in result.warnings if not result.failed else ():  # the error line says it
         say(f"rodfem: warning: {line}")
@@ -74,7 +74,7 @@ def resume_sensitivity(args: argparse.Namespace, out: Path, marker: dict) -> int
     ``marker`` read): the runs its sweep does not hold, then the analysis."""
     from mpi4py import MPI
 
-    from rodfem.studies.sensitivity import resume
+    from rodfem.studies.sensitivity.run import resume
 
     return resume_as_written(args, out, marker, "sensitivity study", lambda: None, lambda: _report(
         resume(out, MPI.COMM_WORLD, progress=args.progress or sys.stderr.isatty()), out,

@@ -18,7 +18,7 @@ def paper(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
     from rodfem.output.directories import OutputError
-    from rodfem.studies.paper import reproduce
+    from rodfem.studies.verification.paper import reproduce
 
     for name in BUILTIN:  # every override is checked before anything runs
         load(name, args.overrides)
@@ -48,7 +48,7 @@ def stability(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
     from rodfem.output.directories import OutputError, finish
-    from rodfem.studies import stability as st
+    from rodfem.studies.verification import stability as st
 
     comm = MPI.COMM_WORLD
     try:
@@ -88,7 +88,7 @@ def steady(args: argparse.Namespace) -> int:
 
     from rodfem.output.directories import OutputError, finish
     from rodfem.solver.spectrum import Spectra
-    from rodfem.studies import steady as st
+    from rodfem.studies.steady import states as st
 
     comm = MPI.COMM_WORLD
     scene = load(args.scene, args.overrides)
@@ -151,8 +151,8 @@ def verify(args: argparse.Namespace) -> int:
     comm = MPI.COMM_WORLD
     if args.command == "verify":
         from rodfem.post.verify import plot_orders as draw
-        from rodfem.studies import refine as task
-        from rodfem.studies import verify
+        from rodfem.studies.verification import refine as task
+        from rodfem.studies.verification import verify
 
         plan = verify.QUICK if args.quick else verify.DEFAULT
         ladders = task.QUICK if args.quick else task.DEFAULT
@@ -166,7 +166,7 @@ def verify(args: argparse.Namespace) -> int:
             return task.run_verify(out, plan, scenes, force, progress, comm, users, ladders)
     else:
         from rodfem.post.verify import plot_work_precision as draw
-        from rodfem.studies import workprecision as task
+        from rodfem.studies.verification import workprecision as task
 
         plan = task.default_plan(args.quick)
         start = task.run_work_precision

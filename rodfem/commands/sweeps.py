@@ -22,8 +22,8 @@ def sweep(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
     from rodfem.output.directories import OutputError
-    from rodfem.studies import design
-    from rodfem.studies.sweep import run_sweep
+    from rodfem.studies.sweep import design
+    from rodfem.studies.sweep.run import run_sweep
 
     spec = design.load(args.file)  # SceneError: exit 2, nothing written
     said_cost(spec.scene, len(spec), args.yes, args.quiet)
@@ -87,8 +87,8 @@ def resume_sweep(args: argparse.Namespace, out: Path, marker: dict) -> int:
     read): the scenes its journal does not hold are run."""
     from mpi4py import MPI
 
-    from rodfem.studies.sweep import check_complete
-    from rodfem.studies.sweep import resume as continue_sweep
+    from rodfem.studies.sweep.run import check_complete
+    from rodfem.studies.sweep.run import resume as continue_sweep
 
     return resume_as_written(args, out, marker, "sweep", lambda: check_complete(out), lambda: (
         _sweep_report(continue_sweep(out, MPI.COMM_WORLD,

@@ -1,6 +1,6 @@
 """The measures of a run: one number each, made from its history (the columns of
 :mod:`rodfem.output.columns`), its scene and its summary. A sweep's ``results.csv`` has a column
-per measure (:mod:`rodfem.studies.sweep`), and :attr:`rodfem.Result.measures` gives them for any
+per measure (:mod:`rodfem.studies.sweep.run`), and :attr:`rodfem.Result.measures` gives them for any
 run. Importing this module needs NumPy only.
 
 The rod is *in contact* at tⁿ when the obstacle pushes on it: σ(1, tⁿ) < 0 (the elastic laws:

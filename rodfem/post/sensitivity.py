@@ -1,4 +1,4 @@
-"""sensitivity.png: the indices of a sensitivity study (:mod:`rodfem.studies.sensitivity`), a
+"""sensitivity.png: the indices of a sensitivity study (:mod:`rodfem.studies.sensitivity.run`), a
 panel per measure, a group of bars per parameter with its confidence interval: Sobol's first
 order S1 and total ST, or Morris' μ* and σ.
 """
@@ -25,8 +25,8 @@ def _name(key: str) -> str:
 
 
 def plot_indices(method: str, rows: list[dict], path: Path) -> Path:
-    """Draw the ``rows`` of :func:`rodfem.studies.indices.analyse` into ``path`` (whole or not
-    at all)."""
+    """Draw the ``rows`` of :func:`rodfem.studies.sensitivity.indices.analyse` into ``path`` (whole
+    or not at all)."""
     measures = list(dict.fromkeys(row["measure"] for row in rows))
     with style.mpl_fonts():
         fig = Figure(figsize=(style.MPL_SIZE[0], 1.5 + 3.0 * len(measures)),

@@ -1,6 +1,6 @@
 """The fit of a study file (``rodfem fit``, :func:`fit`): its inputs checked, its directory
-written (:mod:`rodfem.studies.fitfiles`), the optimiser run (:mod:`rodfem.studies.fit`), the run
-at the optimum, fit.json and fit.png; and a stopped fit resumed.
+written (:mod:`rodfem.studies.fit.files`), the optimiser run (:mod:`rodfem.studies.fit.optimiser`),
+the run at the optimum, fit.json and fit.png; and a stopped fit resumed.
 """
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ from rodfem.output import interrupts, journal
 from rodfem.output.atomic import io_line, replacing
 from rodfem.output.files import write_json
 from rodfem.scene import SceneError
-from rodfem.studies.fit import (
+from rodfem.studies.fit.files import FitError, FitResult
+from rodfem.studies.fit.optimiser import (
     Evaluations,
     Problem,
     WriteError,
@@ -25,14 +26,13 @@ from rodfem.studies.fit import (
     optimise,
     statistics,
 )
-from rodfem.studies.fitfiles import FitError, FitResult
-from rodfem.studies.parameters import Study
+from rodfem.studies.sweep.parameters import Study
 
 
 def study_of(spec) -> tuple[Study, Path]:
     """The study of a fit file's path or TOML data, and its data file's path."""
-    from rodfem.studies import parameters
-    from rodfem.studies.fitdata import OWN
+    from rodfem.studies.fit.data import OWN
+    from rodfem.studies.sweep import parameters
 
     if isinstance(spec, dict):
         study, directory = parameters.parse(spec, "<dict>", None, OWN), None
@@ -52,7 +52,7 @@ def study_of(spec) -> tuple[Study, Path]:
 def problem_of(study: Study, data_path: Path, base: tuple[dict, str] | None = None) -> Problem:
     """The fit of ``study`` to the data at ``data_path``, every input checked (SceneError)."""
     from rodfem.scene import read
-    from rodfem.studies.fitdata import load_data, options
+    from rodfem.studies.fit.data import load_data, options
 
     start, count, tolerance = options(study)
     problem = Problem(study, None, start, count, tolerance, base or read(study.scene))
@@ -81,7 +81,7 @@ def run_fit(spec, out: str | Path | None = None, comm: MPI.Comm | None = None, *
     from rodfem.output.directories import OutputError, prepare_directory
     from rodfem.output.files import write_text
     from rodfem.scene import validate
-    from rodfem.studies.fitfiles import FILES, meta
+    from rodfem.studies.fit.files import FILES, meta
 
     data_bytes = data_path.read_bytes()
     written = meta(study, problem.base, data_bytes)  # SceneError before anything is written
@@ -110,7 +110,7 @@ def _into(out: Path, problem: Problem, comm: MPI.Comm, written: dict, session: i
     """The fit into ``out`` (held by this command), its marker's status written however it
     ends."""
     from rodfem.output.directories import finish
-    from rodfem.studies.fitfiles import tag
+    from rodfem.studies.fit.files import tag
 
     log = journal.Journal(out, session, comm.rank, tag(written))
     status = "failed"
@@ -190,8 +190,8 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
 
 def _fitted(scene, comm: MPI.Comm, out: Path | None):
     """The run at the optimum: ``out/fitted`` (a run directory), or in memory."""
-    from rodfem.api import Result, load, named_history
     from rodfem.output.columns import for_scene
+    from rodfem.output.result import Result, load, named_history
     from rodfem.run import simulate
 
     where = None if out is None else out / "fitted"
@@ -222,9 +222,9 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> FitResult:
         SceneError: its study.json, data.csv or journal is not this fit's (one line).
     """
     from rodfem.output.directories import mark_running
-    from rodfem.studies import parameters
-    from rodfem.studies.fitdata import OWN
-    from rodfem.studies.fitfiles import read_meta, tag
+    from rodfem.studies.fit.data import OWN
+    from rodfem.studies.fit.files import read_meta, tag
+    from rodfem.studies.sweep import parameters
 
     written = read_meta(out)
     study = parameters.parse(written["study"], written["name"], out, OWN)

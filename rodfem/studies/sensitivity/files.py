@@ -1,4 +1,4 @@
-"""What a sensitivity directory holds, written and read (:mod:`rodfem.studies.sensitivity`):
+"""What a sensitivity directory holds, written and read (:mod:`rodfem.studies.sensitivity.run`):
 ``sensitivity.json`` (what resume reads), ``samples.csv``, ``sensitivity.csv``, and the
 indices read back as a :class:`SensitivityResult`.
 """
@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 
 from rodfem.scene import SceneError
-from rodfem.studies import indices
 from rodfem.studies.common import plural
-from rodfem.studies.sweepfiles import checked_json, digest
+from rodfem.studies.sensitivity import indices
+from rodfem.studies.sweep.files import checked_json, digest
 
 CSV, FIGURE = "sensitivity.csv", "sensitivity.png"
 FILES = ("sensitivity.toml", "sensitivity.json", "samples.csv", "runs", CSV, FIGURE)
@@ -108,7 +108,7 @@ class SensitivityResult:
 
 
 def meta(found, sweep: dict[str, Any]) -> dict[str, Any]:
-    """What sensitivity.json holds of a campaign (:class:`rodfem.studies.sensitivity.Campaign`;
+    """What sensitivity.json holds of a campaign (:class:`rodfem.studies.sensitivity.run.Campaign`;
     ``sweep``: its runs' sweep.json), with its digest."""
     plan = found.plan
     data = {"format": FORMAT, "name": found.study.name, "study": found.study.data,
@@ -136,10 +136,18 @@ def samples_text(plan: indices.Plan) -> str:
 
 
 def load_sensitivity(path: str | Path) -> SensitivityResult:
-    """The indices of a sensitivity directory (written by ``rodfem sensitivity``)."""
+    """The indices of a sensitivity directory (written by ``rodfem sensitivity``).
+
+    Raises:
+        SceneError: ``path`` is not a sensitivity directory (a directory of another command is
+            named with its loader), or its files were edited (one line).
+    """
     from rodfem.output.directories import state
+    from rodfem.output.kinds import other_kind
 
     path = Path(path)
+    if (other := other_kind(path, "sensitivity")) is not None:
+        raise SceneError(other)
     data = read_meta(path)
     columns = indices.COLUMNS.get(data["method"])
     if columns is None:

@@ -21,7 +21,7 @@ import numpy as np
 
 from rodfem.scene import SceneError
 from rodfem.studies.common import plural
-from rodfem.studies.sweepfiles import digest, tag  # noqa: F401 (a fit's study.json as a sweep's)
+from rodfem.studies.sweep.files import digest, tag  # noqa: F401 (a fit's study.json as a sweep's)
 
 FORMAT = 1
 FILES = ("fit.toml", "study.json", "base.toml", "data.csv", "journal", "fit.json", "fitted",
@@ -173,13 +173,17 @@ def load_fit(path: str | Path) -> FitResult:
     """The :class:`FitResult` of a complete fit directory (``rodfem fit --out``).
 
     Raises:
-        rodfem.SceneError: ``path`` is not a complete fit's directory, or its study.json or
-            data.csv was edited since (one line).
+        rodfem.SceneError: ``path`` is not a complete fit's directory (a directory of another
+            command is named with its loader), or its study.json or data.csv was edited since
+            (one line).
     """
-    from rodfem.api import load
-    from rodfem.studies.fitdata import measured, read_csv
+    from rodfem.output.kinds import other_kind
+    from rodfem.output.result import load
+    from rodfem.studies.fit.data import measured, read_csv
 
     path = Path(path)
+    if (other := other_kind(path, "fit")) is not None:
+        raise SceneError(other)
     numbers = numbers_of(path)
     read_meta(path)  # the data are those fitted
     header, values = read_csv(path / "data.csv", str(path))

@@ -17,7 +17,7 @@ from rodfem.output import results as table
 from rodfem.output.atomic import io_line
 from rodfem.output.columns import for_scene
 from rodfem.output.measures import measures
-from rodfem.studies.design import Sweep
+from rodfem.studies.sweep.design import Sweep
 
 
 class Counter:

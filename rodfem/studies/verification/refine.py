@@ -1,5 +1,6 @@
 """Convergence of a user's own scene (``rodfem verify --scenes FILE.toml``), and the run of
-every verify ladder, the built-in scenes' (:mod:`rodfem.studies.verify`) and the user's.
+every verify ladder, the built-in scenes' (:mod:`rodfem.studies.verification.verify`) and the
+user's.
 
 A scene file (its ``--set`` values applied) gets ladders of its own sizes, refined by 2 from them,
 with the scene's own method and time scheme:
@@ -12,10 +13,10 @@ with the scene's own method and time scheme:
   tolerance over the same factor.
 
 Each rung's errors against the reference are those of the built-in scenes
-(:data:`rodfem.studies.convergence.MEASURES`; adaptive runs compared at their own times), and
-every run's measures (:func:`rodfem.output.measures.measures`, but the wall time) are kept: the
-order of each measure from the last three rungs and its Richardson estimate
-(:func:`rodfem.studies.convergence.richardson`) need no reference at all.
+(:data:`rodfem.studies.verification.convergence.MEASURES`; adaptive runs compared at their own
+times), and every run's measures (:func:`rodfem.output.measures.measures`, but the wall time) are
+kept: the order of each measure from the last three rungs and its Richardson estimate
+(:func:`rodfem.studies.verification.convergence.richardson`) need no reference at all.
 
 Each scene's ladders are tasks dealt with the built-in ones to the MPI ranks, the costliest first,
 each run on ``MPI.COMM_SELF``: the tables do not depend on the number of ranks, but the timings.
@@ -33,10 +34,10 @@ from typing import TYPE_CHECKING
 
 from rodfem.scene import Scene, SceneError, load
 from rodfem.scene.schema import TOLERANCES
-from rodfem.studies import convergence as cv
-from rodfem.studies import verify
 from rodfem.studies.common import deal, machine, prepare, write_csv
-from rodfem.studies.orders import markdown, summary_lines  # noqa: F401 (the command prints them)
+from rodfem.studies.verification import convergence as cv
+from rodfem.studies.verification import verify
+from rodfem.studies.verification.orders import markdown, summary_lines  # noqa: F401 (the command prints them)
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -229,8 +230,9 @@ def run_user_group(group: UserGroup, ladders: Ladders) -> tuple[list[dict], list
 
 def measure_orders(measured: list[dict], records: list[dict]) -> list[dict]:
     """Each ladder's measures: the order from the last three rungs and the Richardson estimate
-    (:func:`rodfem.studies.convergence.richardson`), or the note that says why there is none.
-    A rung that did not complete has no measures: nan in its place (``records``, the rungs)."""
+    (:func:`rodfem.studies.verification.convergence.richardson`), or the note that says why there is
+    none. A rung that did not complete has no measures: nan in its place (``records``, the
+    rungs)."""
     rows = []
     key = lambda r: (r["scene"], r["refined"], r["method"], r["scheme"], r["measure"])  # noqa: E731
     rung = lambda r: (r["cells"], r["dt"], r["tolerance"])  # noqa: E731

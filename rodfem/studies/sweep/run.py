@@ -1,12 +1,12 @@
-"""``rodfem sweep``: many scenes of one sweep file (:mod:`rodfem.studies.design`), their measures
-in one table, across MPI ranks.
+"""``rodfem sweep``: many scenes of one sweep file (:mod:`rodfem.studies.sweep.design`), their
+measures in one table, across MPI ranks.
 
 **Cost.** Every scene runs in this process, on ``MPI.COMM_SELF``; scenes that share a mesh and
 mass share its discretisation and compiled forms (:class:`rodfem.run.SetUps`), so a scene costs
 one assembly, one factorisation and its time loop: no process start, no compilation.
 
 **Ranks.** Under ``mpirun -n N`` the ranks take scenes one at a time from a shared counter (an
-MPI one-sided fetch-and-add on rank 0, :mod:`rodfem.studies.dealing`): whichever rank is free
+MPI one-sided fetch-and-add on rank 0, :mod:`rodfem.studies.sweep.dealing`): whichever rank is free
 takes the next, so long and short scenes balance. Each rank writes its own journal
 (:mod:`rodfem.output.journal`); rank 0 writes ``results.csv`` from the journals, in the sweep's
 order. A scene's row depends only on its scene, so the table is the same for any N (but for the
@@ -18,7 +18,7 @@ scene's row says ``interrupted``); ``rodfem resume DIR`` runs the scenes the jou
 as complete or failed, whatever stopped the sweep (a signal, SIGKILL, a full disk), and writes the
 table an uninterrupted sweep would have.
 
-The directory (:mod:`rodfem.studies.sweepfiles`): ``sweep.toml`` (the file as given),
+The directory (:mod:`rodfem.studies.sweep.files`): ``sweep.toml`` (the file as given),
 ``sweep.json`` (the sweep and its base scene, resolved: what resume reads, with their digest),
 ``results.csv``, ``summary.json``, with ``--histories`` ``histories.h5`` (every scene's history,
 ``/scenes/<index>``), and ``journal/`` until the sweep is complete. Resume refuses a sweep.json
@@ -39,10 +39,10 @@ from rodfem.output import results as table
 from rodfem.output.atomic import io_line
 from rodfem.output.columns import for_scene
 from rodfem.scene import SceneError
-from rodfem.studies import design
-from rodfem.studies.dealing import Outcome, Progress, deal
-from rodfem.studies.design import Sweep
-from rodfem.studies.sweepfiles import (
+from rodfem.studies.sweep import design
+from rodfem.studies.sweep.dealing import Outcome, Progress, deal
+from rodfem.studies.sweep.design import Sweep
+from rodfem.studies.sweep.files import (
     HISTORIES,
     SweepResult,
     check_complete,
@@ -96,7 +96,7 @@ def run_sweep(spec, out: str | Path | None = None, comm: MPI.Comm | None = None,
               histories: bool = False, force: bool = False, progress: bool = False,
               text: str | None = None, keep: str | Path | None = None) -> SweepResult:
     """Run a sweep: ``spec`` a sweep file's path, its TOML data as a dict, or a parsed
-    :class:`~rodfem.studies.design.Sweep`. Into the directory ``out`` (as ``rodfem sweep
+    :class:`~rodfem.studies.sweep.design.Sweep`. Into the directory ``out`` (as ``rodfem sweep
     --out``), or in memory with ``out=None`` (then ``histories`` keeps every history in the
     result). Under mpirun every rank calls it; every rank gets the table. ``force`` replaces a
     sweep directory, never one that holds the sweep file (``spec``'s path, or ``keep``).
@@ -170,11 +170,11 @@ def _warned(sweep: Sweep, result: SweepResult, comm: MPI.Comm) -> SweepResult:
 def sweep(spec, out: str | Path | None = None, comm=None, *, histories: bool = False,
           force: bool = False, progress: bool = False):
     """Run a sweep: ``spec`` a sweep file's path, its TOML data as a dict, or a parsed
-    :class:`~rodfem.studies.design.Sweep`. Into the directory ``out`` (as ``rodfem sweep
+    :class:`~rodfem.studies.sweep.design.Sweep`. Into the directory ``out`` (as ``rodfem sweep
     --out``), or in memory with ``out=None`` (then ``histories`` keeps every history in the
     result). Under mpirun every rank calls it; every rank gets the table
-    (:class:`~rodfem.studies.sweep.SweepResult`). ``force`` replaces a sweep directory, never one
-    that holds the sweep file. A signal received during the call stops it (its scenes so far
+    (:class:`~rodfem.studies.sweep.run.SweepResult`). ``force`` replaces a sweep directory, never
+    one that holds the sweep file. A signal received during the call stops it (its scenes so far
     kept, ``status`` interrupted), not the next. Scenes that touched the obstacle with a fixed
     step coarse for it warn (:class:`rodfem.CoarseStepWarning`, rank 0), once for each kind.
 

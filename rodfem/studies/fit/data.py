@@ -1,7 +1,7 @@
 """What a fit is fitted to: the measured data (a CSV of ``t`` and history columns) and the fit
 file's own keys, read and checked against the scene before anything runs (``rodfem fit``).
 
-A fit file is a study file (:mod:`rodfem.studies.parameters`) with these keys of its own::
+A fit file is a study file (:mod:`rodfem.studies.sweep.parameters`) with these keys of its own::
 
     data = "measured.csv"             # t and history columns (relative to the fit file)
     columns = ["u_1"]                 # which columns to fit (default: every column but t)
@@ -29,7 +29,7 @@ import numpy as np
 from rodfem.scene import SceneError
 from rodfem.scene.files import read_text
 from rodfem.scene.loading import _suggest
-from rodfem.studies.parameters import Study
+from rodfem.studies.sweep.parameters import Study
 
 OWN = ("data", "columns", "weights", "start", "max_evaluations", "tolerance")
 MAX_EVALUATIONS, TOLERANCE = 100, 1e-8

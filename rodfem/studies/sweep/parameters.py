@@ -20,9 +20,9 @@ spans a decade or more of positive values (``high >= 10 low > 0``), unless writt
 ``log10`` of it, where a range over decades is evenly weighed. Only real-valued scene keys can be
 parameters, and not one that ``[set]`` gives too.
 
-The runs of a study are a sweep (:mod:`rodfem.studies.design`) of explicit points, one ``[zip]``
-axis per parameter: :meth:`Study.sweep_data` is that sweep as TOML data, so that the sweep engine
-deals them to the MPI ranks, journals and resumes them as any sweep's.
+The runs of a study are a sweep (:mod:`rodfem.studies.sweep.design`) of explicit points, one
+``[zip]`` axis per parameter: :meth:`Study.sweep_data` is that sweep as TOML data, so that the sweep
+engine deals them to the MPI ranks, journals and resumes them as any sweep's.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ from typing import Any
 from rodfem.scene import SceneError, split_key
 from rodfem.scene.files import read_file
 from rodfem.scene.loading import _suggest, _toml_value
-from rodfem.studies import design
+from rodfem.studies.sweep import design
 
 COMMON = ("scene", "description", "set", "parameters", "measures")
 SCALES = ("log", "linear")

@@ -1,9 +1,10 @@
 """The sampling and the analysis of a sensitivity study, thin layers on SALib: :func:`plan`
 draws the points (Saltelli's for Sobol indices, or Morris' trajectories), :func:`analyse` turns
 the measures of their runs into indices. Between the two, the runs are a sweep
-(:mod:`rodfem.studies.sensitivity`).
+(:mod:`rodfem.studies.sensitivity.run`).
 
-Both work on the study's scale of each parameter (:class:`rodfem.studies.parameters.Parameter`):
+Both work on the study's scale of each parameter
+(:class:`rodfem.studies.sweep.parameters.Parameter`):
 ``log10`` of a log-scaled one, so that a range over decades is weighed evenly.
 
 The keys of a sensitivity file besides the study's own (:data:`KEYS`)::
@@ -39,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from rodfem.scene import SceneError
-from rodfem.studies.parameters import Parameter
+from rodfem.studies.sweep.parameters import Parameter
 
 KEYS = ("method", "samples", "seed", "outputs", "levels", "resamples", "confidence")
 METHODS = ("sobol", "morris")

@@ -3,11 +3,12 @@ measured data, its runs dealt to the MPI ranks by the sweep engine, journalled a
 
 **Method.** Each parameter's study scale (``log10`` of it where log-scaled) is mapped to
 ``u`` in [0, 1]; ``scipy.optimize.least_squares`` (trust-region reflective, bounds [0, 1]) fits
-the residuals ``w (model - data)`` (:mod:`rodfem.studies.fitdata`). The Jacobian is by forward
+the residuals ``w (model - data)`` (:mod:`rodfem.studies.fit.data`). The Jacobian is by forward
 differences of step ``H`` in ``u`` (backward at the upper bound): the point and its n perturbed
-points are one batch of runs, a sweep dealt to the ranks (:func:`rodfem.studies.dealing.deal`),
-each run alone on ``MPI.COMM_SELF``. Every rank runs the optimiser on the same numbers, so every
-rank takes the same steps: the fit is bit for bit the serial one.
+points are one batch of runs, a sweep dealt to the ranks
+(:func:`rodfem.studies.sweep.dealing.deal`), each run alone on ``MPI.COMM_SELF``. Every rank runs
+the optimiser on the same numbers, so every rank takes the same steps: the fit is bit for bit the
+serial one.
 
 **Statistics.** At the optimum, with m residuals (one per value measured: an empty cell of
 the data has none) and n parameters, ``s² = |r|² / (m - n)`` and ``cov = s² (JᵀJ)⁻¹`` in ``u``,
@@ -32,12 +33,12 @@ from mpi4py import MPI
 from rodfem.output import interrupts, journal
 from rodfem.output import results as table
 from rodfem.scene import SceneError
-from rodfem.studies import design
 from rodfem.studies.common import plural
-from rodfem.studies.dealing import Progress, deal
-from rodfem.studies.fitdata import Data
-from rodfem.studies.fitfiles import FitError
-from rodfem.studies.parameters import Study
+from rodfem.studies.fit.data import Data
+from rodfem.studies.fit.files import FitError
+from rodfem.studies.sweep import design
+from rodfem.studies.sweep.dealing import Progress, deal
+from rodfem.studies.sweep.parameters import Study
 
 H = 1e-6  # the finite differences' step, in u
 

@@ -9,9 +9,9 @@ with the obstacle out of reach), each time scheme and each method, two ladders o
 Each reference is solved by the direct method with the ladder's time scheme. Sharing the other
 step with its ladder, it has the same error in that step to first order, so the differences
 measure the refined step's error alone, and the orders are those of the refined step.
-The errors are those of :mod:`rodfem.studies.convergence`: u(1, ·) over [0, T] (max, L¹ and L² in
-time), u and θ at T (L² in space). The scenes of :mod:`rodfem.model.manufactured` (with known
-exact solutions, one with a heat exchange across the gap) are measured against their exact
+The errors are those of :mod:`rodfem.studies.verification.convergence`: u(1, ·) over [0, T] (max, L¹
+and L² in time), u and θ at T (L² in space). The scenes of :mod:`rodfem.model.manufactured` (with
+known exact solutions, one with a heat exchange across the gap) are measured against their exact
 solutions.
 
 The impact benchmark (:mod:`rodfem.model.impact`: an elastic bar released against a rigid wall,
@@ -21,9 +21,9 @@ not separate, and its one ladder refines both together, h = Δt (the direction "
 period, T = 3; every run is measured against the exact u(1, ·) and u(·, T), with no reference run.
 
 Ladders (a scene, a direction, a time scheme: the reference and every method's runs) are dealt
-to the MPI ranks with those of the user's scene files by :mod:`rodfem.studies.refine`, the
-costliest first, each run on ``MPI.COMM_SELF``; the records do not depend on the number of ranks,
-except the timings.
+to the MPI ranks with those of the user's scene files by :mod:`rodfem.studies.verification.refine`,
+the costliest first, each run on ``MPI.COMM_SELF``; the records do not depend on the number of
+ranks, except the timings.
 """
 
 from __future__ import annotations
@@ -37,9 +37,8 @@ import numpy as np
 
 from rodfem.model import impact
 from rodfem.scene import METHODS, SCHEMA, Scene, SceneError, load
-from rodfem.studies import convergence as cv
 from rodfem.studies.common import parse_choices
-
+from rodfem.studies.verification import convergence as cv
 
 # Scene keys → (built-in scene, overrides). T is set by the plan.
 SCENES: dict[str, tuple[str, tuple[str, ...]]] = {

@@ -1,9 +1,9 @@
 """``rodfem sensitivity``: which parameters the measures of a scene depend on, and how much.
 
-A sensitivity file is a study file (:mod:`rodfem.studies.parameters`: a base scene, ``[set]``,
-``[parameters]`` ranges, ``[measures]``) with the keys of :mod:`rodfem.studies.indices`
+A sensitivity file is a study file (:mod:`rodfem.studies.sweep.parameters`: a base scene, ``[set]``,
+``[parameters]`` ranges, ``[measures]``) with the keys of :mod:`rodfem.studies.sensitivity.indices`
 (``method``, ``samples``, ``seed``, ``outputs``, ...). Its points are drawn by SALib, its runs
-are a sweep (:mod:`rodfem.studies.sweep`) in ``DIR/runs``, a sweep directory like any other: the
+are a sweep (:mod:`rodfem.studies.sweep.run`) in ``DIR/runs``, a sweep directory like any other: the
 MPI ranks share its scenes, a journal keeps them, ``rodfem resume DIR`` continues it, and its
 table is the same for any number of ranks and however often it was stopped. The analysis reads
 that table: the indices are the same bit for bit too.
@@ -30,11 +30,9 @@ from rodfem.output import interrupts
 from rodfem.output.measures import NAMES as BUILTIN
 from rodfem.output.measures import TIMINGS
 from rodfem.scene import SceneError
-from rodfem.studies import indices, parameters
 from rodfem.studies.common import plural
-from rodfem.studies.design import Sweep
-from rodfem.studies.parameters import Study
-from rodfem.studies.sensitivityfiles import (
+from rodfem.studies.sensitivity import indices
+from rodfem.studies.sensitivity.files import (
     CSV,
     FIGURE,
     FILES,
@@ -44,15 +42,18 @@ from rodfem.studies.sensitivityfiles import (
     read_meta,
     samples_text,
 )
-from rodfem.studies.sweepfiles import SweepResult
+from rodfem.studies.sweep import parameters
+from rodfem.studies.sweep.design import Sweep
+from rodfem.studies.sweep.files import SweepResult
+from rodfem.studies.sweep.parameters import Study
 
 __all__ = ["SensitivityResult", "load_sensitivity", "sensitivity"]
 
 
 @dataclasses.dataclass(frozen=True)
 class Campaign:
-    """A checked sensitivity study: its points (:class:`~rodfem.studies.indices.Plan`), their
-    sweep, and the measures analysed."""
+    """A checked sensitivity study: its points (:class:`~rodfem.studies.sensitivity.indices.Plan`),
+    their sweep, and the measures analysed."""
 
     study: Study
     plan: indices.Plan
@@ -86,7 +87,7 @@ def campaign(study: Study, text: str | None = None, keep: Path | None = None,
              base: tuple[dict, str] | None = None) -> Campaign:
     """The points, sweep and measures of a checked study (SceneError, one line, for a mistake
     in its own keys); ``base``: its base scene's data and source, as a directory keeps them."""
-    from rodfem.studies import design
+    from rodfem.studies.sweep import design
 
     chosen = indices.settings(study.extra, study.name, len(study.parameters))
     plan = indices.plan(study.parameters, **chosen)
@@ -130,7 +131,7 @@ def sensitivity(study, out: str | Path | None = None, comm: MPI.Comm | None = No
 def run_campaign(found: Campaign, out: str | Path | None, comm: MPI.Comm, *,
                  force: bool = False, progress: bool = False) -> SensitivityResult:
     """Run a prepared campaign into ``out`` (or in memory), analyse it, and write its files."""
-    from rodfem.studies.sweep import run_sweep
+    from rodfem.studies.sweep.run import run_sweep
 
     if out is None:
         started = time.perf_counter()
@@ -139,7 +140,7 @@ def run_campaign(found: Campaign, out: str | Path | None, comm: MPI.Comm, *,
     out = Path(out)
     from rodfem.output.directories import prepare_directory
     from rodfem.output.files import write_json, write_text
-    from rodfem.studies.sweepfiles import meta as sweep_meta
+    from rodfem.studies.sweep.files import meta as sweep_meta
 
     written = meta(found, sweep_meta(found.sweep, False))
     with interrupts.deferred():  # marked with its sensitivity.json, which resume reads
@@ -238,8 +239,8 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SensitivityResu
             study's or in use: one line, nothing changed.
     """
     from rodfem.output.directories import OutputError, finish, mark_running, reopen
-    from rodfem.studies.sweep import load_sweep, run_sweep
-    from rodfem.studies.sweep import resume as continue_sweep
+    from rodfem.studies.sweep.run import load_sweep, run_sweep
+    from rodfem.studies.sweep.run import resume as continue_sweep
 
     written, runs_state = comm.bcast(_checked(out) if comm.rank == 0 else None, root=0)
     if isinstance(written, str):
@@ -271,8 +272,8 @@ def _checked(out: Path) -> tuple[dict | str, str | None]:
     """``out``'s sensitivity.json, or the line that says why it cannot be resumed; and the state
     of its runs' sweep (None: not begun)."""
     from rodfem.output.directories import state
-    from rodfem.studies.sweep import check_complete
-    from rodfem.studies.sweepfiles import read_meta as read_sweep
+    from rodfem.studies.sweep.files import read_meta as read_sweep
+    from rodfem.studies.sweep.run import check_complete
 
     runs = out / "runs"
     try:
@@ -298,7 +299,7 @@ def _reread(written: dict) -> Campaign:
     study = Study(name, data, written["scene"], fixed,
                   parameters.parameters(data.get("parameters"), name, fixed),
                   {key: data[key] for key in indices.KEYS if key in data})
-    from rodfem.studies.sweepfiles import meta as sweep_meta
+    from rodfem.studies.sweep.files import meta as sweep_meta
 
     found = campaign(study, base=(written["base"], written["source"]))
     if sweep_meta(found.sweep, False)["digest"] != written["runs"]:

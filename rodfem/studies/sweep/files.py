@@ -23,8 +23,8 @@ from rodfem.output.columns import NAMES as HISTORY_COLUMNS
 from rodfem.output.columns import for_scene, named
 from rodfem.scene import SceneError
 from rodfem.scene.expressions import shorten
-from rodfem.studies import design
-from rodfem.studies.design import Sweep
+from rodfem.studies.sweep import design
+from rodfem.studies.sweep.design import Sweep
 
 HISTORIES = table.HISTORIES
 FORMAT = 2  # 2: with the digest of the sweep, which tags its journal's records
@@ -104,7 +104,7 @@ class SweepResult:
         Raises:
             KeyError: the sweep kept no histories, or none for that scene.
         """
-        from rodfem.api import named_history
+        from rodfem.output.result import named_history
 
         if self._histories is not None:
             return named_history(*self._histories[index])
@@ -201,10 +201,19 @@ def write_histories(path: Path, records: dict[int, journal.Record], sweep) -> No
 
 
 def load_sweep(path: str | Path) -> SweepResult:
-    """The table of a sweep directory (complete or stopped: the rows it has)."""
+    """The table of a sweep directory (complete or stopped: the rows it has).
+
+    Raises:
+        rodfem.output.results.ResultsError: ``path`` holds no sweep table (a directory of
+            another command is named with its loader), or its results.csv is not rodfem's.
+        SceneError: a stopped sweep's sweep.json or journal is not this sweep's (edited).
+    """
     from rodfem.output.directories import state
+    from rodfem.output.kinds import other_kind
 
     path = Path(path)
+    if (other := other_kind(path, "sweep")) is not None:
+        raise table.ResultsError(other)
     if journal.exists(path):  # stopped: its rows are in the journal
         written = read_meta(path)
         sweep = parsed(path, written)

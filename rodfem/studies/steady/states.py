@@ -126,8 +126,8 @@ def analyse(scene, spectra: Spectra) -> list[dict]:
 def continuation(scenes: list, values: np.ndarray, spectra: Spectra,
                  key: str = "") -> list[dict]:
     """The states and their stability of each scene, the scene at each value of a continuation,
-    each row with its ``parameter``, ``branch`` (:func:`branches`) and ``key``. Under MPI the scenes are
-    dealt to the ranks (their operators assembled first, together) and the table gathered on
+    each row with its ``parameter``, ``branch`` (:func:`branches`) and ``key``. Under MPI the scenes
+    are dealt to the ranks (their operators assembled first, together) and the table gathered on
     every rank: the serial table."""
     comm = spectra.comm
     for scene in scenes:

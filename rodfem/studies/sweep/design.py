@@ -251,7 +251,7 @@ def _samples(table, name: str) -> tuple[list[str], list[list]]:
 def parse(data: dict, name: str, directory: Path | None = None,
           base: tuple[dict, str] | None = None) -> Sweep:
     """Check a sweep's TOML data and expand it into its points (:meth:`Sweep.scenes` validates
-    the scenes; :func:`rodfem.studies.sweep.run_sweep` does before any runs). The base scene is
+    the scenes; :func:`rodfem.studies.sweep.run.run_sweep` does before any runs). The base scene is
     read from the ``scene`` it names (relative to ``directory``), or is ``base`` (its raw data
     and source, as a sweep directory keeps them).
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from rodfem.studies import convergence as cv
+from rodfem.studies.verification import convergence as cv
 
 DIRECTIONS = ("h", "dt", "h=dt", "tol")
 # How a direction is written: in the tables, and padded in the printed lines.

@@ -36,9 +36,16 @@ from typing import TYPE_CHECKING
 from rodfem.model import impact
 from rodfem.scene import METHODS, Scene, SceneError
 from rodfem.scene.schema import MASSES
-from rodfem.studies import convergence as cv
 from rodfem.studies.common import deal, machine, prepare, write_csv
-from rodfem.studies.verify import ERROR_COLUMNS, IMPACT, TOGETHER, impact_errors, scene_at, schemes
+from rodfem.studies.verification import convergence as cv
+from rodfem.studies.verification.verify import (
+    ERROR_COLUMNS,
+    IMPACT,
+    TOGETHER,
+    impact_errors,
+    scene_at,
+    schemes,
+)
 
 if TYPE_CHECKING:
     from mpi4py import MPI

@@ -1,0 +1,7 @@
+"""How far the numbers can be trusted: ``rodfem verify`` (observed orders in h and Δt, of the
+built-in scenes and a user's own), ``rodfem stability`` (where each method converges),
+``rodfem work-precision`` (accuracy against time) and ``rodfem paper`` (the paper's Section 6).
+
+:mod:`~.convergence` (the error measures and rate fits they share), :mod:`~.verify` and
+:mod:`~.refine` (the ladders of runs), :mod:`~.orders` (verify's report), :mod:`~.stability`,
+:mod:`~.workprecision` and :mod:`~.paper`."""
