@@ -17,8 +17,8 @@ import rodfem
 from conftest import serial_only
 from rodfem.cli import main
 from rodfem.output import journal
-from rodfem.studies.fitdata import read_csv
-from rodfem.studies.fitrun import problem_of, study_of
+from rodfem.studies.fit.data import read_csv
+from rodfem.studies.fit.run import problem_of, study_of
 
 COLUMNS = ("u_1", "u_half")
 FIT2 = FIT.replace("[set]", 'columns = ["u_1", "u_half"]\n[set]')
