@@ -1,5 +1,6 @@
 """The options that several ``rodfem`` subcommands share (:mod:`rodfem.cli` builds its parser
-with them): paths, ``--set``, ``--out`` and ``--force``, ``--yes``, ``--progress``."""
+with them): paths, ``--set``, ``--out`` and ``--force``, ``--yes``, ``--progress``,
+``--format``."""
 
 from __future__ import annotations
 
@@ -39,3 +40,12 @@ def add_yes(command: argparse.ArgumentParser) -> None:
 
 def add_progress(command: argparse.ArgumentParser, help: str) -> None:
     command.add_argument("--progress", action="store_true", help=help)
+
+
+def add_format(command: argparse.ArgumentParser, default: str) -> None:
+    """--format: the still figures' file format (one line and exit code 2 for another)."""
+    from rodfem.scene.schema import FIGURE_FORMATS
+
+    command.add_argument("--format", choices=FIGURE_FORMATS, default=None,
+                         help=f"the figures' format: {', '.join(FIGURE_FORMATS)} (PDF and SVG "
+                         f"keep text and lines as vectors; default: {default})")

@@ -35,12 +35,33 @@ def off_screen() -> None:
 
 
 def save_image(plotter, path) -> None:
-    """The plotter's picture as a PNG, written whole or not at all (a full disk leaves no half
-    image)."""
+    """The plotter's picture in the format of the path's suffix, written whole or not at all (a
+    full disk leaves no half image): PNG from a screenshot, PDF or SVG through VTK's GL2PS export
+    (text and lines as vectors)."""
+    from pathlib import Path
+
     from PIL import Image
 
-    from rodfem.output.atomic import replacing
+    from rodfem.output.atomic import named, replacing
+    from rodfem.output.figures import of
 
-    image = Image.fromarray(plotter.screenshot(None, return_img=True))
-    with replacing(path, "wb") as file:
-        image.save(file, format="PNG")
+    path = Path(path)
+    fmt = of(path)
+    if fmt == "png":
+        image = Image.fromarray(plotter.screenshot(None, return_img=True))
+        with replacing(path, "wb") as file:
+            image.save(file, format="PNG")
+        return
+    part = path.with_name(f".{path.stem}.{os.getpid()}.{fmt}")  # GL2PS reads the suffix
+    try:
+        plotter.save_graphic(str(part), title=path.stem, raster=True, painter=True)
+        if not part.is_file() or part.stat().st_size == 0:
+            raise OSError(5, "the vector export wrote nothing", str(path))
+        with open(part, "rb+") as file:
+            os.fsync(file.fileno())
+        os.replace(part, path)
+    except BaseException as err:
+        part.unlink(missing_ok=True)
+        if isinstance(err, OSError):
+            raise named(err, path) from None
+        raise
