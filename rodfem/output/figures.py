@@ -73,15 +73,31 @@ def outside(fig, tolerance: float = 1.0) -> list:
     renderer = fig.canvas.get_renderer()
     fig.draw(renderer)  # the layout (constrained or not) as it will be saved
     box = fig.bbox
+    hidden = _undrawn_tick_labels(fig)
     found = []
     for text in fig.findobj(Text):
-        if not text.get_visible() or not text.get_text().strip() or text.figure is None:
+        if not text.get_visible() or not text.get_text().strip() or text.figure is None \
+                or id(text) in hidden:
             continue
         extent = text.get_window_extent(renderer)
         if extent.x0 < box.x0 - tolerance or extent.y0 < box.y0 - tolerance \
                 or extent.x1 > box.x1 + tolerance or extent.y1 > box.y1 + tolerance:
             found.append(text)
     return found
+
+
+def _undrawn_tick_labels(fig) -> set[int]:
+    """The tick labels that an axis keeps but does not draw: of ticks outside its view, or of
+    an axis turned off (a strip that holds a legend)."""
+    hidden = set()
+    for ax in fig.axes:
+        for axis in ax._axis_map.values() if hasattr(ax, "_axis_map") else (ax.xaxis, ax.yaxis):
+            shown = ax.axison and ax.get_visible() and axis.get_visible()
+            drawn = {id(label) for tick in (axis._update_ticks() if shown else ())
+                     for label in (tick.label1, tick.label2)}
+            hidden |= {id(label) for tick in (*axis.majorTicks, *axis.minorTicks)
+                       for label in (tick.label1, tick.label2) if id(label) not in drawn}
+    return hidden
 
 
 def fit_texts(fig) -> None:

@@ -36,32 +36,24 @@ def off_screen() -> None:
 
 def save_image(plotter, path) -> None:
     """The plotter's picture in the format of the path's suffix, written whole or not at all (a
-    full disk leaves no half image): PNG from a screenshot, PDF or SVG through VTK's GL2PS export
-    (text and lines as vectors)."""
+    full disk leaves no half image): a PNG, or a PDF or SVG page holding that picture at its
+    pixel size (VTK's own vector export, GL2PS, crashes on the markers of a chart, so these
+    figures, unlike matplotlib's, are not vectors)."""
     from pathlib import Path
 
+    from matplotlib.figure import Figure
     from PIL import Image
 
-    from rodfem.output.atomic import named, replacing
-    from rodfem.output.figures import of
+    from rodfem.output import figures
+    from rodfem.output.atomic import replacing
 
     path = Path(path)
-    fmt = of(path)
-    if fmt == "png":
-        image = Image.fromarray(plotter.screenshot(None, return_img=True))
+    pixels = plotter.screenshot(None, return_img=True)
+    if figures.of(path) == "png":
         with replacing(path, "wb") as file:
-            image.save(file, format="PNG")
+            Image.fromarray(pixels).save(file, format="PNG")
         return
-    part = path.with_name(f".{path.stem}.{os.getpid()}.{fmt}")  # GL2PS reads the suffix
-    try:
-        plotter.save_graphic(str(part), title=path.stem, raster=True, painter=True)
-        if not part.is_file() or part.stat().st_size == 0:
-            raise OSError(5, "the vector export wrote nothing", str(path))
-        with open(part, "rb+") as file:
-            os.fsync(file.fileno())
-        os.replace(part, path)
-    except BaseException as err:
-        part.unlink(missing_ok=True)
-        if isinstance(err, OSError):
-            raise named(err, path) from None
-        raise
+    height, width = pixels.shape[:2]
+    page = Figure(figsize=(width / 100, height / 100), dpi=100)
+    page.figimage(pixels, 0, 0)
+    figures.save(page, path, dpi=100)

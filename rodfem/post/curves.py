@@ -221,7 +221,7 @@ def energy_figure(runs: list[Run], labels: list[str], path: Path,
             curves.append((t, y))
         ax.set_title(energy_title(runs) + "\n" + r"$\hat{E}$: the discrete energy of Remark 4.4")
         ax.set_xlabel(TIME_LABEL)
-        ax.set_ylabel(r"$\ln(\hat{E} + 0.01)$")
+        ax.set_ylabel(r"$\ln(\hat{E} + 0.01)$, $\hat{E}$ in [$EL$]")  # the log of a number
         ax.grid(True, color="0.9")
         _limits(ax, curves, t_range)
         _colour_bar(fig, bar, mappable, colour_by)
