@@ -28,11 +28,12 @@ from rodfem.post import style
 from rodfem.post.fields import CELL_FUNCTIONS, Fields
 
 # name: title, symbol (Unicode), colour map, centred on zero, symbol (mathtext), unit, the
-# history's columns of the same quantity (at x = 1 or elsewhere; probes "name@x" are added). Diverging maps are centred on
-# zero, where zero means something: no stress, no velocity, no heat flux, and for θ the reference
-# temperature, at which the rod is free of thermal stress (σ = u_x + ζu_xt − aθ) and which the
-# medium at x = 1 has (−θ_x(1) = kθ(1)): red is warmer than it, blue colder. u is drawn on a
-# sequential map: its sign is a direction, not a departure from a state.
+# history's columns of the same quantity (at x = 1 or elsewhere; probes "name@x" are added).
+# Diverging maps are centred on zero, where zero means something: no stress, no velocity, no
+# heat flux, and for θ the reference temperature, at which the rod is free of thermal stress
+# (σ = u_x + ζu_xt − aθ) and which the medium at x = 1 has (−θ_x(1) = kθ(1)): red is warmer than
+# it, blue colder. u is drawn on a sequential map: its sign is a direction, not a departure from
+# a state.
 MAPS = {
     "u": ("displacement u", "u(x, t)", "viridis", False, "u(x, t)", "L", ("u_1", "u_half")),
     "theta": ("temperature θ", "θ(x, t)", "coolwarm", True, r"\theta(x, t)", "", ("theta_1",)),
