@@ -16,6 +16,8 @@ from __future__ import annotations
 import textwrap
 from pathlib import Path
 
+import numpy as np
+
 from rodfem.output.readers import PlotError
 from rodfem.scene.schema import FIGURE_FORMATS
 
@@ -100,13 +102,14 @@ def _undrawn_tick_labels(fig) -> set[int]:
     return hidden
 
 
-def fit_texts(fig) -> None:
+def fit_texts(fig) -> bool:
     """Set each text that reaches beyond the canvas smaller, down to :data:`SMALLEST` points,
-    and then wrap it at its words, until it lies inside (or cannot be made to)."""
+    and then wrap it at its words, until it lies inside (or cannot be made to). Returns whether
+    the canvas holds the figure as it is now (drawn last with every text inside)."""
     for _ in range(12):
         texts = outside(fig)
         if not texts:
-            return
+            return True
         for text in texts:
             size = text.get_fontsize()
             if size > SMALLEST:
@@ -115,6 +118,7 @@ def fit_texts(fig) -> None:
                 lines = text.get_text().split("\n")
                 width = max(8, int(0.8 * max(len(line) for line in lines)))
                 text.set_text("\n".join(textwrap.fill(line, width) for line in lines))
+    return False
 
 
 def target(path, format: str | None = None, scene=None) -> Path:
@@ -134,11 +138,23 @@ def target(path, format: str | None = None, scene=None) -> Path:
 
 def save(fig, path: Path, dpi: float = 100) -> Path:
     """Write a matplotlib figure to ``path`` in the format its suffix names, whole or not at
-    all, its texts first made to fit the canvas (:func:`fit_texts`)."""
+    all, its texts first made to fit the canvas (:func:`fit_texts`). A PNG is the picture that
+    fitting drew (at ``dpi``), not drawn a second time."""
     from rodfem.output.atomic import replacing
 
-    fit_texts(fig)
     fmt = of(path)
-    with replacing(Path(path), "wb") as file:
-        fig.savefig(file, format=fmt, dpi=dpi, metadata=_STABLE.get(fmt))
+    shown = fig.get_dpi()
+    fig.set_dpi(dpi)  # the texts are measured (and a PNG drawn) as they will be written
+    try:
+        drawn = fit_texts(fig)
+        with replacing(Path(path), "wb") as file:
+            if fmt == "png" and drawn and hasattr(fig.canvas, "buffer_rgba"):
+                from PIL import Image
+
+                pixels = np.asarray(fig.canvas.buffer_rgba())
+                Image.fromarray(pixels).save(file, format="PNG", dpi=(dpi, dpi))
+            else:
+                fig.savefig(file, format=fmt, dpi=dpi, metadata=_STABLE.get(fmt))
+    finally:
+        fig.set_dpi(shown)
     return Path(path)
