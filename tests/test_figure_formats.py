@@ -271,3 +271,30 @@ def test_the_scene_chooses_the_format_and_the_command_line_overrides_it(made, ca
                    'output.figure_format: must be one of "png" | "pdf" | "svg"', capsys)
     with pytest.raises(figures.FormatError, match="the formats are png, pdf, svg"):
         rodfem.load(out).plot(path=root / "api-bad", format="jpg")
+
+
+def test_a_map_says_when_its_frames_are_sparser_than_a_contact():
+    """Frames every 0.1 around a contact of 0.02 that the history holds: the colour range
+    reaches the history's extreme and the notes say both what the frames miss and that they
+    are sparser than the contact; frames that hold the extreme get neither note."""
+    from rodfem.output.readers import Fields, History
+    from rodfem.post.spacetime import colour_range
+
+    x = np.linspace(0.0, 1.0, 5)
+    t = np.arange(0.0, 0.55, 0.1)
+    sigma = np.tile(np.linspace(-1.0, 1.0, 4), (t.size, 1))  # within [-1, 1] at every frame
+    fields = Fields(x=x, t=t, x_cells=0.5 * (x[1:] + x[:-1]), sigma=sigma)
+    steps = np.arange(0.0, 0.5001, 0.01)
+    u_1 = np.where((steps > 0.225) & (steps < 0.255), 0.02, 0.0)  # in contact for 0.02
+    sigma_1 = np.where(u_1 > 0.01, -4.0, 0.0)
+    names = ("t", "u_1", "sigma_1")
+    history = History(np.column_stack([steps, u_1, sigma_1]), names)
+    limits = colour_range(fields, "sigma", history, gap=0.01)
+    assert (limits.lo, limits.hi) == (-4.0, 4.0) and len(limits.notes) == 2
+    assert "miss the extreme" in limits.notes[0] and "= -4" in limits.notes[0]
+    assert "shortest contact (0.02)" in limits.notes[1]
+    held = colour_range(fields, "sigma", History(np.column_stack([steps, 0 * u_1, 0 * u_1]),
+                                                  names), gap=0.01)
+    assert (held.lo, held.hi) == (-1.0, 1.0) and held.notes == []
+    alone = colour_range(fields, "sigma")
+    assert (alone.lo, alone.hi) == (-1.0, 1.0) and alone.notes == []
