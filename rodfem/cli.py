@@ -3,18 +3,19 @@
 
     rodfem run SCENE [--out DIR] [--set section.key=value ...] [--force]
     rodfem sweep SWEEP.toml [--out DIR] [--force] [--histories]
-    rodfem fit FIT.toml [--out DIR] [--force] [--progress]
-    rodfem sensitivity SENS.toml [--out DIR] [--force]
+    rodfem fit FIT.toml [--out DIR] [--force] [--progress] [--format png|pdf|svg]
+    rodfem sensitivity SENS.toml [--out DIR] [--force] [--format png|pdf|svg]
     rodfem resume DIR [--set time.end=T]
     rodfem plot DIR [DIR ...] [--out FIGDIR] [--force] [--only KINDS] [--no-animation]
                 [--window T0,T1] [--labels A,B,...] [--colour-by KEY]   (runs, or one sweep)
+                [--format png|pdf|svg]
     rodfem stability [--out DIR] [--scene S] [--methods M,...] [--dt LIST] [--epsilon LIST]
                      [--zeta LIST] [--a LIST] [--end T] [--force] [--progress]
     rodfem verify [--out DIR] [--scenes S,FILE.toml,...] [--set section.key=value ...]
                   [--force] [--quick] [--progress]
     rodfem work-precision [--out DIR] [--force] [--quick] [--progress]
     rodfem steady SCENE [--out DIR] [--set section.key=value ...] [--continue KEY=a:b:n]
-                  [--force]
+                  [--force] [--format png|pdf|svg]
 
 Exit codes (:mod:`rodfem.commands`): 0 complete, 2 bad input, 3 a step could not be taken, 4 a
 file could not be written, 128 + the signal's number when stopped by a signal.
@@ -31,6 +32,7 @@ from rodfem import commands
 from rodfem.commands.arguments import (
     add_output,
     add_overrides,
+    add_format,
     add_progress,
     add_version,
     add_yes,
@@ -112,6 +114,7 @@ def _study(sub, name: str, metavar: str, help: str, description: str, progress: 
     add_yes(command)
     command.add_argument("--quiet", action="store_true", help="no final line")
     add_progress(command, progress)
+    add_format(command, "the base scene's output.figure_format, else png")
 
 
 def _fit(sub) -> None:
@@ -210,6 +213,8 @@ def _plot(sub) -> None:
     plot.add_argument("--measures", metavar="NAMES",
                       help="a sweep: draw these measures, comma-separated (default: those that "
                       "differ between the scenes, timings and iteration counts left out)")
+    add_format(plot, "the first run's or the sweep's base scene's output.figure_format, else "
+               "png; rod.gif stays a GIF")
     plot.add_argument("--overlay", action="store_true",
                       help="a sweep: draw its scenes' histories overlaid (sweep_scenes_*.png; "
                       "kept by 'rodfem sweep --histories'), coloured or labelled by the swept "
@@ -264,6 +269,7 @@ def _stability(sub) -> None:
     stability.add_argument("--a", default=listed(DEFAULT_A), help="thermal couplings a")
     stability.add_argument("--end", default="1", help="end time of every run")
     add_progress(stability, "a line per point even when output is not a terminal (mpirun)")
+    add_format(stability, "png")
 
 
 def _verify(sub) -> None:
@@ -300,6 +306,7 @@ def _verify(sub) -> None:
         command.add_argument("--quick", action="store_true",
                              help=f"small ladders, {methods} (seconds)")
         add_progress(command, "a line per ladder even when output is not a terminal")
+        add_format(command, "png")
     verify.add_argument("--scenes", help="scenes to verify (default: paper1, paper5, no-contact, "
                         "manufactured and manufactured-gap where rodfem.model.manufactured exists, "
                         "and impact), and scene files (.toml): each refined from its own cells "
@@ -331,6 +338,7 @@ def _steady(sub) -> None:
                         help="the branches over n values of the real scene value KEY from a to "
                         "b, e.g. obstacle.temperature=0:20:81 (once; not a time, output, "
                         "solver or initial value, which change no steady state)")
+    add_format(steady, "the scene's output.figure_format, else png")
 
 
 COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.resume,

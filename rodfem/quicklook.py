@@ -68,10 +68,13 @@ def history(history: np.ndarray, meanings: dict[str, str], title: str, gap: floa
     return panels
 
 
-def measure(columns: dict[str, np.ndarray], axes: tuple[str, ...], name: str, x=None, ax=None):
+def measure(columns: dict[str, np.ndarray], axes: tuple[str, ...], name: str, x=None, ax=None,
+            declared: dict | None = None):
     """A sweep's measure ``name`` against the swept key ``x`` (default: the first), a line for
     each combination of the other swept keys' values, over the complete scenes; a log axis for
-    positive values spanning two decades or more. Returns the Axes."""
+    positive values spanning two decades or more; the measure's axis labelled as ``rodfem plot``
+    labels it (``declared``: the declared measures' specs, whose units it names). Returns the
+    Axes."""
     x = axes[0] if x is None else x
     measures = [c for c in columns if c not in ("index", "status", "error", *axes)]
     if name not in measures:
@@ -100,7 +103,19 @@ def measure(columns: dict[str, np.ndarray], axes: tuple[str, ...], name: str, x=
             and values.max() >= 100 * values.min():
         ax.set_xscale("log")
     ax.set_xlabel(key_label(x))
-    ax.set_ylabel(measure_label(name))
+    ax.set_ylabel(measure_label(name, declared))
     if others and not many:
         ax.legend(loc="best", fontsize="small")
     return ax
+
+
+def save(axes, path, format: str | None, scene) -> None:
+    """Write the figure of ``axes`` (an Axes or an array of them) to ``path`` in ``format``
+    (:func:`rodfem.output.figures.target`: else the path's suffix, else the scene's
+    ``output.figure_format``), its texts fitted to the canvas."""
+    from rodfem.output import figures as formats
+
+    if path is None:
+        raise ValueError("format= is the format of the file written to path=: give path too")
+    fig = np.ravel(axes)[0].figure
+    formats.save(fig, formats.target(path, format, scene), dpi=fig.dpi)

@@ -1,6 +1,6 @@
 """The options that several ``rodfem`` subcommands share (:mod:`rodfem.cli` builds its parser
-with them): paths, ``--set``, ``--out`` and ``--force``, ``--yes``, ``--progress``, and the
-command's own ``--version``."""
+with them): paths, ``--set``, ``--out`` and ``--force``, ``--yes``, ``--progress``,
+``--format``, and the command's own ``--version``."""
 
 from __future__ import annotations
 
@@ -74,3 +74,12 @@ class _Version(argparse.Action):
 def add_version(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--version", action=_Version,
                         help="print rodfem's version (and dolfinx's, petsc4py's) and exit")
+
+
+def add_format(command: argparse.ArgumentParser, default: str) -> None:
+    """--format: the still figures' file format (one line and exit code 2 for another)."""
+    from rodfem.scene.schema import FIGURE_FORMATS
+
+    command.add_argument("--format", choices=FIGURE_FORMATS, default=None,
+                         help=f"the figures' format: {', '.join(FIGURE_FORMATS)} (PDF and SVG "
+                         f"keep text and lines as vectors; default: {default})")

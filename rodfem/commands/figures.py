@@ -41,7 +41,7 @@ def _plot_options(args: argparse.Namespace):
                    animation=args.animation,
                    window=parse_window(args.window) if args.window is not None else None,
                    labels=parse_labels(args.labels) if args.labels is not None else None,
-                   colour_by=args.colour_by)
+                   colour_by=args.colour_by, format=args.format)
 
 
 def _drawing(args: argparse.Namespace):
@@ -100,6 +100,7 @@ def _sweep_drawing(args: argparse.Namespace, sweep):
                         f"not {text!r}")
     return lambda: plot_sweep(sweep, args.out, force=args.force, measures=chosen,
                               overlay=args.overlay, window=window, option=option,
+                              format=args.format,
                               note=lambda line: say(f"rodfem: note: {line}"))
 
 

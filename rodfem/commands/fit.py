@@ -32,7 +32,7 @@ def fit(args: argparse.Namespace) -> int:
               runs=problem.max_evaluations * (len(study.keys) + 1))
     out = args.out if args.out is not None else Path("results") / Path(args.file).stem
     return _ended(lambda: run_fit(args.file, out, MPI.COMM_WORLD, force=args.force,
-                                  progress=args.progress), out, args.quiet)
+                                  progress=args.progress, format=args.format), out, args.quiet)
 
 
 def _ended(call, out: Path, quiet: bool) -> int:

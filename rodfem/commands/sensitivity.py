@@ -28,7 +28,7 @@ def sensitivity(args: argparse.Namespace) -> int:
     said_cost(found.sweep.scene, len(found.sweep), args.yes, args.quiet)
     out = args.out if args.out is not None else Path("results") / Path(args.file).stem
     try:
-        result = run_campaign(found, out, MPI.COMM_WORLD, force=args.force,
+        result = run_campaign(found, out, MPI.COMM_WORLD, force=args.force, format=args.format,
                               progress=args.progress or sys.stderr.isatty())
     except OutputError as err:
         say(f"rodfem: error: {err}")

@@ -71,7 +71,7 @@ def stability(args: argparse.Namespace) -> int:
     if comm.rank == 0:
         from rodfem.post.stability import plot_stability
 
-        written = plot_stability(args.out)
+        written = plot_stability(args.out, format=args.format or "png")
     finish(args.out, "complete", comm)
     for line in st.report_lines(records, grid, seconds, args.out, comm.size):
         say(line, sys.stdout)
@@ -112,9 +112,10 @@ def steady(args: argparse.Namespace) -> int:
         return EXIT_INPUT
     written = []
     if comm.rank == 0 and key is not None:
+        from rodfem.output.figures import chosen
         from rodfem.post.steady import plot_branches
 
-        written = plot_branches(out, key, scene["obstacle.gap"])
+        written = plot_branches(out, key, scene["obstacle.gap"], chosen(args.format, scene))
     finish(out, "complete", comm)
     for line in st.table_lines(rows):
         say(line, sys.stdout)
@@ -178,7 +179,7 @@ def verify(args: argparse.Namespace) -> int:
     if data is None:
         finish(args.out, "interrupted", comm)
         return _stopped(args.out)
-    written = draw(args.out) if comm.rank == 0 else []
+    written = draw(args.out, args.format or "png") if comm.rank == 0 else []
     finish(args.out, "complete", comm)
     for line in task.summary_lines(data, args.out):
         say(line, sys.stdout)

@@ -92,16 +92,21 @@ class Result:
         (``scene``, ``description``, ``scene_toml``). Needs pandas."""
         return history_frame(self.history, scene_attrs(self.scene))
 
-    def plot(self, columns=None, ax=None):
+    def plot(self, columns=None, ax=None, path=None, format=None):
         """The history's main curves against t with matplotlib's pyplot: u(1, t) with the gap,
-        σ(1, t) and the energy Ê, a panel each. ``columns``: other history columns, a panel
-        each; ``ax``: draw them all on that Axes instead. Returns the Axes (an array of them,
+        σ(1, t) and the energy Ê, a panel each, their axes labelled with units. ``columns``:
+        other history columns, a panel each; ``ax``: draw them all on that Axes instead;
+        ``path``: also write the figure there, as PNG, PDF or SVG (``format``, else the path's
+        suffix, else the scene's ``output.figure_format``). Returns the Axes (an array of them,
         one per panel, without ``ax``)."""
         from rodfem import quicklook
 
         meanings = {c.name: c.meaning for c in for_scene(self.scene)}
-        return quicklook.history(self.history, meanings, _title(self),
+        axes = quicklook.history(self.history, meanings, _title(self),
                                  self.scene["obstacle.gap"], columns, ax)
+        if path is not None or format is not None:
+            quicklook.save(axes, path, format, self.scene)
+        return axes
 
     def __repr__(self) -> str:
         rows, names = len(self.history), self.history.dtype.names

@@ -17,8 +17,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from rodfem.output.atomic import replacing
 from rodfem.output.names import TIME_LABEL, series_label
+from rodfem.output import figures as formats
 from rodfem.post import style
 from rodfem.post.runs import Run
 
@@ -221,7 +221,7 @@ def energy_figure(runs: list[Run], labels: list[str], path: Path,
             curves.append((t, y))
         ax.set_title(energy_title(runs) + "\n" + r"$\hat{E}$: the discrete energy of Remark 4.4")
         ax.set_xlabel(TIME_LABEL)
-        ax.set_ylabel(r"$\ln(\hat{E} + 0.01)$")
+        ax.set_ylabel(r"$\ln(\hat{E} + 0.01)$, $\hat{E}$ in [$EL$]")  # the log of a number
         ax.grid(True, color="0.9")
         _limits(ax, curves, t_range)
         _colour_bar(fig, bar, mappable, colour_by)
@@ -240,6 +240,5 @@ def _dashes(dashes: Dashes | None, runs: int) -> tuple[list, tuple[list, list[st
 
 
 def _save(fig: Figure, path: Path) -> Path:
-    with replacing(path, "wb") as file:  # whole or not at all
-        fig.savefig(file, format="png", dpi=style.MPL_DPI)
-    return path
+    """Whole or not at all, in the format of the path's suffix (:mod:`rodfem.output.figures`)."""
+    return formats.save(fig, path, dpi=style.MPL_DPI)

@@ -6,6 +6,8 @@ drawn: a bad value is one line (:class:`~rodfem.post.runs.PlotError`, exit code 
     --window T0,T1            the time window drawn
     --labels a,b,c            one label per run, in legends and titles
     --colour-by model.zeta    runs coloured by a scene value, with one colour bar
+    --format pdf              the still figures as PNG, PDF or SVG (default: the first run's
+                              output.figure_format, else PNG)
 """
 
 from __future__ import annotations
@@ -31,6 +33,8 @@ class Options:
         labels: one label per run, or None for labels made of the runs' names and values.
         colour_by: a scene key whose values colour the runs (a sequential map and a colour
             bar instead of a legend), or None for one colour per run and a legend.
+        format: the still figures' format (:data:`rodfem.output.figures.FORMATS`), or None for
+            the first run's ``output.figure_format`` (PNG where it has none).
     """
 
     only: frozenset[str] = frozenset(KINDS)
@@ -38,6 +42,7 @@ class Options:
     window: tuple[float, float] | None = None
     labels: tuple[str, ...] | None = None
     colour_by: str | None = None
+    format: str | None = None
 
     def draws(self, kind: str) -> bool:
         """Whether a figure of this kind (``contact``, ``spacetime_u``, ``rod``...) is drawn."""

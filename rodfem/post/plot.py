@@ -11,7 +11,8 @@ For one run DIR the figures go to DIR/figures/ (or ``out``):
 For several runs contact.png and energy.png overlay them all, and the per-run figures carry the
 run's directory name: spacetime_u_<name>.png, ..., rod_<name>.gif, all in one directory (``out``,
 by default the first run's figures/). :class:`~rodfem.post.options.Options` chooses the figures,
-the time window, the labels and the colouring.
+the time window, the labels, the colouring and the format: the still figures are PNG, PDF or SVG
+(``--format``, else the first run's ``output.figure_format``; :mod:`rodfem.output.figures`).
 
 Everything is read and checked before anything is drawn; each figure is one task
 (:class:`rodfem.post.tasks.Task`), drawn here or by worker processes (:mod:`rodfem.post.pool`).
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from rodfem.output import figures as formats
 from rodfem.post.options import EVERYTHING, KINDS, Options, check
 from rodfem.post.runs import (
     PlotError,
@@ -55,7 +57,8 @@ def plan(runs: list[Run], out: Path, options: Options = EVERYTHING) -> list[Task
     table; a per-run figure whose data the run did not save is left out."""
     math, plain = _labels(runs, options)
     shared = dict(window=options.window, colour_by=options.colour_by)
-    tasks = [Task(kind, tuple(runs), tuple(math), out / f"{kind}.png", **shared)
+    fmt = formats.chosen(options.format, runs[0].scene)
+    tasks = [Task(kind, tuple(runs), tuple(math), out / f"{kind}.{fmt}", **shared)
              for kind in ("contact", "energy") if options.draws(kind)]
     for run, label, suffix in zip(runs, plain, file_suffixes(runs), strict=True):
         saved = fields_in_window(run.fields, options.window).t.size > 0
@@ -63,7 +66,7 @@ def plan(runs: list[Run], out: Path, options: Options = EVERYTHING) -> list[Task
             if saved and getattr(run.fields, name) is not None \
                     and options.draws(f"spacetime_{name}"):
                 tasks.append(Task("spacetime", (run,), (label,),
-                                  out / f"spacetime_{name}{suffix}.png", field=name, **shared))
+                                  out / f"spacetime_{name}{suffix}.{fmt}", field=name, **shared))
         if saved and run.fields.u is not None and run.fields.theta is not None \
                 and options.draws("rod"):
             tasks.append(Task("rod", (run,), (label,), out / f"rod{suffix}.gif", **shared))

@@ -26,7 +26,7 @@ from rodfem.post import curves
 from rodfem.post.curves import DASHES, Dashes
 from rodfem.post.runs import PARAMETERS, PlotError, Run, _flatten, legend_labels
 
-FIGURES = ("sweep_scenes_contact.png", "sweep_scenes_energy.png")
+FIGURES = ("sweep_scenes_contact.png", "sweep_scenes_energy.png")  # or .pdf, .svg
 
 
 @dataclass(frozen=True)
@@ -115,10 +115,10 @@ def _value(value):
     return str(value)
 
 
-def draw(overlay: Overlay, out: Path) -> list[Path]:
-    """The overlaid curves, in ``out``."""
+def draw(overlay: Overlay, files: list[Path]) -> list[Path]:
+    """The overlaid curves, into ``files`` (those of :data:`FIGURES`, in a format)."""
     shared = dict(window=overlay.window, colour_by=overlay.colour_by,
                   colour_log=overlay.colour_log, dashes=overlay.dashes)
     labels = overlay.labels or [run.name for run in overlay.runs]
-    return [curves.contact_figure(overlay.runs, labels, out / FIGURES[0], **shared),
-            curves.energy_figure(overlay.runs, labels, out / FIGURES[1], **shared)]
+    return [curves.contact_figure(overlay.runs, labels, files[0], **shared),
+            curves.energy_figure(overlay.runs, labels, files[1], **shared)]

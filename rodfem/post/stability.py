@@ -146,12 +146,15 @@ def stability_figure(rows: list[dict], method: str, info: dict, path: Path) -> P
     return path
 
 
-def plot_stability(directory: Path, out: Path | None = None) -> list[Path]:
-    """Draw stability_<method>.png for every method in ``directory``/stability.csv.
+def plot_stability(directory: Path, out: Path | None = None,
+                   format: str = "png") -> list[Path]:
+    """Draw stability_<method>.png (or .pdf, .svg: ``format``) for every method in
+    ``directory``/stability.csv.
 
     Args:
         directory: written by ``rodfem stability``.
         out: the figure directory (default: ``directory``/figures), created if need be.
+        format: png, pdf or svg.
 
     Returns:
         The files written.
@@ -166,4 +169,5 @@ def plot_stability(directory: Path, out: Path | None = None) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)  # an OSError is a write error (exit code 4)
     backend.off_screen()
     methods = [m for m in ("picard", "newton", "direct") if any(r["method"] == m for r in rows)]
-    return [stability_figure(rows, m, info, out / f"stability_{m}.png") for m in methods]
+    return [stability_figure(rows, m, info, out / f"stability_{m}.{format}")
+            for m in methods]

@@ -1,7 +1,11 @@
 """The branches of steady states over a scene value (``rodfem steady --continue``), from
-``branches.csv``: u(1) and θ(1) against the value, stable states solid, unstable dashed, each
-branch in its colour, so that folds (where a stable and an unstable branch meet and end) show.
-Drawn with matplotlib, as the curves of :mod:`rodfem.post.curves`."""
+``branches.csv``: u(1), the contact pressure −σ(1) and θ(1) against the value, so that folds
+(where a stable and an unstable branch meet and end) show. A legend says what is what: the colour
+is contact (states in contact with the obstacle) or free; the line is the stability, stable solid,
+unstable dashed, neutral states open circles, states whose stability is not resolved crosses.
+u(1) of a state in contact lies on the gap line (a rigid obstacle), so its panel is left out where
+every state is in contact there, and the pressure panel, which tells such states apart, is drawn
+wherever one is in contact. Drawn with matplotlib, as the curves of :mod:`rodfem.post.curves`."""
 
 from __future__ import annotations
 
@@ -11,8 +15,8 @@ from pathlib import Path
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from rodfem.output.atomic import replacing
-from rodfem.output.names import KEYS
+from rodfem.output import figures
+from rodfem.output.names import KEYS, key_label, with_unit
 from rodfem.post import style
 from rodfem.post.runs import PlotError
 
@@ -20,8 +24,13 @@ FLAGS = ("contact", "stable", "tangential")
 WORDS = ("trust", "key")  # read as they are written
 FIGURE = "branches.png"
 # The symbols of the keys a continuation runs over (rodfem.output.names).
-# stable, unstable, not decided (neutral, unresolved, or not a state to round-off: crosses)
+# stable, unstable, not decided (neutral, unresolved, or not a state to round-off: markers)
 STYLES = {True: "-", False: "--", None: "none"}
+CONTACT, FREE = "tab:red", "tab:blue"  # the colours of states in contact and free
+# The panels: (history column, label, what the column becomes).
+PANELS = {"u_1": with_unit("$u(1)$", "L"),
+          "pressure": with_unit(r"contact pressure $-\sigma(1)$", "E"),
+          "theta_1": r"$\theta(1)$"}
 SYMBOLS = {key: symbol for key, (_, symbol, _) in KEYS.items()}
 
 
@@ -79,49 +88,101 @@ def _folds(rows: list[dict]) -> list[tuple[dict, dict]]:
     return pairs
 
 
-def plot_branches(out: Path, key: str, gap: float | None = None) -> list[Path]:
-    """figures/branches.png of ``out``/branches.csv, continued over ``key``."""
+def _value(row: dict, panel: str) -> float:
+    """A state's value in a panel: the contact pressure is −σ(1) (0 for a free state)."""
+    return -row["sigma_1"] if panel == "pressure" else row[panel]
+
+
+def _segments(rows: list[dict]) -> list[tuple[bool | None, bool, list[dict]]]:
+    """A branch's rows cut where its stability or contact changes: (stable, contact, rows),
+    each segment joined to the one before (:func:`_runs`); its colour is its contact."""
+    found = []
+    for stable, part in _runs(rows):
+        start = 0
+        for i in range(1, len(part) + 1):
+            if i == len(part) or bool(part[i]["contact"]) != bool(part[start]["contact"]):
+                chunk = part[max(start - 1, 0):i] if start else part[start:i]
+                found.append((stable, bool(part[min(start, len(part) - 1)]["contact"]), chunk))
+                start = i
+    return found
+
+
+def panels(rows: list[dict], gap: float | None) -> list[str]:
+    """The panels drawn: u(1) unless every state is in contact on the gap line; the pressure
+    wherever a state is in contact; θ(1)."""
+    touching = [r for r in rows if r["contact"]]
+    flat = len(touching) == len(rows) and gap is not None and all(
+        abs(r["u_1"] - gap) <= 1e-9 * max(1.0, abs(gap)) for r in touching)
+    return [*([] if flat else ["u_1"]), *(["pressure"] if touching else []), "theta_1"]
+
+
+def _legend(ax, rows: list[dict], gap: float | None, shown: list[str]) -> None:
+    """What the colours, lines and marks stand for, beside the panels."""
+    trusts = {r["trust"] for r in rows if r["stable"] is None}
+    entries = [(Line2D([], [], color=CONTACT, lw=style.MPL_LINE_WIDTH), "in contact"),
+               (Line2D([], [], color=FREE, lw=style.MPL_LINE_WIDTH), "free"),
+               (Line2D([], [], color="k"), "stable"),
+               (Line2D([], [], color="k", linestyle="--"), "unstable")]
+    if "neutral" in trusts:
+        entries.append((Line2D([], [], color="k", ls="none", marker="o", mfc="none"), "neutral"))
+    if trusts - {"neutral"}:
+        entries.append((Line2D([], [], color="k", ls="none", marker="x"), "unresolved"))
+    if any(r["tangential"] for r in rows):
+        entries.append((Line2D([], [], color="k", ls="none", marker="o"), "fold"))
+    if _folds(rows):
+        entries.append((Line2D([], [], color="0.4", linestyle=":"), "across a fold"))
+    if gap is not None and "u_1" in shown:
+        entries.append((Line2D([], [], color="0.6"), "gap $g$"))
+    ax.legend(*zip(*entries, strict=True), loc="upper left", bbox_to_anchor=(1.01, 1.0),
+              borderaxespad=0.0, fontsize=style.MPL_LEGEND_SIZE, frameon=False)
+
+
+def plot_branches(out: Path, key: str, gap: float | None = None,
+                  format: str = "png") -> list[Path]:
+    """figures/branches.png (or .pdf, .svg: ``format``) of ``out``/branches.csv, continued over
+    ``key``."""
     rows = read_branches(out / "branches.csv")
-    symbol = SYMBOLS.get(key, key)
+    shown = panels(rows, gap)
     with style.mpl_fonts():
-        fig = Figure(figsize=style.MPL_SIZE, dpi=style.MPL_DPI)
-        top, bottom = fig.subplots(2, 1, sharex=True)
+        fig = Figure(figsize=(style.MPL_SIZE[0], 1.6 + 2.6 * len(shown)), dpi=style.MPL_DPI,
+                     layout="constrained")
+        axes = dict(zip(shown, fig.subplots(len(shown), 1, sharex=True, squeeze=False)[:, 0],
+                        strict=True))
         for label in sorted({row["branch"] for row in rows}):
             branch = sorted((r for r in rows if r["branch"] == label),
                             key=lambda r: r["parameter"])
-            for stable, part in _runs(branch):
+            for stable, contact, part in _segments(branch):
                 x = [r["parameter"] for r in part]
-                for ax, name in ((top, "u_1"), (bottom, "theta_1")):
-                    ax.plot(x, [r[name] for r in part], color=style.colour(label),
-                            linestyle=STYLES[stable], linewidth=style.MPL_LINE_WIDTH,
-                            marker="x" if stable is None else None)
+                for name, ax in axes.items():
+                    y = [_value(r, name) for r in part]
+                    colour = CONTACT if contact else FREE
+                    if stable is None:
+                        for row, xv, yv in zip(part, x, y, strict=True):
+                            neutral = row["trust"] == "neutral"
+                            ax.plot([xv], [yv], color=colour, linestyle="none",
+                                    marker="o" if neutral else "x",
+                                    mfc="none" if neutral else colour)
+                    else:
+                        ax.plot(x, y, color=colour, linestyle=STYLES[stable],
+                                linewidth=style.MPL_LINE_WIDTH)
             folds = [r for r in branch if r["tangential"]]
-            for ax, name in ((top, "u_1"), (bottom, "theta_1")):
-                ax.plot([r["parameter"] for r in folds], [r[name] for r in folds], "ko")
+            for name, ax in axes.items():
+                ax.plot([r["parameter"] for r in folds], [_value(r, name) for r in folds], "ko")
         for pair in _folds(rows):
-            for ax, name in ((top, "u_1"), (bottom, "theta_1")):
-                ax.plot([r["parameter"] for r in pair], [r[name] for r in pair], color="0.4",
-                        linestyle=":", linewidth=style.MPL_LINE_WIDTH)
-        if gap is not None:
-            top.axhline(gap, color="0.6", linewidth=1.0)
-        top.set_ylabel("$u(1)$")
-        bottom.set_ylabel(r"$\theta(1)$")
-        bottom.set_xlabel(f"{symbol} ({key})" if symbol != key else key)
-        top.set_title(f"Steady states over {symbol}: stable solid, unstable dashed")
-        for ax in (top, bottom):
+            for name, ax in axes.items():
+                ax.plot([r["parameter"] for r in pair], [_value(r, name) for r in pair],
+                        color="0.4", linestyle=":", linewidth=style.MPL_LINE_WIDTH)
+        if gap is not None and "u_1" in axes:
+            axes["u_1"].axhline(gap, color="0.6", linewidth=1.0)
+        for name, ax in axes.items():
+            ax.set_ylabel(PANELS[name])
             ax.grid(True, color="0.9")
-        top.legend([Line2D([], [], color="k"), Line2D([], [], color="k", linestyle="--"),
-                    Line2D([], [], color="0.4", linestyle=":")]
-                   + ([Line2D([], [], color="k", linestyle="none", marker="x")]
-                      if any(r["stable"] is None for r in rows) else [])
-                   + ([Line2D([], [], color="0.6")] if gap is not None else []),
-                   ["stable", "unstable", "across a fold"]
-                   + (["not decided"] if any(r["stable"] is None for r in rows) else [])
-                   + (["gap g"] if gap is not None else []),
-                   loc="best", fontsize=style.MPL_LEGEND_SIZE)
-        fig.tight_layout()
-        path = out / "figures" / FIGURE
+        last = axes[shown[-1]]
+        last.set_xlabel(key_label(key) if key in KEYS else key)
+        first = axes[shown[0]]
+        first.set_title(f"Steady states over ${KEYS[key][0]}$" if key in KEYS else
+                        f"Steady states over {key}")
+        _legend(first, rows, gap, shown)
+        path = out / "figures" / Path(FIGURE).with_suffix(f".{format}").name
         path.parent.mkdir(exist_ok=True)
-        with replacing(path, "wb") as file:
-            fig.savefig(file, format="png", dpi=style.MPL_DPI)
-    return [path]
+        return [figures.save(fig, path, dpi=style.MPL_DPI)]

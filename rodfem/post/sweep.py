@@ -30,8 +30,8 @@ from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
+from rodfem.output import figures as formats
 from rodfem.output import journal, names, results
-from rodfem.output.atomic import replacing
 from rodfem.post import choice
 from rodfem.post.runs import PlotError
 
@@ -50,6 +50,7 @@ class Layout:
     grid: dict[str, list]
     logs: frozenset[str] = frozenset()
     declared: dict = dataclasses.field(default_factory=dict)
+    figure_format: str | None = None  # the base scene's output.figure_format
 
 
 class SweepDirectoryError(PlotError):
@@ -60,9 +61,11 @@ def load_sweep(path: Path) -> tuple[Layout, dict[str, np.ndarray]]:
     """The axes of ``sweep.json`` and the columns of ``results.csv``, checked against them."""
     try:
         meta = json.loads((path / "sweep.json").read_text(encoding="utf-8"))
+        output = (meta.get("base") or {}).get("output") or {}
         sweep = Layout(tuple(meta["axes"]), dict(meta["design"]),
                        {key: list(values) for key, values in meta["grid"].items()},
-                       choice.log_design(meta), choice.declared(meta))
+                       choice.log_design(meta), choice.declared(meta),
+                       output.get("figure_format") if isinstance(output, dict) else None)
         if journal.exists(path):  # a stopped sweep: its rows so far
             records = journal.read(path)
             axes, columns = results.parse(results.text(
@@ -130,9 +133,8 @@ def _norm(values: np.ndarray):
 
 
 def _save(fig: Figure, path: Path) -> Path:
-    with replacing(path, "wb") as file:  # whole or not at all
-        fig.savefig(file, format="png", dpi=DPI)
-    return path
+    """Whole or not at all, in the format of the path's suffix (:mod:`rodfem.output.figures`)."""
+    return formats.save(fig, path, dpi=DPI)
 
 
 def _lines(ax, x, labels, key, log, y, ok, groups) -> None:
@@ -202,15 +204,15 @@ def _where(columns, others: list[str]) -> str:
     return ", ".join(f"{_symbol(a)} = {_shown(columns[a][0])}" for a in others)
 
 
-def _files(out: Path, drawn: list[str], lines: bool) -> list[Path]:
+def _files(out: Path, drawn: list[str], lines: bool, fmt: str) -> list[Path]:
     return [out / f for name in drawn
-            for f in (f"sweep_{name}.png", *((f"sweep_{name}_lines.png",) if lines else ()))]
+            for f in (f"sweep_{name}.{fmt}", *((f"sweep_{name}_lines.{fmt}",) if lines else ()))]
 
 
 def plot_sweep(path: Path, out: Path | None = None, force: bool = False,
                measures: list[str] | None = None, overlay: bool = False,
                window: tuple[float, float] | None = None, note=None,
-               option: str = "--measures") -> list[Path]:
+               option: str = "--measures", format: str | None = None) -> list[Path]:
     """Draw the figures of a sweep directory (``results.csv`` and ``sweep.json``).
 
     Args:
@@ -224,10 +226,12 @@ def plot_sweep(path: Path, out: Path | None = None, force: bool = False,
         window: the time window of the overlaid histories.
         note: called with a line naming the measures left out by default, if any.
         option: the option that chose ``measures``, as its errors name it.
+        format: the figures' format, png, pdf or svg (default: the base scene's
+            ``output.figure_format``, else png).
 
     Returns:
-        The files written: per measure (in the table's order) ``sweep_<measure>.png``, then
-        ``sweep_<measure>_lines.png`` if there is one; then the overlays.
+        The files written: per measure (in the table's order) ``sweep_<measure>.png`` (or
+        .pdf, .svg), then ``sweep_<measure>_lines.png`` if there is one; then the overlays.
 
     Raises:
         SweepDirectoryError: the directory is not a readable sweep directory (nothing written).
@@ -245,7 +249,9 @@ def plot_sweep(path: Path, out: Path | None = None, force: bool = False,
     out = Path(out) if given else path / "figures"
     axes, grid_axes = sweep.axes, [a for a in sweep.axes if sweep.design[a] == "grid"]
     lines = len(axes) == 2 and len(grid_axes) == 2
-    files = _files(out, drawn, lines) + ([out / f for f in scenes.FIGURES] if overlay else [])
+    fmt = formats.chosen(format, {formats.SCENE_KEY: sweep.figure_format})
+    overlays = [(out / f).with_suffix(f".{fmt}") for f in scenes.FIGURES] if overlay else []
+    files = _files(out, drawn, lines, fmt) + overlays
     existing = [file for file in files if file.exists()]
     if given and existing and not force:
         more = f" (and {len(existing) - 1} more)" if len(existing) > 1 else ""
@@ -254,12 +260,12 @@ def plot_sweep(path: Path, out: Path | None = None, force: bool = False,
     if skipped and note is not None:
         note(skipped)
     out.mkdir(parents=True, exist_ok=True)  # an OSError is a write error (exit code 4)
-    written = [_measure(out, sweep, columns, name) for name in drawn]
+    written = [_measure(out, sweep, columns, name, fmt) for name in drawn]
     written = [file for pair in written for file in pair]
-    return written + (scenes.draw(overlaid, out) if overlay else [])
+    return written + (scenes.draw(overlaid, overlays) if overlay else [])
 
 
-def _measure(out: Path, sweep: Layout, columns, name: str) -> list[Path]:
+def _measure(out: Path, sweep: Layout, columns, name: str, fmt: str = "png") -> list[Path]:
     """The figures of one measure: ``sweep_<name>.png`` (and ``_lines`` over two grid axes)."""
     axes, grid_axes = sweep.axes, [a for a in sweep.axes if sweep.design[a] == "grid"]
     others = [a for a in axes if a not in grid_axes[:2]]
@@ -282,7 +288,7 @@ def _measure(out: Path, sweep: Layout, columns, name: str) -> list[Path]:
     else:
         fig, ax = _figure(f"{title} over {_symbol(first)} and {_symbol(axes[1])}")
         _scatter(ax, fig, sweep, columns, label, y, ok)
-    written = [_save(fig, out / f"sweep_{name}.png")]
+    written = [_save(fig, out / f"sweep_{name}.{fmt}")]
     if len(axes) == 2 and len(grid_axes) == 2:
         fig, ax = _figure(f"{title} against {_symbol(first)}")
         keys = [_key(v) for v in columns[axes[1]]]
@@ -293,5 +299,5 @@ def _measure(out: Path, sweep: Layout, columns, name: str) -> list[Path]:
         # beside the axes, not over them: "best" still covers lines where every corner has one
         ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
                   fontsize="small")
-        written.append(_save(fig, out / f"sweep_{name}_lines.png"))
+        written.append(_save(fig, out / f"sweep_{name}_lines.{fmt}"))
     return written

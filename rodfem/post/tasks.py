@@ -39,5 +39,6 @@ def draw(task: Task) -> Path:
         return energy_figure(runs, labels, task.path, task.window, task.colour_by)
     if task.kind == "spacetime":
         fields = fields_in_window(runs[0].fields, task.window)
-        return spacetime_figure(fields, task.field, labels[0], task.path)
+        return spacetime_figure(fields, task.field, labels[0], task.path, runs[0].history,
+                                runs[0].gap)
     return rod_animation(runs[0], labels[0], task.path, task.window)

@@ -331,26 +331,28 @@ def _work_precision(data: dict, scene: str, path: Path) -> Path:
     return work_precision_figure(data, scene, path)
 
 
-def _figures(directory: Path, name: str, draw, prefix: str) -> list[Path]:
+def _figures(directory: Path, name: str, draw, prefix: str, format: str = "png") -> list[Path]:
     data = read(Path(directory) / name)
     out = Path(directory) / "figures"
     out.mkdir(exist_ok=True)  # an OSError is a write error (exit code 4)
     backend.off_screen()
     scenes = dict.fromkeys(p["scene"] for p in data["points"] if p["status"] == "complete")
-    return [draw(data, s, out / f"{prefix}_{s}.png") for s in scenes]
+    return [draw(data, s, out / f"{prefix}_{s}.{format}") for s in scenes]
 
 
-def plot_orders(directory: Path) -> list[Path]:
+def plot_orders(directory: Path, format: str = "png") -> list[Path]:
     """orders_<scene>.png for every scene in ``directory``/orders.json, into figures/, and
-    measures_<scene>.png for every scene file's measures."""
-    written = _figures(directory, "orders.json", orders_figure, "orders")
+    measures_<scene>.png for every scene file's measures (or .pdf, .svg: ``format``)."""
+    written = _figures(directory, "orders.json", orders_figure, "orders", format)
     data = read(Path(directory) / "orders.json")
     for scene in data.get("user", []):
-        path = measures_figure(data, scene, Path(directory) / "figures" / f"measures_{scene}.png")
+        path = measures_figure(data, scene, Path(directory) / "figures"
+                                / f"measures_{scene}.{format}")
         written += [path] if path is not None else []
     return written
 
 
-def plot_work_precision(directory: Path) -> list[Path]:
-    """workprecision_<scene>.png for every scene in ``directory``/workprecision.json."""
-    return _figures(directory, "workprecision.json", _work_precision, "workprecision")
+def plot_work_precision(directory: Path, format: str = "png") -> list[Path]:
+    """workprecision_<scene>.png (or .pdf, .svg: ``format``) for every scene in
+    ``directory``/workprecision.json."""
+    return _figures(directory, "workprecision.json", _work_precision, "workprecision", format)

@@ -58,6 +58,7 @@ REDISTRIBUTED = ("redistributed", "redistributed-lumped", "dispersion-free")
 # What a run can save and record besides the default history (rodfem.output.columns, .fields).
 FIELDS = ("theta", "u", "sigma", "velocity", "heat_flux")
 QUANTITIES = ("theta_1", "heat_flux_1", "contact_force", "contact", "penetration")
+FIGURE_FORMATS = ("png", "pdf", "svg")  # rodfem.output.figures
 
 
 SCHEMA: dict[str, dict[str, Key]] = {
@@ -187,6 +188,10 @@ SCHEMA: dict[str, dict[str, Key]] = {
                           help="write a checkpoint (history, fields and the state to resume "
                           "from) at the first field save this many seconds of wall time after "
                           "the last one; 0: at every field save"),
+        "figure_format": Key("choice", "png", choices=FIGURE_FORMATS,
+                             help="the format of the still figures rodfem draws of this scene "
+                             "(rodfem plot, fit, sensitivity, steady): png, pdf or svg; a "
+                             "command's --format overrides it"),
     },
 }
 

@@ -25,7 +25,7 @@ from rodfem.studies.sweep.files import digest, tag  # noqa: F401 (a fit's study.
 
 FORMAT = 1
 FILES = ("fit.toml", "study.json", "base.toml", "data.csv", "journal", "fit.json", "fitted",
-         "fit.png")
+         "fit.png", "fit.pdf", "fit.svg")  # the figure in each format
 
 
 class FitError(RuntimeError):

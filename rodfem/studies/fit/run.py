@@ -61,9 +61,11 @@ def problem_of(study: Study, data_path: Path, base: tuple[dict, str] | None = No
 
 
 def run_fit(spec, out: str | Path | None = None, comm: MPI.Comm | None = None, *,
-            force: bool = False, progress: bool = False, text: str | None = None) -> FitResult:
+            force: bool = False, progress: bool = False, text: str | None = None,
+            format: str | None = None) -> FitResult:
     """Fit a study (a fit file's path or its TOML data) into the directory ``out`` (as
     ``rodfem fit --out``), or in memory with ``out=None``. Under mpirun every rank calls it.
+    ``format``: fit.png's, png, pdf or svg (default: the base scene's ``output.figure_format``).
 
     Raises:
         SceneError: a mistake in the fit file, its data or a scene (nothing run or written).
@@ -72,6 +74,10 @@ def run_fit(spec, out: str | Path | None = None, comm: MPI.Comm | None = None, *
         rodfem.output.interrupts.Interrupted: a signal stopped it (between two batches).
     """
     comm = comm or MPI.COMM_WORLD
+    if format is not None:
+        from rodfem.output.figures import checked
+
+        format = checked(format)  # FormatError before anything runs
     study, data_path = study_of(spec)
     problem = problem_of(study, data_path)
     if out is None:
@@ -102,11 +108,11 @@ def run_fit(spec, out: str | Path | None = None, comm: MPI.Comm | None = None, *
                 file.write(data_bytes)
     if interrupts.signal_received() is not None:
         raise interrupts.Interrupted(interrupts.signal_received())
-    return _into(out, problem, comm, written, 0, {}, progress)
+    return _into(out, problem, comm, written, 0, {}, progress, format)
 
 
 def _into(out: Path, problem: Problem, comm: MPI.Comm, written: dict, session: int,
-          known: dict, progress: bool) -> FitResult:
+          known: dict, progress: bool, figure_format: str | None = None) -> FitResult:
     """The fit into ``out`` (held by this command), its marker's status written however it
     ends."""
     from rodfem.output.directories import finish
@@ -118,7 +124,7 @@ def _into(out: Path, problem: Problem, comm: MPI.Comm, written: dict, session: i
         with interrupts.deferred():
             try:
                 result = _solve(problem, Evaluations(problem, comm, log, known, progress), comm,
-                                out)
+                                out, figure_format)
             finally:
                 log.close()
         status = "complete"
@@ -134,8 +140,9 @@ def _into(out: Path, problem: Problem, comm: MPI.Comm, written: dict, session: i
 
 
 def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
-           out: Path | None) -> FitResult:
-    """Fit, then the statistics at the optimum, the fitted run, fit.json and fit.png."""
+           out: Path | None, figure_format: str | None = None) -> FitResult:
+    """Fit, then the statistics at the optimum, the fitted run, fit.json and fit.png (or .pdf,
+    .svg: ``figure_format``, else the scene's)."""
     found = optimise(problem, evaluations)
     u = found.x
     r = evaluations.batch([u])[0]
@@ -161,14 +168,15 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
     interrupts.stop_if_received(comm)
     error = None
     if out is not None and comm.rank == 0:
-        from rodfem.post.fit import plot_fit
+        from rodfem.output.figures import chosen
+        from rodfem.post.fit import fit_title, plot_fit
 
         values = {c: data.values[:, j] for j, c in enumerate(data.columns)}
         try:
-            plot_fit(out / "fit.png", data.t, values, fitted.history["t"],
+            figure = out / f"fit.{chosen(figure_format, problem.scene(u))}"
+            plot_fit(figure, data.t, values, fitted.history["t"],
                      {c: fitted.history[c] for c in data.columns},
-                     ", ".join(f"{k} = {v['value']:.4g}"
-                               for k, v in numbers["parameters"].items()))
+                     fit_title(numbers["parameters"]))
         except OSError as err:
             error = io_line(err)
     error = comm.bcast(error, root=0)

@@ -18,7 +18,8 @@ from rodfem.studies.sensitivity import indices
 from rodfem.studies.sweep.files import checked_json, digest
 
 CSV, FIGURE = "sensitivity.csv", "sensitivity.png"
-FILES = ("sensitivity.toml", "sensitivity.json", "samples.csv", "runs", CSV, FIGURE)
+FILES = ("sensitivity.toml", "sensitivity.json", "samples.csv", "runs", CSV, FIGURE,
+         "sensitivity.pdf", "sensitivity.svg")  # the figure in each format
 FORMAT = 1
 KEYS = {"name": str, "study": dict, "scene": str, "base": dict, "source": str, "method": str,
         "samples": int, "seed": int, "outputs": list, "runs": str, "digest": str}

@@ -61,6 +61,7 @@ class Campaign:
     outputs: tuple[str, ...]
     text: str | None = None
     keep: Path | None = None
+    figure_format: str | None = None  # the figure's format (None: the base scene's, or png)
 
 
 def outputs(value: Any, name: str, declared: tuple[str, ...]) -> tuple[str, ...]:
@@ -112,12 +113,14 @@ def prepare(spec) -> Campaign:
 
 
 def sensitivity(study, out: str | Path | None = None, comm: MPI.Comm | None = None, *,
-                force: bool = False, progress: bool = False) -> SensitivityResult:
+                force: bool = False, progress: bool = False,
+                format: str | None = None) -> SensitivityResult:
     """Run a sensitivity study: ``study`` a sensitivity file's path or its TOML data as a dict.
     Into the directory ``out`` (as ``rodfem sensitivity --out``), or in memory with
     ``out=None``. Under mpirun every rank calls it and gets the result. A signal received during
     the call stops it after the runs under way (status interrupted; ``rodfem resume`` continues
-    a directory).
+    a directory). ``format``: the figure's, png, pdf or svg (default: the base scene's
+    ``output.figure_format``, else png).
 
     Raises:
         SceneError: a mistake in the study (nothing has run, nothing is written).
@@ -125,13 +128,20 @@ def sensitivity(study, out: str | Path | None = None, comm: MPI.Comm | None = No
     """
     with interrupts.call():
         return run_campaign(prepare(study), out, comm or MPI.COMM_WORLD, force=force,
-                            progress=progress)
+                            progress=progress, format=format)
 
 
 def run_campaign(found: Campaign, out: str | Path | None, comm: MPI.Comm, *,
-                 force: bool = False, progress: bool = False) -> SensitivityResult:
-    """Run a prepared campaign into ``out`` (or in memory), analyse it, and write its files."""
+                 force: bool = False, progress: bool = False,
+                 format: str | None = None) -> SensitivityResult:
+    """Run a prepared campaign into ``out`` (or in memory), analyse it, and write its files
+    (the figure in ``format``, else the base scene's)."""
     from rodfem.studies.sweep.run import run_sweep
+
+    if format is not None:
+        from rodfem.output.figures import checked
+
+        found = dataclasses.replace(found, figure_format=checked(format))
 
     if out is None:
         started = time.perf_counter()
@@ -216,7 +226,8 @@ def _write(out: Path, found: Campaign, rows: list[dict], status: str,
                 if rows:
                     from rodfem.post.sensitivity import plot_indices  # matplotlib, when drawn
 
-                    plot_indices(found.plan.method, rows, out / FIGURE)
+                    plot_indices(found.plan.method, rows, figure_path(out, found),
+                                 found.plan.parameters, dict(found.sweep.measures))
         except OSError as err:
             error = io_line(err)
     error = comm.bcast(error, root=0)
@@ -228,6 +239,16 @@ def _write(out: Path, found: Campaign, rows: list[dict], status: str,
         except OSError as err:
             error = error or io_line(err)
     return comm.bcast(error, root=0), status
+
+
+def figure_path(out: Path, found: Campaign) -> Path:
+    """The figure of a campaign in ``out``: sensitivity.png, or .pdf or .svg (its format, else
+    the base scene's ``output.figure_format``)."""
+    from rodfem.output import figures
+
+    output = found.sweep.base.get("output", {}) if isinstance(found.sweep.base, dict) else {}
+    scene = {figures.SCENE_KEY: output.get("figure_format") if isinstance(output, dict) else None}
+    return (out / FIGURE).with_suffix("." + figures.chosen(found.figure_format, scene))
 
 
 def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SensitivityResult:

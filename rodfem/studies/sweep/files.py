@@ -53,6 +53,9 @@ class SweepResult:
     _histories: dict[int, tuple] | None = None  # in memory: the rows and their columns
     error: str | None = None  # a file that could not be written, which stopped the sweep
     coarse_steps: tuple[str, ...] = ()
+    # the declared measures (name → column, reduce, window), for the axes' words and units
+    measure_specs: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
+    figure_format: str | None = None  # the base scene's output.figure_format
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.columns[name]
@@ -68,13 +71,19 @@ class SweepResult:
 
         return results_frame(self.columns, self.axes)
 
-    def plot(self, measure: str, x: str | None = None, ax=None):
+    def plot(self, measure: str, x: str | None = None, ax=None, path=None, format=None):
         """The measure against a swept key ``x`` (default: the first) with matplotlib's pyplot,
         a line for each combination of the other swept keys, over the complete scenes; a log
-        axis where the key's values span two decades or more. Returns the Axes."""
+        axis where the key's values span two decades or more; the axes labelled as ``rodfem
+        plot`` labels them (units included). ``path``: also write the figure there, as PNG,
+        PDF or SVG (``format``, else the path's suffix, else the base scene's
+        ``output.figure_format``). Returns the Axes."""
         from rodfem import quicklook
 
-        return quicklook.measure(self.columns, self.axes, measure, x, ax)
+        axes = quicklook.measure(self.columns, self.axes, measure, x, ax, self.measure_specs)
+        if path is not None or format is not None:
+            quicklook.save(axes, path, format, {"output.figure_format": self.figure_format})
+        return axes
 
     def __repr__(self) -> str:
         from rodfem.output.frames import span
@@ -118,11 +127,22 @@ class SweepResult:
 
 
 def result_from(lines: dict[int, str], axes, status, path=None, histories=None,
-                declared: tuple[str, ...] = ()) -> SweepResult:
+                declared: tuple[str, ...] = (), sweep=None) -> SweepResult:
     """The result of a sweep's results lines by index (from journals, or in memory);
-    ``declared``: the names of the measures its scenes declare."""
+    ``declared``: the names of the measures its scenes declare; ``sweep``: the sweep, whose
+    declared measures and figure format its figures use."""
     _, columns = table.parse(table.text(axes, [lines[i] for i in sorted(lines)], declared))
-    return SweepResult(columns, tuple(axes), status, path, histories)
+    return SweepResult(columns, tuple(axes), status, path, histories, **_drawing(sweep))
+
+
+def _drawing(sweep) -> dict:
+    """What a sweep's figures need of it: its declared measures and its base scene's figure
+    format."""
+    if sweep is None:
+        return {}
+    output = sweep.base.get("output", {}) if isinstance(sweep.base, dict) else {}
+    return {"measure_specs": dict(sweep.measures),
+            "figure_format": output.get("figure_format") if isinstance(output, dict) else None}
 
 
 def write_table(out: Path, sweep: Sweep, histories: bool, ran: int, seconds: float,
@@ -219,9 +239,14 @@ def load_sweep(path: str | Path) -> SweepResult:
         sweep = parsed(path, written)
         records = journal.read(path, tag(written))
         return result_from({i: r.line for i, r in records.items()}, sweep.axes,
-                           state(path) or "interrupted", path, declared=sweep.declared)
+                           state(path) or "interrupted", path, declared=sweep.declared,
+                           sweep=sweep)
     axes, columns = table.read(path / table.NAME)
-    return SweepResult(columns, axes, state(path) or "complete", path)
+    try:  # the axes' words and the format: sweep.json's, where it reads as a sweep's
+        drawing = _drawing(parsed(path, read_meta(path)))
+    except (OSError, ValueError):  # SceneError too: the table is read all the same
+        drawing = {}
+    return SweepResult(columns, axes, state(path) or "complete", path, **drawing)
 
 
 def meta(sweep: Sweep, histories: bool) -> dict[str, Any]:

@@ -203,7 +203,7 @@ def _in_memory(sweep: Sweep, comm: MPI.Comm, histories: bool, progress) -> Sweep
         o.status != "interrupted" for o in every) else "interrupted"
     return result_from(lines, sweep.axes, status, None,
                        {o.index: (o.history, for_scene(sweep.scene(o.index))) for o in every}
-                       if histories else None, sweep.declared)
+                       if histories else None, sweep.declared, sweep)
 
 
 def _run_into(out: Path, sweep: Sweep, comm: MPI.Comm, histories: bool, journal_tag: bytes,

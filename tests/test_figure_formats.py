@@ -1,0 +1,300 @@
+"""Every figure rodfem draws, by every command that draws one and by the ``.plot()`` of the
+Python API, in each format (PNG, PDF, SVG): the file is what its name says and not blank, no text
+of a matplotlib figure reaches outside its canvas (from the renderer's extents), and every axis
+label of a quantity with a dimension names its unit. The space-time map of ``stiff`` reaches the
+peak |σ(1)| of the run's history, which its saved frames miss. The run, sweep, fit, sensitivity,
+steady, verify and stability directories are made once, tiny, and shared.
+"""
+
+import re
+import shutil
+from pathlib import Path
+from xml.etree import ElementTree
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+from PIL import Image
+
+import rodfem
+from conftest import assert_refused, serial_only
+from rodfem.cli import main
+from rodfem.output import figures
+
+pytestmark = serial_only  # the commands draw on this process; their runs are tiny
+
+FORMATS = figures.FORMATS
+# Symbols of quantities with a dimension (rodfem.output.names): an axis label holding one names
+# its unit, "[$...$]" (θ, ζ, ε, k, counts and fractions have none).
+DIMENSIONAL = (r"$t$", r"$t ", "$x$", "u(", "u_t", r"\sigma", r"\hat{E}", r"\Delta t", "$g$",
+               "$p$", "$T$")
+UNIT = re.compile(r"\[\$[^$]+\$\]")
+SWEEP = ('scene = "paper1"\n[set]\n"time.end" = 0.3\n"mesh.cells" = 8\n"time.dt" = 0.002\n'
+         '[measures]\npeak_stress = { column = "sigma_1", reduce = "min" }\n'
+         '[grid]\n"model.zeta" = [0.2, 1.0]\n"obstacle.epsilon" = [0.001, 0.01]\n')
+FIT = ('scene = "paper1"\ndata = "data.csv"\n[set]\n"mesh.cells" = 8\n"time.dt" = 0.01\n'
+       '"time.end" = 0.3\n"solver.method" = "direct"\n[parameters]\n"model.zeta" = [0.1, 1.0]\n'
+       '"model.k" = [0.5, 5.0]\n')
+SENSITIVITY = ('scene = "paper1"\nsamples = 4\noutputs = ["u_1_final", "peak_stress"]\n[set]\n'
+               '"mesh.cells" = 8\n"time.end" = 0.2\n"solver.method" = "direct"\n'
+               '[measures]\npeak_stress = { column = "sigma_1", reduce = "min" }\n'
+               '[parameters]\n"model.zeta" = [0.5, 1.0]\n"model.k" = [0.5, 2.0]\n')
+
+
+@pytest.fixture(scope="module")
+def drawn():
+    """Every matplotlib figure saved during the module, by file: rodfem.output.figures.save,
+    which every matplotlib figure of rodfem goes through, recorded."""
+    found = {}
+    original = figures.save
+
+    def keep(fig, path, dpi=100):
+        written = original(fig, path, dpi)
+        found[Path(path).resolve()] = fig
+        return written
+
+    figures.save = keep
+    yield found
+    figures.save = original
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory, drawn):
+    """The directories of every command that draws, tiny, each drawn in every format."""
+    root = tmp_path_factory.mktemp("formats")
+    files = {f: [] for f in FORMATS}
+
+    def command(*args):
+        assert main([*map(str, args)]) == 0, args
+
+    command("run", "stiff", "--out", root / "stiff", "--quiet")
+    (root / "sweep.toml").write_text(SWEEP)
+    command("sweep", root / "sweep.toml", "--out", root / "sweep", "--histories", "--quiet")
+    truth = rodfem.simulate("paper1", {"mesh.cells": 8, "time.dt": 0.01, "time.end": 0.3,
+                                       "model.zeta": 0.3, "model.k": 2.0},
+                            comm=MPI.COMM_SELF).history
+    (root / "fit").mkdir()
+    (root / "fit" / "fit.toml").write_text(FIT)
+    (root / "fit" / "data.csv").write_text("t,u_1\n" + "".join(
+        f"{t!r},{u!r}\n" for t, u in zip(truth["t"][1::3], truth["u_1"][1::3], strict=True)))
+    (root / "sensitivity.toml").write_text(SENSITIVITY)
+    command("verify", "--quick", "--scenes", "no-contact", "--out", root / "verify")
+    command("stability", "--out", root / "stability", "--dt", "0.01", "--epsilon", "0.01",
+            "--zeta", "1", "--a", "0.1", "--end", "0.02", "--methods", "direct")
+    from rodfem.post.stability import plot_stability
+    from rodfem.post.verify import plot_orders
+
+    (root / "api").mkdir()
+    result = rodfem.load(root / "stiff")
+    sweep = rodfem.load_sweep(root / "sweep")
+    for f in FORMATS:
+        out = root / f"plots-{f}"
+        command("plot", root / "stiff", "--out", out, "--no-animation", "--format", f)
+        command("plot", root / "sweep", "--out", out, "--measures", "peak_stress,u_1_final",
+                "--format", f)
+        command("plot", root / "sweep", "--out", out / "overlay", "--overlay", "--format", f)
+        command("fit", root / "fit" / "fit.toml", "--out", root / f"fit-{f}", "--quiet",
+                "--format", f)
+        command("sensitivity", root / "sensitivity.toml", "--out", root / f"sensitivity-{f}",
+                "--quiet", "--format", f)
+        command("steady", "barber", "--out", root / f"steady-{f}", "--set", "mesh.cells=20",
+                "--continue", "obstacle.temperature=0:30:16", "--format", f)
+        files[f] += [p for p in sorted(out.rglob(f"*.{f}"))]
+        files[f] += [root / f"fit-{f}" / f"fit.{f}", root / f"sensitivity-{f}" / f"sensitivity.{f}",
+                     root / f"steady-{f}" / "figures" / f"branches.{f}"]
+        files[f] += plot_orders(root / "verify", f) + plot_stability(root / "stability", format=f)
+        result.plot(path=root / "api" / "result", format=f)
+        sweep.plot("peak_stress", path=root / "api" / "sweep", format=f)
+        files[f] += [root / "api" / f"result.{f}", root / "api" / f"sweep.{f}"]
+    yield root, files
+    shutil.rmtree(root, ignore_errors=True)
+
+
+def assert_not_blank(path: Path) -> None:
+    """PNG: more than one colour; PDF: a page with its text's fonts (where matplotlib drew text)
+    or an image; SVG: parsed, with drawn paths and (matplotlib's) text groups or an image."""
+    data = path.read_bytes()
+    if path.suffix == ".png":
+        with Image.open(path) as image:
+            assert image.format == "PNG"
+            pixels = np.asarray(image.convert("RGB")).reshape(-1, 3)
+        assert np.unique(pixels, axis=0).shape[0] > 16, f"{path.name} is blank"
+    elif path.suffix == ".pdf":
+        assert data.startswith(b"%PDF-") and data.rstrip().endswith(b"%%EOF"), path.name
+        assert b"/Type /Page" in data and len(data) > 5_000, path.name
+        assert b"/Font" in data or b"/Subtype /Image" in data, path.name
+    else:
+        root = ElementTree.fromstring(data)
+        assert root.tag.endswith("svg"), path.name
+        ids = [e.get("id", "") for e in root.iter()]
+        tags = [e.tag.rsplit("}", 1)[-1] for e in root.iter()]
+        if "image" not in tags:  # drawn as vectors: text (as glyph paths) and lines
+            assert any(i.startswith("text_") for i in ids) and tags.count("path") > 5, path.name
+
+
+def test_every_figure_in_every_format_is_written_and_not_blank(made):
+    _, files = made
+    names = {f: sorted(p.name.rsplit(".", 1)[0] for p in files[f]) for f in FORMATS}
+    assert names["png"] == names["pdf"] == names["svg"]  # the same figures in each format
+    expected = {"contact", "energy", "spacetime_u", "spacetime_theta", "spacetime_sigma",
+                "sweep_peak_stress", "sweep_peak_stress_lines", "sweep_scenes_contact",
+                "sweep_scenes_energy", "fit", "sensitivity", "branches",
+                "orders_no-contact", "stability_direct", "result", "sweep"}
+    assert expected <= set(names["png"]), expected - set(names["png"])
+    for f in FORMATS:
+        for path in files[f]:
+            assert path.suffix == f".{f}"
+            assert_not_blank(path)
+    # a vector file holds its text as text or glyph paths, not one picture of the figure
+    contact = next(p for p in files["svg"] if p.name == "contact.svg")
+    assert b"<image" not in contact.read_bytes()
+
+
+def test_no_text_outside_the_canvas(made, drawn):
+    _, files = made
+    checked = 0
+    for f in FORMATS:
+        for path in files[f]:
+            fig = drawn.get(path.resolve())
+            if fig is None or path.name.startswith(("orders_", "stability_")):
+                continue  # drawn by VTK: a picture placed on the page
+            assert figures.outside(fig) == [], (path.name, [t.get_text() for t in
+                                                             figures.outside(fig)])
+            checked += 1
+    assert checked >= 3 * 14
+
+
+def test_every_dimensional_axis_label_names_its_unit(made, drawn):
+    _, files = made
+    labels = 0
+    for path in files["png"]:
+        fig = drawn.get(path.resolve())
+        if fig is None:
+            continue
+        for ax in fig.axes:
+            for label in (ax.get_xlabel(), ax.get_ylabel()):
+                if any(symbol in label for symbol in DIMENSIONAL):
+                    assert UNIT.search(label), (path.name, label)
+                    labels += 1
+    assert labels > 20
+
+
+def test_the_checks_can_fail():
+    """A text placed beyond the edge is found; a title too long for its figure is set smaller
+    until it fits; a label without its unit is told from one with it."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(4, 3))
+    fig.text(1.05, 0.5, "beyond the right edge")
+    assert len(figures.outside(fig)) == 1
+    fig = Figure(figsize=(4, 3), layout="constrained")
+    ax = fig.add_subplot()
+    ax.set_title("a title far too long for a figure four inches wide: model.k = 2, zeta = 0.3")
+    assert figures.outside(fig)
+    figures.fit_texts(fig)
+    assert figures.outside(fig) == []
+    assert not UNIT.search("$\\sigma(1, t)$") and UNIT.search("$\\sigma(1, t)$ [$E$]")
+
+
+def test_the_stiff_map_reaches_the_peak_stress_of_the_history(made, drawn):
+    """The saved frames (every 0.05) miss the impact: the colour range of σ's map is that of
+    the history, whose peak |σ(1)| it reaches to 1 %, and the figure says the frames miss it."""
+    from matplotlib.collections import QuadMesh
+
+    from rodfem.post.runs import load_run
+    from rodfem.post.spacetime import colour_range
+
+    root, _ = made
+    run = load_run(root / "stiff")
+    peak = float(np.max(np.abs(run.history.sigma_1)))
+    saved = float(np.max(np.abs(run.fields.sigma)))
+    assert saved < 0.5 * peak  # what the frames show of the impact
+    limits = colour_range(run.fields, "sigma", run.history, run.gap)
+    assert abs(max(abs(limits.lo), abs(limits.hi)) - peak) <= 0.01 * peak
+    for f in FORMATS:
+        fig = drawn[(root / f"plots-{f}" / f"spacetime_sigma.{f}").resolve()]
+        mesh = next(c for ax in fig.axes for c in ax.collections if isinstance(c, QuadMesh))
+        assert abs(max(abs(mesh.norm.vmin), abs(mesh.norm.vmax)) - peak) <= 0.01 * peak
+        assert np.max(np.abs(mesh.get_array())) == pytest.approx(saved, rel=1e-12)
+        assert any("miss the extreme" in t.get_text() for t in fig.texts)
+
+
+def test_the_sensitivity_chart_stays_within_0_and_1(made, drawn):
+    """Bars and error bars of Sobol indices within [0, 1], the parameters' ranges under them,
+    the panels named in words."""
+    root, _ = made
+    fig = drawn[(root / "sensitivity-png" / "sensitivity.png").resolve()]
+    for ax in fig.axes:
+        assert ax.get_ylim() == (0.0, 1.05)
+        for bar in ax.patches:
+            assert 0.0 <= bar.get_height() <= 1.0
+        bars = [c for c in ax.collections if hasattr(c, "get_segments")]  # the error bars
+        assert bars
+        for segment in (s for c in bars for s in c.get_segments()):
+            assert np.all(segment[:, 1] >= 0.0) and np.all(segment[:, 1] <= 1.0), segment
+        ticks = [t.get_text() for t in ax.get_xticklabels()]
+        assert any("[0.5, 1]" in t for t in ticks) and any("[0.5, 2]" in t for t in ticks)
+    titles = [ax.get_title() for ax in fig.axes]
+    assert any("peak_stress: min" in t for t in titles) and "final $u(1)$" in titles
+
+
+def test_the_branch_figure_explains_its_colours_and_shows_the_pressure(made, drawn):
+    root, _ = made
+    fig = drawn[(root / "steady-png" / "figures" / "branches.png").resolve()]
+    legend = [t.get_text() for ax in fig.axes if ax.get_legend() for t in
+              ax.get_legend().get_texts()]
+    assert {"in contact", "free", "stable", "unstable"} <= set(legend)
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert any("contact pressure" in label for label in labels)
+    pressure = next(ax for ax in fig.axes if "contact pressure" in ax.get_ylabel())
+    values = np.concatenate([line.get_ydata() for line in pressure.lines])
+    assert np.ptp(values) > 0  # not flat: the states in contact differ in pressure
+
+
+def test_the_scene_chooses_the_format_and_the_command_line_overrides_it(made, capsys):
+    root, _ = made
+    out = root / "scene-format"
+    assert main(["run", "paper1", "--out", str(out), "--set", "time.end=0.05", "--set",
+                 "mesh.cells=8", "--set", "output.figure_format=svg", "--quiet"]) == 0
+    assert main(["plot", str(out), "--only", "energy"]) == 0
+    assert (out / "figures" / "energy.svg").is_file()
+    assert main(["plot", str(out), "--only", "energy", "--format", "pdf"]) == 0
+    assert (out / "figures" / "energy.pdf").is_file()
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as stopped:  # the argument parser's one line
+        main(["plot", str(out), "--format", "jpg"])
+    err = capsys.readouterr().err
+    assert stopped.value.code == 2 and err.count("\n") == 1
+    assert "--format: invalid choice: 'jpg' (choose from 'png', 'pdf', 'svg')" in err
+    assert_refused(["run", "paper1", "--out", str(root / "bad"), "--set",
+                    "output.figure_format=jpg"], root / "bad",
+                   'output.figure_format: must be one of "png" | "pdf" | "svg"', capsys)
+    with pytest.raises(figures.FormatError, match="the formats are png, pdf, svg"):
+        rodfem.load(out).plot(path=root / "api-bad", format="jpg")
+
+
+def test_a_map_says_when_its_frames_are_sparser_than_a_contact():
+    """Frames every 0.1 around a contact of 0.02 that the history holds: the colour range
+    reaches the history's extreme and the notes say both what the frames miss and that they
+    are sparser than the contact; frames that hold the extreme get neither note."""
+    from rodfem.output.readers import Fields, History
+    from rodfem.post.spacetime import colour_range
+
+    x = np.linspace(0.0, 1.0, 5)
+    t = np.arange(0.0, 0.55, 0.1)
+    sigma = np.tile(np.linspace(-1.0, 1.0, 4), (t.size, 1))  # within [-1, 1] at every frame
+    fields = Fields(x=x, t=t, x_cells=0.5 * (x[1:] + x[:-1]), sigma=sigma)
+    steps = np.arange(0.0, 0.5001, 0.01)
+    u_1 = np.where((steps > 0.225) & (steps < 0.255), 0.02, 0.0)  # in contact for 0.02
+    sigma_1 = np.where(u_1 > 0.01, -4.0, 0.0)
+    names = ("t", "u_1", "sigma_1")
+    history = History(np.column_stack([steps, u_1, sigma_1]), names)
+    limits = colour_range(fields, "sigma", history, gap=0.01)
+    assert (limits.lo, limits.hi) == (-4.0, 4.0) and len(limits.notes) == 2
+    assert "miss the extreme" in limits.notes[0] and "= -4" in limits.notes[0]
+    assert "shortest contact (0.02)" in limits.notes[1]
+    held = colour_range(fields, "sigma", History(np.column_stack([steps, 0 * u_1, 0 * u_1]),
+                                                  names), gap=0.01)
+    assert (held.lo, held.hi) == (-1.0, 1.0) and held.notes == []
+    alone = colour_range(fields, "sigma")
+    assert (alone.lo, alone.hi) == (-1.0, 1.0) and alone.notes == []
