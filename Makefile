@@ -23,8 +23,12 @@ test: setup test-serial test-mpi
 test-full: export RODFEM_TEST_PROFILE := full
 test-full: setup test-serial test-mpi
 
+# The serial suite dealt to a process per core (at most four; pytest-xdist), a test file to each
+# in turn, so that what a file's tests share is made once: TEST_JOBS=1 for one process.
+TEST_JOBS ?= $(shell n=$$(nproc 2>/dev/null || echo 1); [ "$$n" -gt 4 ] && n=4; echo $$n)
+
 test-serial:
-	$(PY) -m pytest -q tests
+	$(PY) -m pytest -q -n $(TEST_JOBS) --dist loadfile tests
 
 test-mpi:
 	$(MPIRUN) -n 2 $(PY) -m mpi4py -m pytest -q tests

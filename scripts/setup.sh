@@ -20,6 +20,7 @@ APT_PACKAGES=(
   openmpi-bin libopenmpi-dev build-essential
   python3-mpmath  # the tests: high-precision references of the contact laws
   python3-hypothesis  # the tests: property-based fuzzing of scene loading
+  python3-pytest-xdist  # the tests: the serial suite dealt to a process per core (make test)
   # rodfem plot: pyvista's matplotlib built for Debian's NumPy; VTK's wheel dlopen()s libEGL.so.1
   # at run time (ldd shows no GL library) and Mesa renders off-screen with libgl1-mesa-dri.
   python3-matplotlib libegl1 libgl1-mesa-dri

@@ -26,7 +26,28 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from mpi4py import MPI
+
+
+_MPI_JOB = ("PMIX_", "ORTE_", "OMPI_MCA_", "OMPI_APP_CTX_")
+
+
+def _leave_the_controllers_mpi() -> None:
+    """A pytest-xdist worker inherits the environment of its controller, whose MPI (a singleton,
+    started by this file's import) wrote its PMIx server's address there: a worker's own MPI
+    and every ``mpirun`` a test starts would take that job for theirs, and ``mpirun`` ends at
+    once, with exit 1 and nothing said. The controller names the variables it had before its
+    MPI started (Open MPI's parameters the user set, say); a worker drops the others."""
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        os.environ["RODFEM_TEST_OWN_MPI_ENV"] = ",".join(
+            name for name in os.environ if name.startswith(_MPI_JOB))
+    elif "RODFEM_TEST_OWN_MPI_ENV" in os.environ:
+        own = set(os.environ["RODFEM_TEST_OWN_MPI_ENV"].split(","))
+        for name in [n for n in os.environ if n.startswith(_MPI_JOB) and n not in own]:
+            del os.environ[name]
+
+
+_leave_the_controllers_mpi()
+from mpi4py import MPI  # noqa: E402  (after the controller's MPI is left)
 
 import rodfem.scene
 

@@ -88,3 +88,15 @@ def test_short_studies_are_not_measured(monkeypatch):
                                             (2 * 365.25 * 86400, "2 years")])
 def test_durations_are_said_in_the_largest_unit(seconds, words):
     assert cost.duration(seconds) == words
+
+
+def test_the_step_is_timed_twice_and_the_faster_taken(monkeypatch):
+    """A scene's first run on a machine compiles its forms and loops (seconds, where a step
+    takes microseconds): the estimate takes the faster of two measurements, so that a fresh
+    machine does not announce hours for a study of seconds."""
+    times = iter([13720.0, 8.0])
+    monkeypatch.setattr(cost, "_probe", lambda scene: next(times))
+    monkeypatch.setattr(cost, "SAY_SECONDS", 0.0)
+    parsed = parse(tomllib.loads(SMALL), "small")
+    found = cost.estimate(parsed.scene, len(parsed), 1)
+    assert found.us_per_step == 8.0 and found.seconds == pytest.approx(2 * 200 * 8e-6)
