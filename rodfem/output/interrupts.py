@@ -72,6 +72,18 @@ def _unraisable(unraisable) -> None:
 _printed = sys.unraisablehook
 
 
+def _excepthook(kind, value, traceback) -> None:
+    """The same for an :class:`Interrupted` that a library's C code printed itself
+    (``PyErr_Print``: seen from an import that a signal interrupted during start-up, under
+    mpirun): the signal is noted, and the command stops at its next check, in one line."""
+    if isinstance(value, Interrupted):
+        return
+    _printed_exception(kind, value, traceback)
+
+
+_printed_exception = sys.excepthook
+
+
 def install() -> None:
     """Route the stop signals to rodfem for the rest of the process. PETSc installs handlers of
     its own (SIGHUP and SIGTERM call MPI_Abort) unless told not to: this tells it, so call it
@@ -79,7 +91,7 @@ def install() -> None:
     options = os.environ.get("PETSC_OPTIONS", "")
     if "-no_signal_handler" not in options.split():
         os.environ["PETSC_OPTIONS"] = f"{options} -no_signal_handler".strip()
-    sys.unraisablehook = _unraisable
+    sys.unraisablehook, sys.excepthook = _unraisable, _excepthook
     if _main_thread():
         for s in SIGNALS:
             if signal.getsignal(s) is not signal.SIG_IGN:  # nohup, or a shell's & job: kept
