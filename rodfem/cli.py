@@ -29,15 +29,8 @@ import sys
 from pathlib import Path
 
 from rodfem import commands
-from rodfem.commands.arguments import (
-    add_output,
-    add_overrides,
-    add_format,
-    add_progress,
-    add_version,
-    add_yes,
-    path_argument,
-)
+from rodfem.commands.arguments import (add_format, add_output, add_overrides, add_progress,
+                                       add_version, add_yes, path_argument)
 from rodfem.output import interrupts
 from rodfem.scene import BUILTIN, EXTRA, SceneError
 
@@ -253,12 +246,8 @@ def _stability(sub) -> None:
                            help=f"the base scene: built-in ({', '.join(BUILTIN)}) or a TOML file")
     add_overrides(stability, "override a base scene value, e.g. solver.max_iterations=500")
     stability.add_argument("--methods", default="direct,newton,picard", help="methods to run")
-    from rodfem.studies.verification.stability import (
-        DEFAULT_A,
-        DEFAULT_DT,
-        DEFAULT_EPSILON,
-        DEFAULT_ZETA,
-    )
+    from rodfem.studies.verification.stability import (DEFAULT_A, DEFAULT_DT, DEFAULT_EPSILON,
+                                                       DEFAULT_ZETA)
 
     listed = lambda values: ",".join(f"{v:g}" for v in values)  # noqa: E731
     stability.add_argument("--dt", default=listed(DEFAULT_DT),
