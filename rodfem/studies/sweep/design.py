@@ -248,6 +248,19 @@ def _samples(table, name: str) -> tuple[list[str], list[list]]:
     return keys, columns
 
 
+def base_scene(data: dict, name: str, directory: Path | None) -> str:
+    """The base scene a study file ``name`` names (``scene = "paper1"``): a built-in name, or a
+    TOML path, relative to ``directory`` (the study file's) unless absolute."""
+    from rodfem.scene import BUILTIN, EXTRA
+
+    scene = data.get("scene")
+    if not isinstance(scene, str) or not scene:
+        raise SceneError(f'{name}: scene must name the base scene, e.g. scene = "paper1"')
+    if scene not in BUILTIN + EXTRA and directory is not None and not Path(scene).is_absolute():
+        scene = str(directory / scene)
+    return scene
+
+
 def parse(data: dict, name: str, directory: Path | None = None,
           base: tuple[dict, str] | None = None) -> Sweep:
     """Check a sweep's TOML data and expand it into its points (:meth:`Sweep.scenes` validates
@@ -264,13 +277,7 @@ def parse(data: dict, name: str, directory: Path | None = None,
     for key in data:
         if key not in SECTIONS:
             raise SceneError(f"{name}: unknown entry '{key}': {_suggest(key, SECTIONS)}")
-    scene = data.get("scene")
-    if not isinstance(scene, str) or not scene:
-        raise SceneError(f'{name}: scene must name the base scene, e.g. scene = "paper1"')
-    from rodfem.scene import BUILTIN, EXTRA
-
-    if scene not in BUILTIN + EXTRA and directory is not None and not Path(scene).is_absolute():
-        scene = str(directory / scene)
+    scene = base_scene(data, name, directory)
     base, source = base if base is not None else read(scene)
     measures = merged(base.get("measures"), data.get("measures"), name)
     tables = {}

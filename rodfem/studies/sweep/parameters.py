@@ -168,13 +168,7 @@ def parse(data: Any, name: str, directory: Path | None = None,
     for key in data:
         if key not in allowed:
             raise SceneError(f"{name}: unknown entry '{key}': {_suggest(key, allowed)}")
-    scene = data.get("scene")
-    if not isinstance(scene, str) or not scene:
-        raise SceneError(f'{name}: scene must name the base scene, e.g. scene = "paper2"')
-    from rodfem.scene import BUILTIN, EXTRA
-
-    if scene not in BUILTIN + EXTRA and directory is not None and not Path(scene).is_absolute():
-        scene = str(directory / scene)
+    scene = design.base_scene(data, name, directory)
     fixed = data.get("set", {})
     if not isinstance(fixed, dict):
         raise SceneError(f'{name}: [set] must be a section of "section.key" = ...')
