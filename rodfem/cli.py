@@ -5,7 +5,7 @@
     rodfem sweep SWEEP.toml [--out DIR] [--force] [--histories]
     rodfem fit FIT.toml [--out DIR] [--force] [--progress] [--format png|pdf|svg]
     rodfem sensitivity SENS.toml [--out DIR] [--force] [--format png|pdf|svg]
-    rodfem resume DIR [--set time.end=T]
+    rodfem resume DIR [--set time.end=T] [--format png|pdf|svg]   (a fit's or a study's figure)
     rodfem plot DIR [DIR ...] [--out FIGDIR] [--force] [--only KINDS] [--no-animation]
                 [--window T0,T1] [--labels A,B,...] [--colour-by KEY]   (runs, or one sweep)
                 [--format png|pdf|svg]
@@ -160,6 +160,8 @@ def _resume(sub) -> None:
                         help="continue a run even if its steps so far were made by another time "
                         "loop (compiled or PETSc, RODFEM_KERNEL) than this resume would use: "
                         "the history then holds two arithmetics, listed in summary.json's loops")
+    add_format(resume, "a fit's or a sensitivity study's base scene's output.figure_format, else "
+               "png; a run or a sweep draws no figure")
 
 
 def _plot(sub) -> None:

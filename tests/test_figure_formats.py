@@ -346,3 +346,45 @@ def test_a_map_says_when_its_frames_are_sparser_than_a_contact():
     assert (held.lo, held.hi) == (-1.0, 1.0) and held.notes == []
     alone = colour_range(fields, "sigma")
     assert (alone.lo, alone.hi) == (-1.0, 1.0) and alone.notes == []
+
+
+def _stopped_copy(directory: Path, to: Path, drawn: tuple[str, ...]) -> Path:
+    """A copy of a complete study directory as a stop before its end leaves it: the files
+    ``drawn`` at the end gone, the directory marked interrupted."""
+    copy = Path(shutil.copytree(directory, to))
+    for name in drawn:
+        (copy / name).unlink()
+    marker = json.loads((copy / "rodfem.json").read_text())
+    (copy / "rodfem.json").write_text(json.dumps({**marker, "status": "interrupted"}))
+    return copy
+
+
+def test_a_resumed_study_draws_its_figure_in_the_format_asked(made, capsys):
+    """``rodfem resume --format``: a fit's and a sensitivity study's figure in that format, the
+    results those of the study as it was first written; ``rodfem plot`` of the study names the
+    figure by the suffix it has; a run resumed with --format is refused, unchanged."""
+    root, _ = made
+    fit = _stopped_copy(root / "fit-png", root / "resumed-fit", ("fit.json", "fit.png"))
+    assert main(["resume", str(fit), "--format", "svg", "--quiet"]) == 0
+    assert (fit / "fit.json").read_bytes() == (root / "fit-png" / "fit.json").read_bytes()
+    assert_not_blank(fit / "fit.svg") and not (fit / "fit.png").exists()
+    sensitivity = _stopped_copy(root / "sensitivity-png", root / "resumed-sensitivity",
+                                ("sensitivity.csv", "sensitivity.png"))
+    assert main(["resume", str(sensitivity), "--format", "pdf", "--quiet"]) == 0
+    assert (sensitivity / "sensitivity.csv").read_bytes() == \
+        (root / "sensitivity-png" / "sensitivity.csv").read_bytes()
+    assert_not_blank(sensitivity / "sensitivity.pdf")
+    assert not (sensitivity / "sensitivity.png").exists()
+    capsys.readouterr()
+    assert main(["plot", str(fit)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{fit} is a fit study, drawn in {fit / 'fit.svg'};" in err
+    files = lambda d: {p.name: p.read_bytes() for p in d.iterdir()  # noqa: E731
+                       if p.is_file() and p.name != "rodfem.lock"}  # the lock: taken, let go
+    before = files(root / "stiff")
+    assert main(["resume", str(root / "stiff"), "--format", "pdf"]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"rodfem: error: --format: a resumed run draws no figure (a fit or a "
+                   f"sensitivity study does); 'rodfem plot {root / 'stiff'} --format pdf' "
+                   "draws its figures\n"), err
+    assert files(root / "stiff") == before
