@@ -160,8 +160,7 @@ def _resume(sub) -> None:
                         help="continue a run even if its steps so far were made by another time "
                         "loop (compiled or PETSc, RODFEM_KERNEL) than this resume would use: "
                         "the history then holds two arithmetics, listed in summary.json's loops")
-    add_format(resume, "a fit's or a sensitivity study's base scene's output.figure_format, else "
-               "png; a run or a sweep draws no figure")
+    add_format(resume, "a fit's or a sensitivity study's base scene's figure format, else png")
 
 
 def _plot(sub) -> None:
@@ -228,6 +227,7 @@ def _paper(sub) -> None:
     )
     add_output(paper, "results/paper", "output directory", "replace an earlier reproduction")
     add_overrides(paper, "override a value in every experiment, e.g. --set time.end=2")
+    add_format(paper, "each scene's output.figure_format, else png; the animations stay GIF")
 
 
 def _stability(sub) -> None:

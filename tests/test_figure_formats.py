@@ -388,3 +388,24 @@ def test_a_resumed_study_draws_its_figure_in_the_format_asked(made, capsys):
                    f"sensitivity study does); 'rodfem plot {root / 'stiff'} --format pdf' "
                    "draws its figures\n"), err
     assert files(root / "stiff") == before
+
+
+def test_the_paper_draws_its_still_figures_in_the_format_asked(made):
+    """``rodfem paper --format pdf``: each experiment's still figures (queued as the paper
+    queues them, drawn here) are PDF, its animation GIF; the parser takes the option."""
+    from rodfem.cli import parser
+    from rodfem.post.pool import Drawer
+    from rodfem.studies.verification import paper
+
+    root, _ = made
+    assert parser().parse_args(["paper", "--format", "pdf"]).format == "pdf"
+    run = Path(shutil.copytree(root / "stiff", root / "paper-stiff"))
+    with Drawer(0) as drawer:
+        futures = paper._figures(drawer, [run], None, "pdf")
+        drawer.work()
+    written = paper._drawn(futures)
+    assert {p.suffix for p in written} == {".pdf", ".gif"}, written
+    assert {p.name for p in written if p.suffix == ".pdf"} >= {"contact.pdf", "energy.pdf"}
+    for path in written:
+        if path.suffix == ".pdf":
+            assert_not_blank(path)
