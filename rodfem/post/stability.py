@@ -3,7 +3,9 @@
 Each figure has one panel per (a, ζ): the (Δt, ε) plane on log axes, each point marked as
 converged with a non-increasing energy, converged with an energy increase, or failed, and the two
 predicted boundaries of Picard's iteration, the paper's ε = Δt/ζ (Δt < εζ) and the compliance's
-ε = w(Δt) (w/ε < 1). Reads the map's files only; imports nothing from the solver side.
+ε = w(Δt) (w/ε < 1), under the title and a key to the marks and lines; drawn with matplotlib
+(vectors in PDF and SVG), Δt in t₀. Reads the map's files only; imports nothing from the solver
+side.
 """
 
 from __future__ import annotations
