@@ -5,7 +5,7 @@
     rodfem sweep SWEEP.toml [--out DIR] [--force] [--histories]
     rodfem fit FIT.toml [--out DIR] [--force] [--progress] [--format png|pdf|svg]
     rodfem sensitivity SENS.toml [--out DIR] [--force] [--format png|pdf|svg]
-    rodfem resume DIR [--set time.end=T]
+    rodfem resume DIR [--set time.end=T] [--format png|pdf|svg]   (a fit's or a study's figure)
     rodfem plot DIR [DIR ...] [--out FIGDIR] [--force] [--only KINDS] [--no-animation]
                 [--window T0,T1] [--labels A,B,...] [--colour-by KEY]   (runs, or one sweep)
                 [--format png|pdf|svg]
@@ -160,6 +160,7 @@ def _resume(sub) -> None:
                         help="continue a run even if its steps so far were made by another time "
                         "loop (compiled or PETSc, RODFEM_KERNEL) than this resume would use: "
                         "the history then holds two arithmetics, listed in summary.json's loops")
+    add_format(resume, "a fit's or a sensitivity study's base scene's figure format, else png")
 
 
 def _plot(sub) -> None:
@@ -226,6 +227,7 @@ def _paper(sub) -> None:
     )
     add_output(paper, "results/paper", "output directory", "replace an earlier reproduction")
     add_overrides(paper, "override a value in every experiment, e.g. --set time.end=2")
+    add_format(paper, "each scene's output.figure_format, else png; the animations stay GIF")
 
 
 def _stability(sub) -> None:

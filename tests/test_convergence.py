@@ -205,9 +205,9 @@ def test_work_precision_quick(shared_dir, capsys):
             errors = [float(r["u1_max"]) for r in mine]
             assert all(b < a for a, b in zip(errors, errors[1:], strict=False)), (scene, s)
     # the figures tell the adaptive points from the fixed ones (whose tolerance reads as nan)
-    from rodfem.post.verify import _adaptive, read
+    from rodfem.post.verify import adaptive, read
     points = read(out / "workprecision.json")["points"]
-    assert sum(map(_adaptive, points)) == len([r for r in _csv(out / "workprecision.csv")
+    assert sum(map(adaptive, points)) == len([r for r in _csv(out / "workprecision.csv")
                                                if r["tolerance"]]) > 0
     reach = data["reach"]
     assert set(reach["seconds"]) == {f"direct, {s}{a}" for s in schemes()

@@ -2,10 +2,12 @@
 Python API, in each format (PNG, PDF, SVG): the file is what its name says and not blank, no text
 of a matplotlib figure reaches outside its canvas (from the renderer's extents), and every axis
 label of a quantity with a dimension names its unit. The space-time map of ``stiff`` reaches the
-peak |σ(1)| of the run's history, which its saved frames miss. The run, sweep, fit, sensitivity,
-steady, verify and stability directories are made once, tiny, and shared.
+peak |σ(1)| of the run's history, which its saved frames miss. The figures of verify,
+work-precision and stability are vectors in PDF and SVG (text and paths, no picture). The run,
+sweep, fit, sensitivity, steady, verify and stability directories are made once, tiny, and shared.
 """
 
+import json
 import re
 import shutil
 from pathlib import Path
@@ -27,7 +29,7 @@ FORMATS = figures.FORMATS
 # Symbols of quantities with a dimension (rodfem.output.names): an axis label holding one names
 # its unit, "[$...$]" (θ, ζ, ε, k, counts and fractions have none).
 DIMENSIONAL = (r"$t$", r"$t ", "$x$", "u(", "u_t", r"\sigma", r"\hat{E}", r"\Delta t", "$g$",
-               "$p$", "$T$")
+               "$p$", "$T$", "$h$", "wall time")
 UNIT = re.compile(r"\[\$[^$]+\$\]")
 SWEEP = ('scene = "paper1"\n[set]\n"time.end" = 0.3\n"mesh.cells" = 8\n"time.dt" = 0.002\n'
          '[measures]\npeak_stress = { column = "sigma_1", reduce = "min" }\n'
@@ -39,6 +41,13 @@ SENSITIVITY = ('scene = "paper1"\nsamples = 4\noutputs = ["u_1_final", "peak_str
                '"mesh.cells" = 8\n"time.end" = 0.2\n"solver.method" = "direct"\n'
                '[measures]\npeak_stress = { column = "sigma_1", reduce = "min" }\n'
                '[parameters]\n"model.zeta" = [0.5, 1.0]\n"model.k" = [0.5, 2.0]\n')
+# A scene file of verify's (its measures have a figure of their own): a soft obstacle, short.
+SOFT = ('[model]\na = 0.017\nb = 1.0\nzeta = 0.2\nk = 1.0\ntheta_A = 10.0\n'
+        '[obstacle]\nepsilon = 1.0\ngap = 0.1\n[initial]\n'
+        'theta0 = "theta_A*(cos(2*pi*x) - sin(pi*x/2))"\nu0 = "0"\nu1 = "20*x*(x - 1)**2"\n'
+        '[mesh]\ncells = 8\n[time]\ndt = 0.01\nend = 0.2\n[solver]\nmethod = "direct"\n')
+# The figures drawn by verify, work-precision and stability (once with VTK, as pictures).
+STUDIES = ("orders_", "measures_", "workprecision_", "stability_")
 
 
 @pytest.fixture(scope="module")
@@ -78,11 +87,14 @@ def made(tmp_path_factory, drawn):
     (root / "fit" / "data.csv").write_text("t,u_1\n" + "".join(
         f"{t!r},{u!r}\n" for t, u in zip(truth["t"][1::3], truth["u_1"][1::3], strict=True)))
     (root / "sensitivity.toml").write_text(SENSITIVITY)
-    command("verify", "--quick", "--scenes", "no-contact", "--out", root / "verify")
+    (root / "soft.toml").write_text(SOFT)
+    command("verify", "--quick", "--scenes", f"{root / 'soft.toml'},no-contact", "--out",
+            root / "verify")
+    work_precision(root / "verify", root / "wp")
     command("stability", "--out", root / "stability", "--dt", "0.01", "--epsilon", "0.01",
             "--zeta", "1", "--a", "0.1", "--end", "0.02", "--methods", "direct")
     from rodfem.post.stability import plot_stability
-    from rodfem.post.verify import plot_orders
+    from rodfem.post.verify import plot_orders, plot_work_precision
 
     (root / "api").mkdir()
     result = rodfem.load(root / "stiff")
@@ -103,11 +115,28 @@ def made(tmp_path_factory, drawn):
         files[f] += [root / f"fit-{f}" / f"fit.{f}", root / f"sensitivity-{f}" / f"sensitivity.{f}",
                      root / f"steady-{f}" / "figures" / f"branches.{f}"]
         files[f] += plot_orders(root / "verify", f) + plot_stability(root / "stability", format=f)
+        files[f] += plot_work_precision(root / "wp", f)
         result.plot(path=root / "api" / "result", format=f)
         sweep.plot("peak_stress", path=root / "api" / "sweep", format=f)
         files[f] += [root / "api" / f"result.{f}", root / "api" / f"sweep.{f}"]
     yield root, files
     shutil.rmtree(root, ignore_errors=True)
+
+
+def work_precision(verified: Path, out: Path) -> None:
+    """A workprecision.json made of verify's runs of no-contact (each with its wall time and
+    errors), once as they are and once as the impact's, a mass per time scheme: the figures of
+    ``rodfem work-precision`` without its runs."""
+    data = json.loads((verified / "orders.json").read_text())
+    points = [p for p in data["points"] if p["scene"] == "no-contact"]
+    masses = {"paper": "lumped", "crank-nicolson": "dispersion-free"}
+    impact = [{**p, "scene": "impact", "refined": "h=dt", "mass": masses[p["scheme"]]}
+              for p in points]
+    target = sorted(p["u1_max"] for p in points)[len(points) // 2]
+    out.mkdir()
+    (out / "workprecision.json").write_text(json.dumps(
+        {"points": points + impact, "end": data["plan"]["end"], "target": target,
+         "target_scenes": ["no-contact"], "plan": {"impact_end": 3.0}}))
 
 
 def assert_not_blank(path: Path) -> None:
@@ -139,7 +168,8 @@ def test_every_figure_in_every_format_is_written_and_not_blank(made):
     expected = {"contact", "energy", "spacetime_u", "spacetime_theta", "spacetime_sigma",
                 "sweep_peak_stress", "sweep_peak_stress_lines", "sweep_scenes_contact",
                 "sweep_scenes_energy", "fit", "sensitivity", "branches",
-                "orders_no-contact", "stability_direct", "result", "sweep"}
+                "orders_no-contact", "orders_soft", "measures_soft", "workprecision_no-contact",
+                "workprecision_impact", "stability_direct", "result", "sweep"}
     assert expected <= set(names["png"]), expected - set(names["png"])
     for f in FORMATS:
         for path in files[f]:
@@ -150,33 +180,56 @@ def test_every_figure_in_every_format_is_written_and_not_blank(made):
     assert b"<image" not in contact.read_bytes()
 
 
+def test_the_study_figures_are_vectors(made, drawn):
+    """Verify's, work-precision's and stability's figures: drawn with matplotlib, in PDF and
+    SVG their text is text (fonts, glyph groups) and their lines paths, no picture of the page."""
+    _, files = made
+    studies = {f: [p for p in files[f] if p.name.startswith(STUDIES)] for f in FORMATS}
+    assert len(studies["png"]) == 6 and {p.stem for p in studies["pdf"]} == \
+        {p.stem for p in studies["svg"]} == {p.stem for p in studies["png"]}
+    for path in (*studies["png"], *studies["pdf"], *studies["svg"]):
+        assert path.resolve() in drawn, path.name  # through matplotlib and figures.save
+    for path in studies["pdf"]:
+        data = path.read_bytes()
+        assert b"/Font" in data and b"/Subtype /Image" not in data, path.name
+    for path in studies["svg"]:
+        data = path.read_bytes()
+        root = ElementTree.fromstring(data)
+        tags = [e.tag.rsplit("}", 1)[-1] for e in root.iter()]
+        assert "image" not in tags and tags.count("path") > 20, path.name
+        # each title and axis label drawn as a text (glyphs, after a comment that names it)
+        written = set(re.findall(r"<!-- (.*?) -->", data.decode(), flags=re.S))
+        fig = drawn[path.resolve()]
+        texts = [t for ax in fig.axes for t in (ax.get_title(), ax.get_xlabel(), ax.get_ylabel())
+                 if t] + [t.get_text() for t in fig.texts if t.get_text()]
+        lines = {line for text in texts for line in text.split("\n")}  # a comment per line
+        assert len(texts) >= 3 and lines <= written, (path.name, lines - written)
+
+
 def test_no_text_outside_the_canvas(made, drawn):
     _, files = made
     checked = 0
     for f in FORMATS:
         for path in files[f]:
-            fig = drawn.get(path.resolve())
-            if fig is None or path.name.startswith(("orders_", "stability_")):
-                continue  # drawn by VTK: a picture placed on the page
+            fig = drawn[path.resolve()]  # every figure is matplotlib's
             assert figures.outside(fig) == [], (path.name, [t.get_text() for t in
                                                              figures.outside(fig)])
             checked += 1
-    assert checked >= 3 * 14
+    assert checked == sum(map(len, files.values())) >= 3 * 20
 
 
 def test_every_dimensional_axis_label_names_its_unit(made, drawn):
     _, files = made
-    labels = 0
+    labels, studies = 0, 0
     for path in files["png"]:
-        fig = drawn.get(path.resolve())
-        if fig is None:
-            continue
+        fig = drawn[path.resolve()]
         for ax in fig.axes:
             for label in (ax.get_xlabel(), ax.get_ylabel()):
                 if any(symbol in label for symbol in DIMENSIONAL):
                     assert UNIT.search(label), (path.name, label)
                     labels += 1
-    assert labels > 20
+                    studies += path.name.startswith(STUDIES)
+    assert labels > 20 and studies >= 30  # orders and measures: both axes of every panel
 
 
 def test_the_checks_can_fail():
@@ -298,3 +351,66 @@ def test_a_map_says_when_its_frames_are_sparser_than_a_contact():
     assert (held.lo, held.hi) == (-1.0, 1.0) and held.notes == []
     alone = colour_range(fields, "sigma")
     assert (alone.lo, alone.hi) == (-1.0, 1.0) and alone.notes == []
+
+
+def _stopped_copy(directory: Path, to: Path, drawn: tuple[str, ...]) -> Path:
+    """A copy of a complete study directory as a stop before its end leaves it: the files
+    ``drawn`` at the end gone, the directory marked interrupted."""
+    copy = Path(shutil.copytree(directory, to))
+    for name in drawn:
+        (copy / name).unlink()
+    marker = json.loads((copy / "rodfem.json").read_text())
+    (copy / "rodfem.json").write_text(json.dumps({**marker, "status": "interrupted"}))
+    return copy
+
+
+def test_a_resumed_study_draws_its_figure_in_the_format_asked(made, capsys):
+    """``rodfem resume --format``: a fit's and a sensitivity study's figure in that format, the
+    results those of the study as it was first written; ``rodfem plot`` of the study names the
+    figure by the suffix it has; a run resumed with --format is refused, unchanged."""
+    root, _ = made
+    fit = _stopped_copy(root / "fit-png", root / "resumed-fit", ("fit.json", "fit.png"))
+    assert main(["resume", str(fit), "--format", "svg", "--quiet"]) == 0
+    assert (fit / "fit.json").read_bytes() == (root / "fit-png" / "fit.json").read_bytes()
+    assert_not_blank(fit / "fit.svg") and not (fit / "fit.png").exists()
+    sensitivity = _stopped_copy(root / "sensitivity-png", root / "resumed-sensitivity",
+                                ("sensitivity.csv", "sensitivity.png"))
+    assert main(["resume", str(sensitivity), "--format", "pdf", "--quiet"]) == 0
+    assert (sensitivity / "sensitivity.csv").read_bytes() == \
+        (root / "sensitivity-png" / "sensitivity.csv").read_bytes()
+    assert_not_blank(sensitivity / "sensitivity.pdf")
+    assert not (sensitivity / "sensitivity.png").exists()
+    capsys.readouterr()
+    assert main(["plot", str(fit)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{fit} is a fit study, drawn in {fit / 'fit.svg'};" in err
+    files = lambda d: {p.name: p.read_bytes() for p in d.iterdir()  # noqa: E731
+                       if p.is_file() and p.name != "rodfem.lock"}  # the lock: taken, let go
+    before = files(root / "stiff")
+    assert main(["resume", str(root / "stiff"), "--format", "pdf"]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"rodfem: error: --format: a resumed run draws no figure (a fit or a "
+                   f"sensitivity study does); 'rodfem plot {root / 'stiff'} --format pdf' "
+                   "draws its figures\n"), err
+    assert files(root / "stiff") == before
+
+
+def test_the_paper_draws_its_still_figures_in_the_format_asked(made):
+    """``rodfem paper --format pdf``: each experiment's still figures (queued as the paper
+    queues them, drawn here) are PDF, its animation GIF; the parser takes the option."""
+    from rodfem.cli import parser
+    from rodfem.post.pool import Drawer
+    from rodfem.studies.verification import paper
+
+    root, _ = made
+    assert parser().parse_args(["paper", "--format", "pdf"]).format == "pdf"
+    run = Path(shutil.copytree(root / "stiff", root / "paper-stiff"))
+    with Drawer(0) as drawer:
+        futures = paper._figures(drawer, [run], None, "pdf")
+        drawer.work()
+    written = paper._drawn(futures)
+    assert {p.suffix for p in written} == {".pdf", ".gif"}, written
+    assert {p.name for p in written if p.suffix == ".pdf"} >= {"contact.pdf", "energy.pdf"}
+    for path in written:
+        if path.suffix == ".pdf":
+            assert_not_blank(path)

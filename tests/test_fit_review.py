@@ -127,7 +127,13 @@ def test_plot_of_a_fit_directory_says_where_its_figures_are(tmp_path, capsys):
     finish(out, "complete", MPI.COMM_SELF)
     assert main(["plot", str(out)]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and f"{out} is a fit study, drawn in {out}/fit.png" in err, err
+    assert err.count("\n") == 1 and f"{out} is a fit study, with no fit.png, .pdf, .svg drawn" \
+        in err, err
+    assert f"'rodfem plot {out}/fitted'" in err
+    (out / "fit.pdf").write_bytes(b"%PDF-")  # the figure is named with the suffix it has
+    assert main(["plot", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{out} is a fit study, drawn in {out}/fit.pdf" in err, err
     assert f"'rodfem plot {out}/fitted'" in err
 
 

@@ -225,9 +225,12 @@ def test_a_measure_panel_s_title_fits_its_panel():
              "status": "complete", "value": v} for c, v in ((10, 0.3), (20, 0.31), (40, 0.31))]
     order = {"measure": "last_contact_change", "order": math.nan,
              "note": "the last difference at round-off"}
-    chart = figures._measure_panel(rows, order, "h", "Δt = 0.002", False)
-    assert chart.title.splitlines() == ["last_contact_change: no order",
-                                        "(the last difference at round-off)"]
+    from matplotlib.figure import Figure
+
+    ax = Figure().subplots()
+    assert figures._measure_panel(ax, rows, order, "h", "Δt = 0.002", False)
+    assert ax.get_title().splitlines() == ["last_contact_change: no order",
+                                           "(the last difference at round-off)"]
 
 
 def test_mixed_with_built_in_scenes(scene_file):

@@ -27,10 +27,10 @@ SWEEP_INCOMPLETE = {
     "failed": "is a sweep stopped by a failed write ('rodfem resume {path}' runs the rest)",
 }
 
-# The study directories rodfem plot is not drawn from: their command's figure, the directory in
-# them that rodfem plot draws, and what that directory holds.
-STUDY_FIGURES = {"sensitivity": ("sensitivity.png", "runs", "its runs"),
-                 "fit": ("fit.png", "fitted", "its fitted run")}
+# The study directories rodfem plot is not drawn from: their command's figure (its name without
+# the format's suffix), the directory in them that rodfem plot draws, and what that holds.
+STUDY_FIGURES = {"sensitivity": ("sensitivity", "runs", "its runs"),
+                 "fit": ("fit", "fitted", "its fitted run")}
 
 
 def _plot_options(args: argparse.Namespace):
@@ -47,6 +47,7 @@ def _plot_options(args: argparse.Namespace):
 def _drawing(args: argparse.Namespace):
     """Check the options against what the directories are (runs, or one sweep) and return what
     draws the figures: the options' mistakes are found before any note or figure."""
+    from rodfem.output import figures
     from rodfem.output.directories import read_marker
     from rodfem.post import PlotError
     from rodfem.post import plot as draw
@@ -60,8 +61,11 @@ def _drawing(args: argparse.Namespace):
     for d in args.dirs:
         command = (read_marker(d) or {}).get("command")
         if command in STUDY_FIGURES:
-            figure, inner, what = STUDY_FIGURES[command]
-            raise PlotError(f"{d} is a {command} study, drawn in {d / figure}; 'rodfem plot "
+            stem, inner, what = STUDY_FIGURES[command]
+            figure = figures.written(d, stem)
+            drawn = f"drawn in {figure}" if figure is not None else \
+                f"with no {stem}.{', .'.join(figures.FORMATS)} drawn"
+            raise PlotError(f"{d} is a {command} study, {drawn}; 'rodfem plot "
                             f"{d / inner}' draws the figures of {what}")
     sweeps = [d for d in args.dirs if (read_marker(d) or {}).get("command") == "sweep"]
     if sweeps and len(args.dirs) > 1:

@@ -92,4 +92,5 @@ def resume_fit(args: argparse.Namespace, out: Path, marker: dict) -> int:
         numbers_of(out)
 
     return resume_as_written(args, out, marker, "fit", complete, lambda: _ended(
-        lambda: resume(out, MPI.COMM_WORLD, progress=args.progress), out, args.quiet))
+        lambda: resume(out, MPI.COMM_WORLD, progress=args.progress, format=args.format), out,
+        args.quiet))

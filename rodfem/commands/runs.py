@@ -39,6 +39,7 @@ def _advice(scene, error) -> str:
 STUDIES = {"sweep": ("rodfem.commands.sweeps", "resume_sweep"),
            "fit": ("rodfem.commands.fit", "resume_fit"),
            "sensitivity": ("rodfem.commands.sensitivity", "resume_sensitivity")}
+FIGURED = ("fit", "sensitivity")  # the resumed studies that draw a figure (--format)
 PER_STEP = {"picard": "Picard iterations/step", "newton": "Newton iterations/step",
             "direct": "solves/step"}
 
@@ -138,6 +139,12 @@ def resume(args: argparse.Namespace) -> int:
     if why is not None:  # checked before anything is done: nothing changed
         release(out, comm)
         say(f"rodfem: error: {why}")
+        return EXIT_INPUT
+    if args.format is not None and marker.get("command") not in FIGURED:
+        release(out, comm)  # untouched
+        say(f"rodfem: error: --format: a resumed {marker.get('command') or 'run'} draws no "
+            f"figure (a fit or a sensitivity study does); 'rodfem plot {out} --format "
+            f"{args.format}' draws its figures")
         return EXIT_INPUT
     if marker.get("command") in STUDIES:
         import importlib

@@ -77,5 +77,5 @@ def resume_sensitivity(args: argparse.Namespace, out: Path, marker: dict) -> int
     from rodfem.studies.sensitivity.run import resume
 
     return resume_as_written(args, out, marker, "sensitivity study", lambda: None, lambda: _report(
-        resume(out, MPI.COMM_WORLD, progress=args.progress or sys.stderr.isatty()), out,
-        args.quiet))
+        resume(out, MPI.COMM_WORLD, progress=args.progress or sys.stderr.isatty(),
+               format=args.format), out, args.quiet))

@@ -24,7 +24,8 @@ def paper(args: argparse.Namespace) -> int:
         load(name, args.overrides)
     try:
         index, failed, stopped = reproduce(args.out, args.force, MPI.COMM_WORLD,
-                                           overrides=args.overrides, report=say)
+                                           overrides=args.overrides, report=say,
+                                           format=args.format)
     except OutputError as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT

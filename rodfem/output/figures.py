@@ -63,6 +63,13 @@ def of(path: Path) -> str:
     return suffix if suffix in FORMATS else DEFAULT
 
 
+def written(directory: Path, stem: str) -> Path | None:
+    """The file a figure ``stem`` (``fit``) was written to in ``directory``, in whichever format
+    it has (the newest, if it is there in several); None if it is in none."""
+    found = [p for p in (Path(directory) / f"{stem}.{f}" for f in FORMATS) if p.is_file()]
+    return max(found, key=lambda p: p.stat().st_mtime_ns) if found else None
+
+
 def outside(fig, tolerance: float = 1.0) -> list:
     """The visible, non-empty texts of ``fig`` whose drawn extent reaches beyond the canvas by
     more than ``tolerance`` pixels (titles, labels, tick labels, legends, notes)."""

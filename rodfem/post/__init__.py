@@ -1,4 +1,5 @@
-"""Figures of rodfem runs, drawn off-screen with pyvista: ``rodfem plot DIR [DIR ...]``.
+"""Figures of rodfem runs, drawn off-screen (matplotlib; the animations with pyvista):
+``rodfem plot DIR [DIR ...]``.
 
 The end of the chain scene → forms → solver → output → post: it reads a run's files
 (``history.h5``, ``scene.toml``, ``fields.xdmf``) and imports nothing from the solver side.

@@ -23,10 +23,13 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 import pyvista as pv
 from PIL import Image
 from vtkmodules.util.numpy_support import numpy_to_vtk
+from vtkmodules.vtkCommonCore import VTK_FONT_FILE
+from vtkmodules.vtkRenderingCore import vtkTextProperty
 
 from rodfem.output.atomic import replacing
 from rodfem.post import style
@@ -38,9 +41,20 @@ WINDOW = (960, 420)
 HALF_WIDTH = 0.04  # half the strip's height, world units (the rod has length 1)
 WALL, OBSTACLE = 0.08, 0.25  # widths of the clamp and (at least) of the obstacle at rest
 BLOCK = 0.15  # half the height of the clamp and of the obstacle
+# Plain text with Greek letters (ζ, θ, σ) is drawn in matplotlib's DejaVu Sans: VTK's own fonts
+# have none.
+FONT_FILE = Path(matplotlib.get_data_path()) / "fonts" / "ttf" / "DejaVuSans.ttf"
 HATCHES = 9  # lines across the obstacle, evenly spaced between its face and its support
 TICKS = np.linspace(0.0, 1.0, 11)
 CONTACT_COLOUR, TEXT_COLOUR = "tab:red", "black"
+
+
+def use_font(prop: vtkTextProperty) -> vtkTextProperty:
+    """Draw a text property's plain (non-mathtext) text in DejaVu Sans, when matplotlib has it."""
+    if FONT_FILE.is_file():
+        prop.SetFontFamily(VTK_FONT_FILE)
+        prop.SetFontFile(str(FONT_FILE))
+    return prop
 
 
 def frame_indices(times: np.ndarray | int, limit: int = MAX_FRAMES) -> np.ndarray:
@@ -220,7 +234,7 @@ def rod_animation(run: Run, run_label: str, path: Path,
         position_y=0.02, width=0.5, height=0.14, title_font_size=18, label_font_size=16,
         color="black", fmt="%.3g",
     )
-    style.use_font(bar.GetTitleTextProperty())
+    use_font(bar.GetTitleTextProperty())
     bar.SetTextPositionToPrecedeScalarBar()  # tick labels below the bar, the title above
     bar.SetUseCustomLabels(True)
     bar.SetCustomLabels(numpy_to_vtk(style.ticks(*theta_range, count=6)))
@@ -229,7 +243,7 @@ def rod_animation(run: Run, run_label: str, path: Path,
                               color="black")
              for i, text in enumerate([run_label + scaled, "", ""])]
     for text in texts:
-        style.use_font(text.GetTextProperty())
+        use_font(text.GetTextProperty())
     clock, status = texts[1:]
 
     # Framed on [−clamp, support] with a margin; the parallel scale is half the visible height.

@@ -33,27 +33,3 @@ def off_screen() -> None:
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
-
-def save_image(plotter, path) -> None:
-    """The plotter's picture in the format of the path's suffix, written whole or not at all (a
-    full disk leaves no half image): a PNG, or a PDF or SVG page holding that picture at its
-    pixel size (VTK's own vector export, GL2PS, crashes on the markers of a chart, so these
-    figures, unlike matplotlib's, are not vectors)."""
-    from pathlib import Path
-
-    from matplotlib.figure import Figure
-    from PIL import Image
-
-    from rodfem.output import figures
-    from rodfem.output.atomic import replacing
-
-    path = Path(path)
-    pixels = plotter.screenshot(None, return_img=True)
-    if figures.of(path) == "png":
-        with replacing(path, "wb") as file:
-            Image.fromarray(pixels).save(file, format="PNG")
-        return
-    height, width = pixels.shape[:2]
-    page = Figure(figsize=(width / 100, height / 100), dpi=100)
-    page.figimage(pixels, 0, 0)
-    figures.save(page, path, dpi=100)

@@ -1,30 +1,25 @@
-"""What every figure shares: sizes, colours, fonts and the look of a chart.
+"""What every still figure shares: sizes, colours and fonts (the figures are drawn with
+matplotlib; only the animations of ``rodfem plot`` with VTK, :mod:`rodfem.post.animation`).
 
-Symbols are written in mathtext (``$\\sigma(1, t)$``), which matplotlib typesets (for VTK too), as
-the paper writes them; VTK's own fonts have no Greek letters.
+Symbols are written in mathtext (``$\\sigma(1, t)$``), which matplotlib typesets, as the paper
+writes them.
 """
 
 from __future__ import annotations
 
 import contextlib
-from pathlib import Path
 
 import matplotlib
 import numpy as np
-import pyvista as pv
 from matplotlib.cm import ScalarMappable
 from matplotlib.colors import ListedColormap, LogNorm, Normalize
 from matplotlib.ticker import MaxNLocator
-from vtkmodules.vtkCommonCore import VTK_FONT_FILE
-from vtkmodules.vtkRenderingCore import vtkTextProperty
 
 from rodfem.output import names
 from rodfem.post.choice import logarithmic
 from rodfem.post.runs import Run
 
 WINDOW = (1200, 900)  # pixels, for the still figures
-LINE_WIDTH = 3.0
-TITLE_SIZE, LABEL_SIZE, TICK_SIZE, LEGEND_SIZE = 22, 22, 18, 18
 # Run colours (matplotlib's tab10).
 COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
            "tab:pink", "tab:gray", "tab:olive", "tab:cyan")
@@ -34,20 +29,10 @@ SEQUENTIAL = ListedColormap(matplotlib.colormaps["viridis"](np.linspace(0.0, 0.8
                             name="viridis_dark")
 # Intervals of contact of a single run, in a neutral grey that no run colour uses.
 CONTACT_SHADE = "0.87"
-# The matplotlib figures (curves): the same pixels as the VTK ones, fonts in points.
+# The figures' size (inches, at MPL_DPI: WINDOW's pixels), fonts in points.
 MPL_SIZE, MPL_DPI = (WINDOW[0] / 100, WINDOW[1] / 100), 100
 MPL_LINE_WIDTH = 2.0
 MPL_TITLE_SIZE, MPL_LABEL_SIZE, MPL_TICK_SIZE, MPL_LEGEND_SIZE = 15, 15, 12, 13
-# Plain text with Greek letters (ζ, θ, σ) is drawn in matplotlib's DejaVu Sans.
-FONT_FILE = Path(matplotlib.get_data_path()) / "fonts" / "ttf" / "DejaVuSans.ttf"
-
-
-def use_font(prop: vtkTextProperty) -> vtkTextProperty:
-    """Draw a text property's plain (non-mathtext) text in DejaVu Sans, when matplotlib has it."""
-    if FONT_FILE.is_file():
-        prop.SetFontFamily(VTK_FONT_FILE)
-        prop.SetFontFile(str(FONT_FILE))
-    return prop
 
 
 def colour(i: int) -> str:
@@ -110,16 +95,3 @@ def ticks(lo: float, hi: float, count: int = 7) -> np.ndarray:
     """Round tick values within [lo, hi] (matplotlib's choice), for colour bars."""
     values = MaxNLocator(count).tick_values(lo, hi)
     return values[(values >= lo - 1e-9 * (hi - lo)) & (values <= hi + 1e-9 * (hi - lo))]
-
-
-def chart(title: str, x_label: str, y_label: str) -> pv.Chart2D:
-    """A 2D line chart with the figures' fonts and sizes."""
-    c = pv.Chart2D(x_label=x_label, y_label=y_label)
-    c.title = title
-    c.GetTitleProperties().SetFontSize(TITLE_SIZE)
-    for axis in (c.x_axis, c.y_axis):
-        axis.label_size = LABEL_SIZE
-        axis.tick_label_size = TICK_SIZE
-    c.GetLegend().GetLabelProperties().SetFontSize(LEGEND_SIZE)
-    c.GetLegend().SetSymbolWidth(40)
-    return c

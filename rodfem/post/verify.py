@@ -1,16 +1,16 @@
-"""Log–log figures of ``rodfem verify`` and ``rodfem work-precision``, from their JSON files.
+"""Log–log figures of ``rodfem verify``, from its JSON file (``rodfem work-precision``'s are in
+:mod:`rodfem.post.workprecision`), drawn with matplotlib: vectors in PDF and SVG.
 
-``orders_<scene>.png``: a row per error measure, the error against h (left) and against Δt
-(right; for a scene file of adaptive steps, against their tolerance, slopes 1/2 and 1), a line
-per (method, time scheme), with reference slopes 1 and 2; for a scene whose
-ladder refines h and Δt together (the impact), one column, against h = Δt, with slopes 1/2 and 1
-(its solution has kinks: orders below 1).
+``orders_<scene>.png`` (or .pdf, .svg): a row per error measure, the error against h (left) and
+against Δt (right; for a scene file of adaptive steps, against their tolerance, slopes 1/2 and 1),
+a line per (method, time scheme), with reference slopes 1 and 2; for a scene whose ladder refines
+h and Δt together (the impact), one column, against h = Δt, with slopes 1/2 and 1 (its solution
+has kinks: orders below 1).
 ``measures_<scene>.png`` (a scene file's): a row per measure that changes from run to run, the
 difference between successive runs of each ladder against the step, with slopes 1 and 2.
-``workprecision_<scene>.png``: the error of u(1, ·) against the wall time of the run, a line per
-(method, time scheme); for the impact, whose ladders also differ in the mass matrix, a line per
-(mass, time scheme, method): the colour the mass, the line style the scheme, the marker the
-method. Reads the commands' files only; imports nothing from the solver side.
+Every axis of a quantity with a dimension names its unit (:mod:`rodfem.output.names`): h in L,
+Δt in t₀, the errors in the units of their norms. Reads the commands' files only; imports nothing
+from the solver side.
 """
 
 from __future__ import annotations
@@ -20,21 +20,28 @@ import math
 from pathlib import Path
 
 import numpy as np
-import pyvista as pv
+from matplotlib.figure import Figure
 
-from rodfem.post import backend, style
+from rodfem.output import figures
+from rodfem.output.names import MEASURES, with_unit
+from rodfem.post import style
 from rodfem.post.runs import PlotError
 
-# No "|" in a label: VTK's mathtext reads it as a column separator.
-LABELS = {"u1_max": r"$\max_t \vert u(1,t) - u_{ref}(1,t)\vert$",
-          "u1_l1": r"$\Vert u(1,\cdot) - u_{ref}(1,\cdot)\Vert_{L^1(0,T)}$",
-          "u1_l2": r"$\Vert u(1,\cdot) - u_{ref}(1,\cdot)\Vert_{L^2(0,T)}$",
-          "u_T": r"$\Vert u(\cdot,T) - u_{ref}(\cdot,T)\Vert_{L^2}$",
-          "theta_T": r"$\Vert\theta(\cdot,T) - \theta_{ref}(\cdot,T)\Vert_{L^2}$"}
+# The errors (absolute, against a reference or exact solution) and the units of their norms: x in
+# L, t in t₀, θ without a scale.
+LABELS = {"u1_max": with_unit(r"$\max_t \vert u(1,t) - u_{ref}(1,t)\vert$", "L"),
+          "u1_l1": with_unit(r"$\Vert u(1,\cdot) - u_{ref}(1,\cdot)\Vert_{L^1(0,T)}$",
+                             r"L\,t_0"),
+          "u1_l2": with_unit(r"$\Vert u(1,\cdot) - u_{ref}(1,\cdot)\Vert_{L^2(0,T)}$",
+                             r"L\,t_0^{1/2}"),
+          "u_T": with_unit(r"$\Vert u(\cdot,T) - u_{ref}(\cdot,T)\Vert_{L^2}$", "L^{3/2}"),
+          "theta_T": with_unit(r"$\Vert\theta(\cdot,T) - \theta_{ref}(\cdot,T)\Vert_{L^2}$",
+                               "L^{1/2}")}
 ROWS = ("u1_max", "u1_l1", "u_T", "theta_T")
 # The ladders' directions, in the order of the figure's columns, and their axes.
 DIRECTIONS = ("h", "dt", "h=dt", "tol")
-X_LABELS = {"h": "$h$", "dt": r"$\Delta t$", "h=dt": r"$h = \Delta t$",
+X_LABELS = {"h": with_unit("$h$", "L"), "dt": with_unit(r"$\Delta t$", "t_0"),
+            "h=dt": with_unit("$h$", "L") + " " + with_unit(r"$= \Delta t$", "t_0"),
             "tol": "tolerance of the adaptive steps"}
 NAMES = {"h": "h", "dt": "Δt", "h=dt": "h = Δt", "tol": "the tolerance"}
 # Reference slopes other than 1 and 2: the impact's kinks (h = Δt), and a tolerance (the errors
@@ -42,9 +49,9 @@ NAMES = {"h": "h", "dt": "Δt", "h=dt": "h = Δt", "tol": "the tolerance"}
 SLOPES = {"h=dt": (0.5, 1), "tol": (0.5, 1)}
 LINE_STYLES = {"paper": "-", "crank-nicolson": "--"}
 # The methods solve the same scheme, so their lines coincide: their markers differ in shape and
-# size, the largest below, so that all show.
-MARKERS = {"direct": ("o", 15), "newton": ("s", 10), "picard": ("d", 6)}
-PANEL = (640, 470)
+# size (points), the largest below, so that all show.
+MARKERS = {"direct": ("o", 10), "newton": ("s", 7), "picard": ("d", 4.5)}
+PANEL = (6.4, 4.7)  # inches per panel
 
 
 def read(path: Path) -> dict:
@@ -61,59 +68,55 @@ def read(path: Path) -> dict:
     return data
 
 
-def _log_axis(axis, lo: float, hi: float) -> None:
-    """A log axis over [lo, hi], ticks at the powers of ten (a log axis takes its tick
-    positions as log10 of the values)."""
-    axis.log_scale = True
-    axis.range = [lo, hi]
-    ticks = 10.0 ** np.arange(np.floor(np.log10(lo)), np.ceil(np.log10(hi)) + 1)
-    ticks = ticks[(ticks >= lo * (1 - 1e-9)) & (ticks <= hi * (1 + 1e-9))]
-    if ticks.size < 4:  # a few decades: ticks at 1, 2, 5 of each
-        ticks = np.array([m * 10.0 ** e for e in range(int(np.floor(np.log10(lo))),
-                                                       int(np.ceil(np.log10(hi))) + 1)
-                          for m in (1, 2, 5)])
-        ticks = ticks[(ticks >= lo) & (ticks <= hi)]
-    axis.tick_locations = np.log10(ticks)
-    axis.tick_labels = [f"{t:.0e}".replace("e-0", "e-").replace("e+00", "").replace("e+0", "e")
-                        for t in ticks]
+def log_axes(ax, x_range: tuple[float, float], y_range: tuple[float, float]) -> None:
+    """Both axes logarithmic over the ranges given, with a light grid."""
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlim(*x_range)
+    ax.set_ylim(*y_range)
+    ax.grid(True, which="major", alpha=0.3)
 
 
-def _range(values: list[float], pad: float) -> tuple[float, float] | None:
+def value_range(values: list[float], pad: float) -> tuple[float, float] | None:
+    """[min / pad, max · pad] of the finite positive values (None if there are none)."""
     v = np.array([x for x in values if math.isfinite(x) and x > 0])
     if v.size == 0:
         return None
     return float(v.min()) / pad, float(v.max()) * pad
 
 
-def _adaptive(point: dict) -> bool:
+def adaptive(point: dict) -> bool:
     """Whether a work-precision point is of adaptive steps: it has a tolerance (a fixed-step
     point's is null in the file, nan once read)."""
     tolerance = point.get("tolerance")
     return tolerance is not None and math.isfinite(tolerance)
 
 
+
 def _choices(points: list[dict]) -> list[tuple[str, str]]:
     return list(dict.fromkeys((p["method"], p["scheme"]) for p in points))
 
 
-def _series(chart: pv.Chart2D, x: np.ndarray, y: np.ndarray, i: int, method: str,
-            scheme: str, label: str) -> None:
+def series(ax, x: np.ndarray, y: np.ndarray, i: int, method: str, scheme: str,
+           label: str) -> None:
+    """A line of the finite positive values, coloured by ``i``, styled by the scheme and marked
+    by the method."""
     keep = np.isfinite(y) & (y > 0)
     if not keep.any():
         return
-    chart.line(x[keep], y[keep], color=style.colour(i), width=style.LINE_WIDTH,
-               style=LINE_STYLES.get(scheme, "-."), label=label)
-    marker, size = MARKERS.get(method, ("x", 10))
-    chart.scatter(x[keep], y[keep], color=style.colour(i), size=size, style=marker)
+    marker, size = MARKERS.get(method, ("x", 7))
+    ax.plot(x[keep], y[keep], color=style.colour(i), linewidth=style.MPL_LINE_WIDTH,
+            linestyle=LINE_STYLES.get(scheme, "-."), marker=marker, markersize=size,
+            markerfacecolor="none" if method == "direct" else style.colour(i), label=label)
 
 
-def _slopes(chart: pv.Chart2D, x_range: tuple[float, float], anchor: float,
-            powers: tuple[float, float] = (1, 2)) -> None:
+def slopes(ax, x_range: tuple[float, float], anchor: float,
+           powers: tuple[float, float] = (1, 2)) -> None:
     """Reference lines C x^p, p in ``powers``, through (largest x, ``anchor``)."""
     x = np.array(x_range)
     for p, dash, colour in zip(powers, (":", "-."), ("black", "gray"), strict=True):
-        chart.line(x, anchor * (x / x[1]) ** p, color=colour, width=2.0, style=dash,
-                   label=f"slope {'1/2' if p == 0.5 else f'{p:g}'}")
+        ax.plot(x, anchor * (x / x[1]) ** p, color=colour, linewidth=1.5, linestyle=dash,
+                label=f"slope {'1/2' if p == 0.5 else f'{p:g}'}")
 
 
 def _step(point: dict, refined: str) -> float:
@@ -123,34 +126,31 @@ def _step(point: dict, refined: str) -> float:
     return point["dt"] if refined == "dt" else 1.0 / point["cells"]
 
 
-def _panel(points: list[dict], measure: str, refined: str, legend: bool, title: str,
-           exact: bool) -> pv.Chart2D | None:
+def _panel(ax, points: list[dict], measure: str, refined: str, legend: bool, title: str,
+           exact: bool) -> bool:
+    """One measure's errors against one ladder's step into ``ax``; False if it has none."""
     points = [p for p in points if p["refined"] == refined]
     steps = lambda ps: np.array([_step(p, refined) for p in ps])  # noqa: E731
-    y_range = _range([p[measure] for p in points], 3.0)
+    y_range = value_range([p[measure] for p in points], 3.0)
     if not points or y_range is None:
-        return None
+        return False
     x_all = steps(points)
     x_range = (float(x_all.min()) / 1.3, float(x_all.max()) * 1.3)
-    x_label = X_LABELS[refined]
-    y_label = LABELS[measure].replace("{ref}", "{exact}") if exact else LABELS[measure]
-    chart = style.chart(title, x_label, y_label)
-    style.use_font(chart.GetTitleProperties())
     for i, (method, scheme) in enumerate(_choices(points)):
         mine = [p for p in points if (p["method"], p["scheme"]) == (method, scheme)]
-        _series(chart, steps(mine), np.array([p[measure] for p in mine]), i, method, scheme,
-                f"{method}, {scheme}")
+        series(ax, steps(mine), np.array([p[measure] for p in mine]), i, method, scheme,
+               f"{method}, {scheme}")
     coarsest = [p[measure] for p in points if steps([p])[0] == x_all.max()
                 and math.isfinite(p[measure])]
     if coarsest:
-        _slopes(chart, x_range, 1.5 * max(coarsest), SLOPES.get(refined, (1, 2)))
-    _log_axis(chart.x_axis, *x_range)
-    _log_axis(chart.y_axis, *y_range)
-    chart.legend_visible = legend
+        slopes(ax, x_range, 1.5 * max(coarsest), SLOPES.get(refined, (1, 2)))
+    log_axes(ax, x_range, y_range)
+    ax.set_title(title)
+    ax.set_xlabel(X_LABELS[refined])
+    ax.set_ylabel(LABELS[measure].replace("{ref}", "{exact}") if exact else LABELS[measure])
     if legend:
-        chart.GetLegend().SetVerticalAlignment(chart.GetLegend().BOTTOM)
-        chart.GetLegend().SetHorizontalAlignment(chart.GetLegend().RIGHT)
-    return chart
+        ax.legend(loc="lower right", fontsize=style.MPL_TICK_SIZE)
+    return True
 
 
 def orders_figure(data: dict, scene: str, path: Path) -> Path:
@@ -167,26 +167,23 @@ def orders_figure(data: dict, scene: str, path: Path) -> Path:
     else:
         fixed = {"h": f"Δt = {plan['h_dt']:g}", "dt": f"{plan['dt_cells']} cells"}
     fixed["h=dt"] = f"T = {plan.get('impact_end', plan['end']):g}, exact solution"
-    return _grid(rows, columns, path, lambda measure, refined, first: _panel(
-        points, measure, refined, first, f"{scene}: refining {NAMES[refined]}, {fixed[refined]}",
-        exact))
+    return _grid(rows, columns, path, lambda ax, measure, refined, first: _panel(
+        ax, points, measure, refined, first,
+        f"{scene}: refining {NAMES[refined]}, {fixed[refined]}", exact))
 
 
-def _grid(rows: list[str], columns: list[str], path: Path, chart_of) -> Path:
+def _grid(rows: list[str], columns: list[str], path: Path, draw) -> Path:
     """A figure of panels, a row per measure and a column per direction refined:
-    ``chart_of(measure, refined, first)`` draws one (None: the panel stays empty)."""
-    plotter = pv.Plotter(shape=(len(rows), len(columns)),
-                         window_size=(len(columns) * PANEL[0], len(rows) * PANEL[1]),
-                         off_screen=True)
-    for i, measure in enumerate(rows):
-        for j, refined in enumerate(columns):
-            chart = chart_of(measure, refined, (i, j) == (0, 0))
-            if chart is not None:
-                plotter.subplot(i, j)
-                plotter.add_chart(chart)
-    backend.save_image(plotter, path)
-    plotter.close()
-    return path
+    ``draw(ax, measure, refined, first)`` fills one (False: the panel is left out)."""
+    with style.mpl_fonts():
+        fig = Figure(figsize=(len(columns) * PANEL[0], max(len(rows), 1) * PANEL[1]),
+                     dpi=style.MPL_DPI, layout="constrained")
+        axes = fig.subplots(max(len(rows), 1), max(len(columns), 1), squeeze=False)
+        for i, measure in enumerate(rows):
+            for j, refined in enumerate(columns):
+                if not draw(axes[i, j], measure, refined, (i, j) == (0, 0)):
+                    axes[i, j].set_axis_off()
+        return figures.save(fig, path, dpi=style.MPL_DPI)
 
 
 def _user_fixed(s: dict) -> dict[str, str]:
@@ -203,27 +200,38 @@ def _differences(rows: list[dict], refined: str) -> tuple[np.ndarray, np.ndarray
     return x, np.abs(np.diff(values))
 
 
-def _measure_panel(rows: list[dict], order: dict, refined: str, title: str,
-                   legend: bool) -> pv.Chart2D | None:
-    """One measure's differences between successive runs of a ladder, log-log, with slopes."""
+def difference_label(measure: str) -> str:
+    """The axis of a measure's differences, in the measure's unit (a built-in measure's, from
+    :mod:`rodfem.output.names`; a declared measure's is its column's, which orders.json does
+    not hold, so the axis says so)."""
+    text = r"$\vert m_{k+1} - m_k\vert$"
+    if measure in MEASURES:
+        return with_unit(text, MEASURES[measure][1])
+    return text + " (in the measure's unit)"
+
+
+def _measure_panel(ax, rows: list[dict], order: dict, refined: str, title: str,
+                   legend: bool) -> bool:
+    """One measure's differences between successive runs of a ladder, log-log, with slopes,
+    into ``ax``; False if there is nothing to draw."""
     x, d = _differences(rows, refined)
-    y_range = _range(list(d), 3.0)
+    y_range = value_range(list(d), 3.0)
     if x.size == 0 or y_range is None:
-        return None
+        return False
     x_range = (float(x.min()) / 1.3, float(x.max()) * 1.3)
     told = f"order {order['order']:.2f}" if math.isfinite(order["order"]) else \
         f"no order\n({order['note']})"  # on a line of its own: a panel is too narrow for both
-    chart = style.chart(f"{order['measure']}: {told}", f"{X_LABELS[refined]} ({title})",
-                        r"$\vert m_{k+1} - m_k\vert$")
-    style.use_font(chart.GetTitleProperties())
-    _series(chart, x, d, 0, rows[0]["method"], rows[0]["scheme"],
-            f"{rows[0]['method']}, {rows[0]['scheme']}")
+    series(ax, x, d, 0, rows[0]["method"], rows[0]["scheme"],
+           f"{rows[0]['method']}, {rows[0]['scheme']}")
     if np.isfinite(d[0]) and d[0] > 0:
-        _slopes(chart, x_range, 1.5 * float(d[0]), SLOPES.get(refined, (1, 2)))
-    _log_axis(chart.x_axis, *x_range)
-    _log_axis(chart.y_axis, *y_range)
-    chart.legend_visible = legend
-    return chart
+        slopes(ax, x_range, 1.5 * float(d[0]), SLOPES.get(refined, (1, 2)))
+    log_axes(ax, x_range, y_range)
+    ax.set_title(f"{order['measure']}: {told}")
+    ax.set_xlabel(f"{X_LABELS[refined]} ({title})")
+    ax.set_ylabel(difference_label(order["measure"]))
+    if legend:
+        ax.legend(loc="lower right", fontsize=style.MPL_TICK_SIZE)
+    return True
 
 
 def measures_figure(data: dict, scene: str, path: Path) -> Path | None:
@@ -240,102 +248,18 @@ def measures_figure(data: dict, scene: str, path: Path) -> Path | None:
         return None
     fixed = _user_fixed(data["scenes"][scene])
 
-    def chart_of(measure: str, refined: str, first: bool) -> pv.Chart2D | None:
+    def draw(ax, measure: str, refined: str, first: bool) -> bool:
         mine = [r for r in measured if (r["measure"], r["refined"]) == (measure, refined)]
         order = next(r for r in orders if (r["measure"], r["refined"]) == (measure, refined))
-        return _measure_panel(mine, order, refined, fixed[refined], first)
+        return _measure_panel(ax, mine, order, refined, fixed[refined], first)
 
-    return _grid(rows, columns, path, chart_of)
-
-
-def work_precision_figure(data: dict, scene: str, path: Path) -> Path:
-    """Error of u(1, ·) (max over [0, T]) against wall time, a line per (method, scheme), of
-    fixed steps or adaptive ones."""
-    points = [p for p in data["points"] if p["scene"] == scene and p["status"] == "complete"]
-    x_range = _range([p["seconds"] for p in points], 1.4)
-    y_range = _range([p["u1_max"] for p in points], 2.0)
-    if x_range is None or y_range is None:
-        raise PlotError(f"no completed run of {scene} to draw")
-    target = data.get("target")
-    if target and scene in data.get("target_scenes", []):
-        y_range = (min(y_range[0], target / 2), max(y_range[1], target * 2))
-    chart = style.chart(f"{scene}, T = {data['end']:g}: error of u(1, ·) against wall time",
-                        "wall time of the run (s): set-up + time loop", LABELS["u1_max"])
-    style.use_font(chart.GetTitleProperties())
-    ladder = lambda p: (p["method"], p["scheme"], _adaptive(p))  # noqa: E731
-    for i, (method, scheme, adaptive) in enumerate(dict.fromkeys(map(ladder, points))):
-        mine = [p for p in points if ladder(p) == (method, scheme, adaptive)]
-        _series(chart, np.array([p["seconds"] for p in mine]),
-                np.array([p["u1_max"] for p in mine]), i, method, scheme,
-                f"{method}, {scheme}" + (", adaptive" if adaptive else ""))
-    if target and scene in data.get("target_scenes", []):
-        chart.line(list(x_range), [target, target], color="black", width=2.0, style=":",
-                   label=f"error {target:g}")
-    _log_axis(chart.x_axis, *x_range)
-    _log_axis(chart.y_axis, *y_range)
-    chart.GetLegend().SetVerticalAlignment(chart.GetLegend().TOP)
-    chart.GetLegend().SetHorizontalAlignment(chart.GetLegend().RIGHT)
-    return _save(chart, path, (1100, 800))
-
-
-def _save(chart, path: Path, size: tuple[int, int]) -> Path:
-    """One chart drawn off-screen into ``path``."""
-    plotter = pv.Plotter(window_size=size, off_screen=True)
-    plotter.add_chart(chart)
-    backend.save_image(plotter, path)
-    plotter.close()
-    return path
-
-
-# The impact's mass matrices, each a colour of its own (where the file does not list them).
-MASSES = ("lumped", "consistent", "redistributed", "redistributed-lumped", "dispersion-free")
-
-
-def impact_work_precision_figure(data: dict, path: Path) -> Path:
-    """The impact's error u(1, ·) in L¹(0, T) against its exact solution, against wall time, a
-    line per (mass, scheme, method): the colour the mass (adaptive steps a colour of their own),
-    the line style the scheme, the marker the method."""
-    points = [p for p in data["points"] if p["scene"] == "impact" and p["status"] == "complete"]
-    x_range = _range([p["seconds"] for p in points], 1.4)
-    y_range = _range([p["u1_l1"] for p in points], 2.0)
-    if x_range is None or y_range is None:
-        raise PlotError("no completed run of impact to draw")
-    # a legend of a dozen lines: the data in the top 3/5 of the plot, the legend below them
-    y_range = (y_range[1] * (y_range[0] / y_range[1]) ** (5 / 3), y_range[1])
-    end = data.get("plan", {}).get("impact_end", 3.0)
-    chart = style.chart(f"impact, T = {end:g}, h = Δt: error of u(1, ·) against wall time\n"
-                        "colour: mass; line: scheme; marker: method (● direct, ■ newton, "
-                        "◆ picard)",
-                        "wall time of the run (s): set-up + time loop",
-                        LABELS["u1_l1"].replace("{ref}", "{exact}"))
-    style.use_font(chart.GetTitleProperties())
-    masses = list(data.get("plan", {}).get("impact_masses", MASSES))
-    choice = lambda p: (p["mass"], p["scheme"], p["method"], _adaptive(p))  # noqa: E731
-    for mass, scheme, method, adaptive in dict.fromkeys(choice(p) for p in points):
-        mine = [p for p in points if choice(p) == (mass, scheme, method, adaptive)]
-        colour = len(masses) + 1 if adaptive else \
-            masses.index(mass) if mass in masses else len(masses)
-        _series(chart, np.array([p["seconds"] for p in mine]),
-                np.array([p["u1_l1"] for p in mine]), colour, method, scheme,
-                f"{mass}, {scheme}, {method}" + (", adaptive" if adaptive else ""))
-    _log_axis(chart.x_axis, *x_range)
-    _log_axis(chart.y_axis, *y_range)
-    chart.GetLegend().SetVerticalAlignment(chart.GetLegend().BOTTOM)
-    chart.GetLegend().SetHorizontalAlignment(chart.GetLegend().LEFT)
-    return _save(chart, path, (1300, 950))
-
-
-def _work_precision(data: dict, scene: str, path: Path) -> Path:
-    if scene == "impact":
-        return impact_work_precision_figure(data, path)
-    return work_precision_figure(data, scene, path)
+    return _grid(rows, columns, path, draw)
 
 
 def _figures(directory: Path, name: str, draw, prefix: str, format: str = "png") -> list[Path]:
     data = read(Path(directory) / name)
     out = Path(directory) / "figures"
     out.mkdir(exist_ok=True)  # an OSError is a write error (exit code 4)
-    backend.off_screen()
     scenes = dict.fromkeys(p["scene"] for p in data["points"] if p["status"] == "complete")
     return [draw(data, s, out / f"{prefix}_{s}.{format}") for s in scenes]
 
@@ -354,5 +278,7 @@ def plot_orders(directory: Path, format: str = "png") -> list[Path]:
 
 def plot_work_precision(directory: Path, format: str = "png") -> list[Path]:
     """workprecision_<scene>.png (or .pdf, .svg: ``format``) for every scene in
-    ``directory``/workprecision.json."""
-    return _figures(directory, "workprecision.json", _work_precision, "workprecision", format)
+    ``directory``/workprecision.json (:mod:`rodfem.post.workprecision`)."""
+    from rodfem.post.workprecision import figure
+
+    return _figures(directory, "workprecision.json", figure, "workprecision", format)

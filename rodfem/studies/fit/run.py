@@ -222,14 +222,17 @@ def _fitted(scene, comm: MPI.Comm, out: Path | None):
     return Result(scene, run.summary, named_history(run.history, for_scene(scene)))
 
 
-def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> FitResult:
+def resume(out: Path, comm: MPI.Comm, progress: bool = False,
+           format: str | None = None) -> FitResult:
     """Continue the fit in ``out`` (held by this command with ``reopen``): replayed from its
-    start, the journalled points taken, not run.
+    start, the journalled points taken, not run; its figure in ``format`` (png, pdf or svg;
+    default: the base scene's ``output.figure_format``).
 
     Raises:
         SceneError: its study.json, data.csv or journal is not this fit's (one line).
     """
     from rodfem.output.directories import mark_running
+    from rodfem.output.figures import checked
     from rodfem.studies.fit.data import OWN
     from rodfem.studies.fit.files import read_meta, tag
     from rodfem.studies.sweep import parameters
@@ -252,7 +255,8 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> FitResult:
         raise SceneError(error)
     session = comm.bcast(journal.sessions(out) if comm.rank == 0 else None, root=0)
     mark_running(out, comm)
-    return _into(out, problem, comm, written, session, known, progress)
+    figure_format = checked(format) if format is not None else None
+    return _into(out, problem, comm, written, session, known, progress, figure_format)
 
 
 def fit(study, out: str | Path | None = None, comm=None, *, force: bool = False,

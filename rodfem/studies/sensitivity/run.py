@@ -251,9 +251,11 @@ def figure_path(out: Path, found: Campaign) -> Path:
     return (out / FIGURE).with_suffix("." + figures.chosen(found.figure_format, scene))
 
 
-def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SensitivityResult:
+def resume(out: Path, comm: MPI.Comm, progress: bool = False,
+           format: str | None = None) -> SensitivityResult:
     """Continue the campaign in ``out`` (held by this command with ``reopen``): the runs its
-    sweep does not hold, then the analysis.
+    sweep does not hold, then the analysis; the figure in ``format`` (png, pdf or svg; default:
+    the base scene's ``output.figure_format``).
 
     Raises:
         SceneError: its files are not this version's, were edited, or its runs/ is another
@@ -267,6 +269,10 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False) -> SensitivityResu
     if isinstance(written, str):
         raise SceneError(written)
     found = _reread(written)
+    if format is not None:
+        from rodfem.output.figures import checked
+
+        found = dataclasses.replace(found, figure_format=checked(format))
     runs = out / "runs"
     if runs_state not in (None, "complete"):
         try:

@@ -128,11 +128,13 @@ def run_experiment(name: str, out: Path, overrides=(), force: bool = False,
 
 
 def reproduce(out: Path, force: bool = False, comm: MPI.Comm = MPI.COMM_WORLD,
-              progress: bool = True, overrides=(), report=lambda line: None):
+              progress: bool = True, overrides=(), report=lambda line: None,
+              format: str | None = None):
     """Run the five experiments into ``out``/paperN, plot them, write ``out``/index.md.
 
     ``overrides`` (``section.key=value``) apply to every experiment, e.g. a shorter end time;
-    ``report`` receives a line as each experiment is done. Returns the index, the experiments
+    ``report`` receives a line as each experiment is done; ``format``: the still figures' (png,
+    pdf or svg; default: each scene's ``output.figure_format``, else png). Returns the index, the experiments
     whose run failed, and the run that stopped the reproduction (interrupted, or a file that
     could not be written: its :class:`~rodfem.run.RunResult`) or None."""
     from contextlib import nullcontext
@@ -142,14 +144,16 @@ def reproduce(out: Path, force: bool = False, comm: MPI.Comm = MPI.COMM_WORLD,
     prepare_directory(out, force, comm, command="paper",
                       files=("index.md", *(e.scene for e in EXPERIMENTS), FIGURE5_DIR))
     with Drawer(cpus() - 1) if comm.rank == 0 else nullcontext() as drawer:
-        sections, failed, stopped = _experiments(out, comm, progress, overrides, report, drawer)
+        sections, failed, stopped = _experiments(out, comm, progress, overrides, report, drawer,
+                                                 format)
         if stopped is not None:
             if drawer is not None:
                 drawer.cancel()
             finish(out, "interrupted" if stopped.io_error is None else "failed", comm)
             return out / "index.md", failed, stopped
         if comm.rank == 0:
-            figure5 = _figures(drawer, [out / "paper1", out / "paper2"], out / FIGURE5_DIR)
+            figure5 = _figures(drawer, [out / "paper1", out / "paper2"], out / FIGURE5_DIR,
+                               format)
             drawer.work()  # the runs are done: draw here too
             sections = [(*section[:-1], _drawn(section[-1])) for section in sections]
             write_index(out, sections, _drawn(figure5), failed)
@@ -161,14 +165,16 @@ def reproduce(out: Path, force: bool = False, comm: MPI.Comm = MPI.COMM_WORLD,
 FIGURE5_DIR = "figure5"  # Figure 5's directory: the curves of experiments 1 and 2 overlaid
 
 
-def _figures(drawer, dirs: list[Path], out: Path | None = None):
+def _figures(drawer, dirs: list[Path], out: Path | None = None, format: str | None = None):
     """Queue the figures of runs (every figure of one run into its figures/, or the curves of
-    several overlaid into ``out``): the figures' futures, or the reason there are none."""
+    several overlaid into ``out``), the still ones in ``format`` (None: the run's scene's): the
+    figures' futures, or the reason there are none."""
     from rodfem.post import PlotError
     from rodfem.post.options import Options
     from rodfem.post.plot import prepare
 
-    options = Options() if out is None else Options(only=frozenset({"contact", "energy"}))
+    options = Options(format=format) if out is None else \
+        Options(only=frozenset({"contact", "energy"}), format=format)
     try:
         return drawer.submit(prepare(dirs, out, options, force=True))
     except PlotError as err:
@@ -187,7 +193,8 @@ def _drawn(figures) -> list[Path] | str:
         return str(err)
 
 
-def _experiments(out: Path, comm: MPI.Comm, progress: bool, overrides, report, drawer):
+def _experiments(out: Path, comm: MPI.Comm, progress: bool, overrides, report, drawer,
+                 format: str | None = None):
     """Run the experiments in turn, each one's figures queued as it is done: the sections of
     the index (experiment, scene, facts, figures), the failed, and the run that stopped them."""
     sections, failed = [], []
@@ -198,7 +205,7 @@ def _experiments(out: Path, comm: MPI.Comm, progress: bool, overrides, report, d
             return sections, failed, result
         if result.status == "failed":
             failed.append(experiment.scene)
-        figures = _figures(drawer, [run]) if comm.rank == 0 else []
+        figures = _figures(drawer, [run], None, format) if comm.rank == 0 else []
         sections.append((experiment, scene, facts, figures))
         report(f"{experiment.scene}: {facts}")
     return sections, failed, None
