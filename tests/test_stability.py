@@ -88,6 +88,7 @@ def test_csv_and_json(tiny, shared_dir):
     out = shared_dir / "map"
     st.prepare(out, False, COMM, st.FILES, "stability")
     st.write(out, records, TINY, base, [], 1.0, COMM)
+    finish(out, "complete", COMM)  # as the command does: the directory is not left held
     COMM.barrier()
     with open(out / "stability.csv", newline="", encoding="utf-8") as f:
         rows = list(csv.reader(f))
