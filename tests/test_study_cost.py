@@ -12,8 +12,9 @@ from rodfem.studies import cost
 from rodfem.studies.sweep.design import parse
 
 VALUES = [round(0.5 + i / 100, 3) for i in range(100)]
-# 10,000 scenes of 1,000,000 steps each: days at any speed of a step measured here
-HUGE = (f'scene = "paper1"\n[set]\n"time.end" = 1000\n"mesh.cells" = 8\n[grid]\n'
+# 10,000 scenes of 100,000,000 steps each: months at any speed of a step measured here (at
+# 1,000,000 steps, a step of 8 cells at 5 µs makes 14 hours on 1 rank: under a day, and so run)
+HUGE = (f'scene = "paper1"\n[set]\n"time.end" = 100000\n"mesh.cells" = 8\n[grid]\n'
         f'"model.zeta" = {VALUES}\n"model.k" = {VALUES}\n')
 SMALL = ('scene = "paper1"\n[set]\n"time.end" = 0.2\n"mesh.cells" = 8\n'
          '"solver.method" = "direct"\n[grid]\n"model.zeta" = [0.5, 1.0]\n')
@@ -30,12 +31,12 @@ def test_a_sweep_of_days_is_refused_unless_yes(shared_dir, capsys):
     sweep = _write(shared_dir, "huge.toml", HUGE)
     out = shared_dir / "out"
     assert_refused(["sweep", str(sweep), "--out", str(out)], out,
-                   "10,000 runs of 1,000,000 steps: about ", capsys)
+                   "10,000 runs of 100,000,000 steps: about ", capsys)
     assert_refused(["sweep", str(sweep), "--out", str(out), "--quiet"], out,
                    f"on {COMM.size} rank", capsys)
     parsed = parse(tomllib.loads(HUGE), "huge")
     found = cost.check(parsed.scene, len(parsed), COMM, yes=True)  # --yes: said, not refused
-    assert found.runs == 10_000 and found.steps == 1_000_000 and found.ranks == COMM.size
+    assert found.runs == 10_000 and found.steps == 100_000_000 and found.ranks == COMM.size
     assert found.seconds > cost.BOUND_SECONDS and "more than" not in found.line()
 
 
@@ -46,14 +47,14 @@ def test_studies_of_days_are_refused_alike(command, shared_dir, capsys):
     _write(shared_dir, "data.csv", "t,u_1\n0.1,0.0\n1.0,0.0\n")
     study = _write(shared_dir, f"{command}.toml", {
         "sensitivity": 'scene = "paper1"\nsamples = 2048\noutputs = ["u_1_final"]\n[set]\n'
-                       '"time.end" = 1000\n"mesh.cells" = 8\n[parameters]\n'
+                       '"time.end" = 100000\n"mesh.cells" = 8\n[parameters]\n'
                        '"model.zeta" = [0.5, 1.0]\n"model.k" = [0.5, 1.0]\n"model.a" = [0, 0.5]\n',
         "fit": 'scene = "paper1"\ndata = "data.csv"\n[set]\n"time.end" = 100000\n'
                '"mesh.cells" = 8\n[parameters]\n"model.zeta" = [0.1, 1.0]\n'
                '"model.k" = [0.5, 2.0]\n'}[command])
     out = shared_dir / "out"
     assert_refused([command, str(study), "--out", str(out)], out,
-                   {"sensitivity": "10,240 runs of 1,000,000 steps: about ",
+                   {"sensitivity": "10,240 runs of 100,000,000 steps: about ",
                     "fit": "at most 300 runs of 100,000,000 steps: about "}[command], capsys)
 
 
