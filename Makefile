@@ -34,7 +34,7 @@ test-mpi:
 	$(MPIRUN) -n 2 $(PY) -m mpi4py -m pytest -q tests
 
 # A quick look at every layer (under two minutes on two cores; `make test` runs everything, about
-# a quarter of an hour): scenes and the command line's refusals, the forms against the NumPy reference, each
+# 12 minutes): scenes and the command line's refusals, the forms against the NumPy reference, each
 # method, a resumed run bit for bit, a sweep, the figures; then the parallel answer on two ranks.
 CHECK_MPI := "tests/test_reference.py::test_paper_scenes_agree_with_reference[paper1-lumped]" \
   "tests/test_methods.py::test_methods_agree_on_the_paper_scenes[paper1]" \
