@@ -6,8 +6,7 @@ Serially and under mpirun (every rank loads)."""
 import re
 
 import pytest
-from test_study_damage import SENSITIVITY
-from test_study_signals import DATA, SMALL_FIT
+from test_study_damage import small_studies
 
 import rodfem
 from conftest import COMM
@@ -29,15 +28,7 @@ OTHERS = [(loader, kind) for loader in LOADERS for kind in KINDS if kind != LOAD
 def directories(tmp_path_factory):
     """A directory of each kind, small and short, shared by the ranks: a fit (whose fitted/ is a
     run), a sensitivity study (whose runs/ is a sweep) and the steady states of a scene."""
-    root = COMM.bcast(tmp_path_factory.mktemp("kinds") if COMM.rank == 0 else None, root=0)
-    if COMM.rank == 0:
-        (root / "data.csv").write_text(DATA)
-        (root / "fit.toml").write_text(SMALL_FIT)
-        (root / "sens.toml").write_text(SENSITIVITY)
-    COMM.barrier()
-    assert main(["fit", str(root / "fit.toml"), "--out", str(root / "fit"), "--quiet"]) == 0
-    assert main(["sensitivity", str(root / "sens.toml"), "--out", str(root / "sensitivity"),
-                 "--quiet"]) == 0
+    root = small_studies(tmp_path_factory.mktemp("kinds") if COMM.rank == 0 else None)
     assert main(["steady", "paper1", "--set", "mesh.cells=8", "--out", str(root / "steady")]) == 0
     return {"run": root / "fit" / "fitted", "sweep": root / "sensitivity" / "runs",
             "fit": root / "fit", "sensitivity": root / "sensitivity", "steady": root / "steady"}

@@ -21,7 +21,13 @@ SENSITIVITY = ('scene = "paper1"\nsamples = 4\noutputs = ["u_1_final"]\n[set]\n"
 @pytest.fixture(scope="module")
 def studies(tmp_path_factory):
     """A complete fit and sensitivity study (whose runs/ is a sweep), shared by the ranks."""
-    root = COMM.bcast(tmp_path_factory.mktemp("damage") if COMM.rank == 0 else None, root=0)
+    return small_studies(tmp_path_factory.mktemp("damage") if COMM.rank == 0 else None)
+
+
+def small_studies(root: Path | None) -> Path:
+    """A complete fit (fit/) and sensitivity study (sensitivity/) of a few runs of 8 cells in
+    ``root`` (rank 0's; every rank gets it back)."""
+    root = COMM.bcast(root, root=0)
     if COMM.rank == 0:
         (root / "data.csv").write_text(DATA)
         (root / "fit.toml").write_text(SMALL_FIT)
