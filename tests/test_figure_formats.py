@@ -85,7 +85,8 @@ def made(tmp_path_factory, drawn):
     (root / "fit").mkdir()
     (root / "fit" / "fit.toml").write_text(FIT)
     (root / "fit" / "data.csv").write_text("t,u_1\n" + "".join(
-        f"{t!r},{u!r}\n" for t, u in zip(truth["t"][1::3], truth["u_1"][1::3], strict=True)))
+        f"{float(t)!r},{float(u)!r}\n" for t, u in zip(truth["t"][1::3], truth["u_1"][1::3],
+                                                     strict=True)))
     (root / "sensitivity.toml").write_text(SENSITIVITY)
     (root / "soft.toml").write_text(SOFT)
     command("verify", "--quick", "--scenes", f"{root / 'soft.toml'},no-contact", "--out",
