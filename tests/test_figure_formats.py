@@ -250,6 +250,22 @@ def test_the_checks_can_fail():
     assert not UNIT.search("$\\sigma(1, t)$") and UNIT.search("$\\sigma(1, t)$ [$E$]")
 
 
+@pytest.mark.parametrize("fmt", figures.FORMATS)
+def test_the_same_figure_drawn_twice_is_the_same_bytes(fmt, tmp_path):
+    """A resumed study draws its figure again: the file is the one an unstopped study writes
+    (SVG's clip paths and markers were given random ids, PDF and SVG a date)."""
+    from matplotlib.figure import Figure
+
+    def drawn(name):
+        fig = Figure(figsize=(4, 3), layout="constrained")
+        ax = fig.add_subplot()
+        ax.plot([0, 1, 2], [1, 0, 2], "o-")
+        ax.set_title("twice")
+        return figures.save(fig, tmp_path / f"{name}.{fmt}").read_bytes()
+
+    assert drawn("a") == drawn("b")
+
+
 def test_the_stiff_map_reaches_the_peak_stress_of_the_history(made, drawn):
     """The saved frames (every 0.05) miss the impact: the colour range of σ's map is that of
     the history, whose peak |σ(1)| it reaches to 1 %, and the figure says the frames miss it."""

@@ -161,7 +161,12 @@ def save(fig, path: Path, dpi: float = 100) -> Path:
                 pixels = np.asarray(fig.canvas.buffer_rgba())
                 Image.fromarray(pixels).save(file, format="PNG", dpi=(dpi, dpi))
             else:
-                fig.savefig(file, format=fmt, dpi=dpi, metadata=_STABLE.get(fmt))
+                import matplotlib
+
+                # SVG's clip paths and markers get random ids unless salted: the same figure
+                # drawn twice (a resumed study's, say) is then the same bytes
+                with matplotlib.rc_context({"svg.hashsalt": "rodfem"}):
+                    fig.savefig(file, format=fmt, dpi=dpi, metadata=_STABLE.get(fmt))
     finally:
         fig.set_dpi(shown)
     return Path(path)
