@@ -363,6 +363,11 @@ def _release(status: str) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     interrupts.install()  # before anything heavy is imported: signals stop rodfem cleanly
+    with interrupts.command():
+        return _main(argv)
+
+
+def _main(argv: list[str] | None) -> int:
     try:
         args = parser().parse_args(argv)
         kernel = os.environ.get("RODFEM_KERNEL")

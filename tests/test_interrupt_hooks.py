@@ -13,13 +13,15 @@ SCRIPT = """
 import sys
 from rodfem.output import interrupts
 interrupts.install()
-sys.excepthook(interrupts.Interrupted, interrupts.Interrupted(10), None)
-class Unraisable:
-    def __del__(self):
-        raise interrupts.Interrupted(15)
-Unraisable()
-print("still running", flush=True)
-sys.excepthook(ValueError, ValueError("another error"), None)
+with interrupts.command():
+    sys.excepthook(interrupts.Interrupted, interrupts.Interrupted(10), None)
+    class Unraisable:
+        def __del__(self):
+            raise interrupts.Interrupted(15)
+    Unraisable()
+    print("still running", flush=True)
+    sys.excepthook(ValueError, ValueError("another error"), None)
+sys.excepthook(interrupts.Interrupted, interrupts.Interrupted(2), None)
 """
 
 
@@ -29,7 +31,9 @@ def test_an_interrupt_printed_by_a_library_is_noted_not_printed():
                           timeout=60)
     assert done.returncode == 0, done.stderr
     assert done.stdout == "still running\n"
-    # the stop signals' exceptions say nothing; any other error is printed as Python prints it
-    assert "Interrupted" not in done.stderr and "ValueError: another error" in done.stderr, \
-        done.stderr
+    # while the command runs, the stop signals' exceptions say nothing, any other error is
+    # printed as Python prints it; after it, an Interrupted nobody caught is printed too
+    assert "ValueError: another error" in done.stderr, done.stderr
+    assert "Interrupted: interrupted by SIGINT" in done.stderr, done.stderr
+    assert "SIGUSR1" not in done.stderr and "SIGTERM" not in done.stderr, done.stderr
     assert signal.SIGUSR1 == 10 and signal.SIGTERM == 15

@@ -72,16 +72,24 @@ def _unraisable(unraisable) -> None:
 _printed = sys.unraisablehook
 
 
-def _excepthook(kind, value, traceback) -> None:
-    """The same for an :class:`Interrupted` that a library's C code printed itself
-    (``PyErr_Print``: seen from an import that a signal interrupted during start-up, under
-    mpirun): the signal is noted, and the command stops at its next check, in one line."""
-    if isinstance(value, Interrupted):
-        return
-    _printed_exception(kind, value, traceback)
+@contextlib.contextmanager
+def command():
+    """While a ``rodfem`` command runs, the same for an :class:`Interrupted` that a library's C
+    code printed itself (``PyErr_Print``, through ``sys.excepthook``: seen from an import that a
+    signal interrupted during start-up, under mpirun): the signal is noted and the command stops
+    at its next check, in one line. Outside, Python's hook is back: an Interrupted nobody
+    caught is printed as any exception is."""
+    printed = sys.excepthook
 
+    def hook(kind, value, traceback) -> None:
+        if not isinstance(value, Interrupted):
+            printed(kind, value, traceback)
 
-_printed_exception = sys.excepthook
+    sys.excepthook = hook
+    try:
+        yield
+    finally:
+        sys.excepthook = printed
 
 
 def install() -> None:
@@ -91,7 +99,7 @@ def install() -> None:
     options = os.environ.get("PETSC_OPTIONS", "")
     if "-no_signal_handler" not in options.split():
         os.environ["PETSC_OPTIONS"] = f"{options} -no_signal_handler".strip()
-    sys.unraisablehook, sys.excepthook = _unraisable, _excepthook
+    sys.unraisablehook = _unraisable
     if _main_thread():
         for s in SIGNALS:
             if signal.getsignal(s) is not signal.SIG_IGN:  # nohup, or a shell's & job: kept
