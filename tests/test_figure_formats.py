@@ -412,6 +412,23 @@ def test_a_resumed_study_draws_its_figure_in_the_format_asked(made, capsys):
     assert files(root / "stiff") == before
 
 
+def test_a_study_resumed_without_format_keeps_the_one_it_was_started_with(made):
+    """A fit started with --format svg and a sensitivity study with --format pdf, stopped and
+    resumed with no --format: the figure is the one the unstopped study drew, byte for byte
+    (the format is in study.json and sensitivity.json), and no figure of another format."""
+    root, _ = made
+    fit = _stopped_copy(root / "fit-svg", root / "kept-fit", ("fit.json", "fit.svg"))
+    assert main(["resume", str(fit), "--quiet"]) == 0
+    assert (fit / "fit.svg").read_bytes() == (root / "fit-svg" / "fit.svg").read_bytes()
+    assert not (fit / "fit.png").exists() and not (fit / "fit.pdf").exists()
+    sensitivity = _stopped_copy(root / "sensitivity-pdf", root / "kept-sensitivity",
+                                ("sensitivity.csv", "sensitivity.pdf"))
+    assert main(["resume", str(sensitivity), "--quiet"]) == 0
+    assert (sensitivity / "sensitivity.pdf").read_bytes() == \
+        (root / "sensitivity-pdf" / "sensitivity.pdf").read_bytes()
+    assert not (sensitivity / "sensitivity.png").exists()
+
+
 def test_the_paper_draws_its_still_figures_in_the_format_asked(made):
     """``rodfem paper --format pdf``: each experiment's still figures (queued as the paper
     queues them, drawn here) are PDF, its animation GIF; the parser takes the option."""

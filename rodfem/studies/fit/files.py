@@ -116,14 +116,16 @@ class FitResult:
                 f"<th>standard error</th></tr></thead><tbody>{rows}</tbody></table>")
 
 
-def meta(study, base: tuple[dict, str], data_bytes: bytes) -> dict[str, Any]:
+def meta(study, base: tuple[dict, str], data_bytes: bytes,
+         figure: str | None = None) -> dict[str, Any]:
     """What study.json holds: the fit file with its scene and data the directory's copies
-    (base.toml, data.csv), the base scene's raw data, the data's digest, and the digest of it
-    all. SceneError (nothing written) if a value is not one JSON keeps as it is."""
+    (base.toml, data.csv), the base scene's raw data, the data's digest, the figure's format
+    asked for (``--format``; None: the scene's, which resume then takes too), and the digest of
+    it all. SceneError (nothing written) if a value is not one JSON keeps as it is."""
     kept = {**study.data, "scene": "base.toml", "data": "data.csv"}
     data = {"format": FORMAT, "name": study.name, "study": kept, "scene": study.data["scene"],
             "base": base[0], "source": base[1], "parameters": list(study.keys),
-            "data_sha256": hashlib.sha256(data_bytes).hexdigest()}
+            "data_sha256": hashlib.sha256(data_bytes).hexdigest(), "figure": figure}
     try:
         json.dumps(data, allow_nan=False)
     except (TypeError, ValueError) as err:

@@ -90,7 +90,7 @@ def run_fit(spec, out: str | Path | None = None, comm: MPI.Comm | None = None, *
     from rodfem.studies.fit.files import FILES, meta
 
     data_bytes = data_path.read_bytes()
-    written = meta(study, problem.base, data_bytes)  # SceneError before anything is written
+    written = meta(study, problem.base, data_bytes, format)  # SceneError before any write
     base = validate(*problem.base).to_toml()
     keep = Path(spec) if isinstance(spec, (str, Path)) else None
     if keep is not None and text is None:
@@ -226,7 +226,7 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False,
            format: str | None = None) -> FitResult:
     """Continue the fit in ``out`` (held by this command with ``reopen``): replayed from its
     start, the journalled points taken, not run; its figure in ``format`` (png, pdf or svg;
-    default: the base scene's ``output.figure_format``).
+    default: the one the fit was started with, else the base scene's ``output.figure_format``).
 
     Raises:
         SceneError: its study.json, data.csv or journal is not this fit's (one line).
@@ -255,7 +255,8 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False,
         raise SceneError(error)
     session = comm.bcast(journal.sessions(out) if comm.rank == 0 else None, root=0)
     mark_running(out, comm)
-    figure_format = checked(format) if format is not None else None
+    # the format asked for now, else the one the fit was started with (study.json)
+    figure_format = checked(format) if format is not None else written.get("figure")
     return _into(out, problem, comm, written, session, known, progress, figure_format)
 
 

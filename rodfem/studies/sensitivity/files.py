@@ -117,7 +117,8 @@ def meta(found, sweep: dict[str, Any]) -> dict[str, Any]:
             "method": plan.method, "samples": plan.samples, "seed": plan.seed,
             "levels": plan.levels, "resamples": plan.resamples, "confidence": plan.confidence,
             "parameters": [dataclasses.asdict(p) for p in plan.parameters],
-            "outputs": list(found.outputs), "runs": sweep["digest"]}
+            "outputs": list(found.outputs), "runs": sweep["digest"],
+            "figure": found.figure_format}  # --format's (None: the scene's), which resume takes
     return {**data, "digest": digest(data)}
 
 

@@ -255,7 +255,7 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False,
            format: str | None = None) -> SensitivityResult:
     """Continue the campaign in ``out`` (held by this command with ``reopen``): the runs its
     sweep does not hold, then the analysis; the figure in ``format`` (png, pdf or svg; default:
-    the base scene's ``output.figure_format``).
+    the one the study was started with, else the base scene's ``output.figure_format``).
 
     Raises:
         SceneError: its files are not this version's, were edited, or its runs/ is another
@@ -269,10 +269,11 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False,
     if isinstance(written, str):
         raise SceneError(written)
     found = _reread(written)
-    if format is not None:
-        from rodfem.output.figures import checked
+    from rodfem.output.figures import checked
 
-        found = dataclasses.replace(found, figure_format=checked(format))
+    # the format asked for now, else the one the study was started with (sensitivity.json)
+    found = dataclasses.replace(found, figure_format=checked(format) if format is not None
+                                else written.get("figure"))
     runs = out / "runs"
     if runs_state not in (None, "complete"):
         try:
