@@ -154,6 +154,7 @@ class Simulation:
         if resume:
             method.restore(resume[0])
         self.kernel = compiled_loop(method, self.history)
+        self.regular = None  # adaptive steps' regular ones in compiled code, where a loop is
         self.loops = loops_of(meta if resume else None, method.n, loop_name(scene))
         self.stepper = self._stepper(resume) if scene.adaptive else None
         self.library_version = disc.library_version()
@@ -179,6 +180,10 @@ class Simulation:
                                   history.width)
         if resume:
             stepper.restore(resume[0], resume[1].get("adaptive"))
+        if kernel is not None:
+            from rodfem.solver.adaptive.compiled import CompiledSteps
+
+            self.regular = CompiledSteps(stepper, history)
         return stepper
 
     def time(self) -> float:
@@ -272,14 +277,39 @@ class Simulation:
         """Adaptive steps to the end, or to a request to stop: the status."""
         stepper, end, calls = self.stepper, self.scene["time.end"], 0
         while stepper.t < end:
-            stepper.step()
-            calls += 1
+            if self.regular is not None and self.regular.ready():
+                calls += self.regular_steps(calls)
+            else:
+                stepper.step()
+                calls += 1
             bar.update(stepper.t, self.method.n)
             if interrupts.requested(self.comm, calls, STOP_EVERY, also=bool(self.io_error)):
                 return "interrupted"
         if self.saved != self.method.n:
             self.save_fields()
         return "complete"
+
+    def regular_steps(self, calls: int) -> int:
+        """Regular adaptive steps in one compiled call (:mod:`rodfem.solver.adaptive.compiled`),
+        to the next check the ranks agree on at most, then the step it handed back to the
+        stepper, if any: the steps taken, each counted as a call of the stepper."""
+        regular, stepper = self.regular, self.stepper
+        every = STOP_EVERY - calls % STOP_EVERY
+        since = self.history.count
+        code = regular.advance(every if self.comm.size > 1 else 1 << 30, self.interval,
+                               self.frame)
+        self.check(since)
+        if self.history.full:
+            self.flush()
+        if regular.written and frame(stepper.t, self.interval) > self.frame:
+            self.save_fields()
+        taken = regular.written
+        codes = regular.codes
+        if code in (codes["RA_EVENT"], codes["RA_FAILED"], codes["RA_RESTART"]) and (
+                self.comm.size == 1 or taken < every):
+            stepper.step()
+            taken += 1
+        return taken
 
     def check(self, since: int | None = None) -> None:
         """Stop at the first recorded step that is not finite (the rows before it are kept)."""

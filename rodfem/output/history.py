@@ -163,6 +163,10 @@ class History:
         :meth:`commit` counts them in."""
         return self._rows[self._count:self._count + steps]
 
+    def reserve_clock(self, steps: int) -> np.ndarray:
+        """With adaptive steps, the (t, Δt, event) of the rows :meth:`reserve` gives."""
+        return self._clock[self._count:self._count + steps]
+
     def commit(self, steps: int) -> None:
         self._count += steps
 

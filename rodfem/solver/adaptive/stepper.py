@@ -94,6 +94,7 @@ class AdaptiveStepper:
         self._methods: dict[float, tuple] = {}  # of the ladder's sizes, the most recent last
         self._located: tuple | None = None  # (h, its method and loop): the last size off it
         self._home_at: dict | None = None  # the saved state home is at, if known
+        self.made = 0  # methods made for the ladder's sizes (a count, for a table of them)
         self._rows = np.zeros((1, width))
         self.steps = self.rejected = self.events = 0
 
@@ -152,6 +153,7 @@ class AdaptiveStepper:
             if len(self._methods) >= KEPT:
                 del self._methods[next(iter(self._methods))]  # the least recently used
                 free_garbage(self.home.disc.comm)
+            self.made += 1
         self._methods[h] = made
         return made
 

@@ -61,9 +61,10 @@ def declarations(source: str) -> str:
 
 
 def headers(source: str, directory: Path) -> list[str]:
-    """The texts of the local headers (``#include "x.h"``) a source includes, in order."""
-    return [(directory / name).read_text()
-            for name in re.findall(r'^#include "([\w.]+)"', source, flags=re.M)]
+    """The texts of the local headers (``#include "x.h"``) a source includes, in order, each once
+    (a header included twice, as adaptive.h is, is declared once)."""
+    names = dict.fromkeys(re.findall(r'^#include "([\w.]+)"', source, flags=re.M))
+    return [(directory / name).read_text() for name in names]
 
 
 def _sha256(text: str) -> str:

@@ -49,6 +49,7 @@
 #include "contact.h"
 #include "exchange.h"
 #include "record.h"
+#include "adaptive.h"
 
 /* The step's passes are instantiated with constant bands (rk_advance): force the inlining. */
 #if defined(__GNUC__)
@@ -111,6 +112,7 @@ typedef struct {
 
 long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, long steps,
                 double *rows, double *pressure);
+long rk_adaptive(ra_run *R, long max_steps);
 /* cdef end */
 
 /* The loop bounds of a step: bands and slot counts. rk_advance passes constants for the common
@@ -317,3 +319,11 @@ long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, lo
             values[(size_t)k * n + i] = sp[3 * (size_t)i + k];
     return done;
 }
+
+/* The adaptive run's regular steps (adaptive.h), each step one rk_advance of its size's
+ * problem. */
+#define RA_NAME rk_adaptive
+#define RA_STEP(problem, values, u_prev, n0, row, pressure, iterations) \
+    (rk_advance((const rk_problem *)(problem), values, u_prev, n0, 1, row, pressure) == 1 && \
+     (*(iterations) = 1, 1))
+#include "adaptive.h"

@@ -53,6 +53,7 @@
 #include "contact.h"
 #include "exchange.h"
 #include "record.h"
+#include "adaptive.h"
 
 /* cdef begin: the declarations cffi reads (rodfem/solver/compiled/picard.py) */
 typedef struct {
@@ -96,6 +97,7 @@ int pk_factor(int n, const double *lo, const double *diag, const double *up, int
 long pk_advance(const pk_problem *P, double *values, double *u_prev, long n0, long steps,
                 double *rows, double *pressure, int *iterations, double *increment,
                 double *last_u_1);
+long pk_adaptive(ra_run *R, long max_steps);
 /* cdef end */
 
 /* The tridiagonal factor of (lo, diag, up), normalised: ul = 0, L U, eliminating ascending:
@@ -356,3 +358,20 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
     *increment = inc;
     return done;
 }
+
+/* The adaptive run's regular steps (adaptive.h), each step one pk_advance of its size's
+ * problem; its iterations are those its row records. */
+static int pk_one_step(const void *problem, double *values, double *u_prev, long n0,
+                       double *row, double *pressure, int *iterations)
+{
+    double increment, last_u_1;
+    if (pk_advance((const pk_problem *)problem, values, u_prev, n0, 1, row, pressure,
+                   iterations, &increment, &last_u_1) != 1)
+        return 0;
+    *iterations = (int)row[RAW_ITERATIONS];
+    return 1;
+}
+
+#define RA_NAME pk_adaptive
+#define RA_STEP pk_one_step
+#include "adaptive.h"

@@ -1,0 +1,166 @@
+"""The regular steps of an adaptive run in compiled code (``rodfem/solver/compiled/adaptive.h``).
+
+A regular step is one that neither changes contact nor restarts the estimate: the step of the
+controller's proposed size from the last accepted state, its error by Milne's device and the PI
+controller's decision, the history row of the accepted state. :class:`AdaptiveStepper` takes
+these in Python at 80-100 µs each; here many of them are taken in one C call, with the same
+arithmetic in the same order (the norm's sums are NumPy's pairwise sums), so that every decision
+is the stepper's: the same steps, rejections and step sizes. The history's rows are the stepper's
+to round-off: their bulk energy is summed in C, not by PETSc.
+
+Everything else stays with the stepper (:meth:`AdaptiveStepper.step`), which the call hands
+the run back to with the state of the last accepted step:
+
+* a step that changes contact (it is located there), or that the method does not solve;
+* the estimate's restarts, at the start and after an event (the two halves);
+* a step size with no compiled loop yet (made there, by the stepper's ``make``, and kept);
+* a step below ``time.dt_min`` (the stepper's error, StepTooSmall, raised here);
+
+and the call returns when the history's block is full, a field save is due (a save interval
+begun), a row is not finite, or ``max_steps`` are done (the run's agreed checks for a stop).
+Under MPI every rank takes the same steps, as it computes the same state.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rodfem.solver.errors import StepTooSmall
+
+SIZES = 80  # the most step sizes one call can step with (the stepper keeps at most 64)
+
+
+class CompiledSteps:
+    """Regular steps of ``stepper`` (an :class:`AdaptiveStepper` whose home method has a
+    compiled loop) recorded in ``history``: :meth:`advance`."""
+
+    def __init__(self, stepper, history):
+        loop = stepper.loop
+        self.stepper, self.history = stepper, history
+        ffi, lib = loop._ffi, loop._lib
+        self._ffi = ffi
+        self._run = lib.rk_adaptive if hasattr(lib, "rk_adaptive") else lib.pk_adaptive
+        self.codes = {name: getattr(lib, name) for name in
+                      ("RA_END", "RA_PAUSE", "RA_NEED", "RA_EVENT", "RA_FAILED", "RA_RESTART",
+                       "RA_TOO_SMALL")}
+        home, norm, control = stepper.home, stepper.norm, stepper.controller
+        n = self.n = stepper.nodes
+        R = self.R = ffi.new("ra_run *")
+        R.n, R.order = n, stepper.order
+        R.rigid, R.gap, R.cell = int(stepper.rigid), float(stepper.gap), stepper.cell
+        R.dt0, R.dt_min, R.dt_max = stepper.dt0, control.dt_min, control.dt_max
+        R.tolerance, R.end = stepper.tolerance, stepper.end
+        if norm.dt0 != stepper.dt0:
+            raise ValueError("the norm's Δt₀ is not the stepper's")
+        R.b, R.massless_end, R.force = norm.b, int(norm.massless_end), int(norm.force)
+        energy = history.energy
+        indptr, indices, values = energy.E.getValuesCSR()
+        arrays = self._arrays = {
+            "past": np.zeros((stepper.order + 1) * (3 * n + 1)),
+            "size_h": np.zeros(SIZES),
+            "e_indptr": np.ascontiguousarray(indptr, dtype=np.intc),
+            "e_indices": np.ascontiguousarray(indices, dtype=np.intc),
+            "e_values": np.ascontiguousarray(values, dtype=float),
+            "two_w": np.array(energy.two_w.array_r, dtype=float),
+            "start": np.zeros(3 * n), "start_u_prev": np.zeros(n),
+            "y": np.zeros(3 * n + 1), "difference": np.zeros(3 * n + 1),
+            "ey": np.zeros(3 * n), "scratch_row": np.zeros(history.width),
+        }
+        readings = history.readings
+        if readings is not None:
+            arrays["r_index"] = np.ascontiguousarray(readings.index, dtype=np.intc)
+            arrays["r_weight"] = np.ascontiguousarray(readings.weight, dtype=float)
+            arrays["r_constant"] = np.ascontiguousarray(readings.constant, dtype=float)
+            R.readings.count, R.readings.terms = readings.count, readings.terms
+            R.readings.index = self._pointer(arrays["r_index"], "int *")
+            R.readings.weight = self._pointer(arrays["r_weight"])
+            R.readings.constant = self._pointer(arrays["r_constant"])
+        for name in ("past", "size_h", "e_values", "two_w", "start", "start_u_prev", "y",
+                     "difference", "ey", "scratch_row"):
+            setattr(R, name, self._pointer(arrays[name]))
+        R.e_indptr = self._pointer(arrays["e_indptr"], "int *")
+        R.e_indices = self._pointer(arrays["e_indices"], "int *")
+        self._problems = ffi.new("void *[]", SIZES)
+        R.size_problem = self._problems
+        R.width = history.width
+        R.u_1, R.du_1 = history.u_1, history.du_1
+        i, wi, j, wj = history.half
+        R.half_i, R.half_j, R.half_wi, R.half_wj = i, j, wi, wj
+        self._loops: list = []  # the loops whose problems the table points into
+        self._seen = None
+        self.home = home
+
+    def _pointer(self, array: np.ndarray, kind: str = "double *"):
+        return self._ffi.cast(kind, self._ffi.from_buffer(array))
+
+    def ready(self) -> bool:
+        """Whether the next step can be a regular one: past the paper scheme's first step,
+        with order + 1 states since the start or the last event."""
+        stepper = self.stepper
+        return not self.home.first_step_special and len(stepper.past) > stepper.order
+
+    def _sizes(self) -> None:
+        """The table of step sizes and their problems: home's, the ladder's kept by the
+        stepper and the last size off it (made again only when the stepper made one)."""
+        stepper = self.stepper
+        seen = (stepper.made, stepper._located[0] if stepper._located else None)
+        if seen == self._seen:
+            return
+        loops = [(stepper.dt0, stepper.loop)]
+        loops += [(h, made[1]) for h, made in stepper._methods.items()]
+        if stepper._located is not None:
+            loops.append((stepper._located[0], stepper._located[1][1]))
+        loops = [(h, loop) for h, loop in loops if loop is not None][:SIZES]
+        sizes = self._arrays["size_h"]
+        for k, (h, loop) in enumerate(loops):
+            sizes[k] = h
+            self._problems[k] = self._ffi.cast("void *", loop._problem)
+        self.R.sizes = len(loops)
+        self._loops, self._seen = loops, seen
+
+    def advance(self, max_steps: int, interval: float | None, frame: int) -> int:
+        """Regular steps from the stepper's state, at most ``max_steps`` and the history's free
+        rows, recorded in the history; stops after a step that begins a save interval
+        (``frame(t, interval)`` > ``frame``). Returns the code of adaptive.h (``self.codes``)
+        that ended it; the rows written are committed, ``self.written`` of them. RA_NEED and
+        RA_TOO_SMALL are handled here: a step size made, StepTooSmall raised."""
+        stepper, home, history, R = self.stepper, self.home, self.history, self.R
+        self._sizes()
+        count = len(stepper.past)
+        past = self._arrays["past"].reshape(stepper.order + 1, -1)
+        for k, (t, y) in enumerate(zip(stepper.past_t, stepper.past)):
+            past[k] = y
+            R.past_t[k] = t
+        R.count = count
+        R.t, R.h, R.previous, R.cap = stepper.t, stepper.h, stepper.controller.previous, stepper.cap
+        R.maxima = list(stepper.norm.maxima)
+        R.values = self._pointer(home.values)
+        R.u_prev = self._pointer(home.u_prev.array)
+        R.step, R.iterations, R.pressure = home.n, home.iterations, home.pressure
+        room = history.free
+        R.rows = self._pointer(history.reserve(room))
+        R.clock = self._pointer(history.reserve_clock(room))
+        R.room = room
+        R.interval = interval or 0.0
+        R.frame = float(frame)
+        R.rejected = 0
+        code = int(self._run(R, max_steps))
+        # back to the stepper
+        written = self.written = int(R.written)
+        for vector in (home.state, home.theta, home.du, home.u, home.u_prev):
+            vector.stateIncrease()  # written behind PETSc's back
+        home.n, home.iterations, home.pressure = int(R.step), int(R.iterations), float(R.pressure)
+        stepper._home_at = None
+        stepper.t, stepper.h, stepper.controller.previous = R.t, R.h, R.previous
+        stepper.norm.maxima = np.array([R.maxima[k] for k in range(4)])
+        stepper.past_t = [float(R.past_t[k]) for k in range(R.count)]
+        stepper.past = [past[k].copy() for k in range(R.count)]
+        stepper.steps += written
+        stepper.rejected += int(R.rejected)
+        history.commit(written)
+        if code == self.codes["RA_NEED"]:
+            stepper._method(float(R.wanted))
+        elif code == self.codes["RA_TOO_SMALL"]:
+            raise StepTooSmall(home.name, home.n + 1, stepper.t + float(R.wanted), stepper.h,
+                               stepper.controller.dt_min)
+        return code

@@ -1,0 +1,424 @@
+/*
+ * adaptive.h -- the regular steps of an adaptive run in compiled code: the step, its error
+ * estimate (Milne's device), the PI controller, the step ladder and the history row, for many
+ * steps in one call. rodfem/solver/adaptive/stepper.py and control.py in C, formula for formula,
+ * so that a step here is decided as it is there (rodfem/solver/adaptive/compiled.py says what
+ * is handed back and why).
+ *
+ * Included by direct.c and picard.c twice: first for its types and helpers (cffi is told of
+ * ra_run, from this header's cdef block), then at their end, after defining
+ *     RA_NAME   the exported function (rk_adaptive, pk_adaptive), declared in its cdef, and
+ *     RA_STEP(problem, values, u_prev, n0, row, pressure, iterations)
+ *               one step of its method from the state values = [Theta; D; U] (block order),
+ *               an expression that is 1 if the step was done, 0 if it failed (the state then
+ *               untouched or to be restored);
+ * which instantiates the loop below as RA_NAME.
+ *
+ * What it does not do, handing the run back to Python with the state of the last accepted step
+ * (rodfem/solver/adaptive/compiled.py): a step that changes contact (an event, located there), a
+ * step of a size it has no problem for (made there), a step the method does not solve, a step
+ * while the estimate restarts (fewer than order + 1 states since the start or the last event:
+ * the two halves), and a step size below dt_min. The paper scheme's special first step never
+ * comes here.
+ */
+#ifndef RODFEM_ADAPTIVE_H
+#define RODFEM_ADAPTIVE_H
+
+#include <math.h>
+#include <stddef.h>
+#include <string.h>
+
+#include "record.h"
+
+/* cdef begin: the declarations cffi reads */
+enum {
+    RA_END = 0,       /* t reached the end */
+    RA_PAUSE = 1,     /* rows full, a save interval begun, a non-finite row, or max_steps done */
+    RA_NEED = 2,      /* no problem for the step size `wanted` */
+    RA_EVENT = 3,     /* the step tried changes contact */
+    RA_FAILED = 4,    /* the method did not solve the step tried */
+    RA_RESTART = 5,   /* fewer than order + 1 states: the estimate restarts (two halves) */
+    RA_TOO_SMALL = 6  /* the next step, after a rejection, is below dt_min */
+};
+
+typedef struct {
+    int n;                 /* nodes: the state has 3n values, y = [state; p] 3n + 1 */
+    int order;             /* the scheme's order, 1 (paper) or 2 (Crank-Nicolson) */
+    /* contact is on where u(1) - gap (+ cell p for the rigid obstacle) > 0 */
+    int rigid;
+    double gap, cell;
+    /* the controller: Delta t_0, the bounds (dt_max 0: none), tolerance, the end; the next
+     * step's size h, the last accepted error, Picard's cap in contact, the time */
+    double dt0, dt_min, dt_max, tolerance, end;
+    double h, previous, cap, t;
+    /* the norm: b (the velocity's scale S/sqrt(b)), an end without mass (D(1) left out), whether
+     * p is measured, the largest sizes so far (Theta, D, U, stress) */
+    double b;
+    int massless_end, force;
+    double maxima[4];
+    /* the accepted states since the last restart, oldest first: past + k (3n + 1), k < count
+     * (at most order + 1), at the times past_t[k] */
+    int count;
+    double past_t[3];
+    double *past;
+    /* the problems of the step sizes at hand: size_h[k], size_problem[k], k < sizes */
+    int sizes;
+    const double *size_h;
+    void *const *size_problem;
+    /* the home method's state: values = [Theta; D; U] (3n), U of the step before, its step n,
+     * iterations and contact force */
+    double *values;
+    double *u_prev;
+    long step;
+    int iterations;
+    double pressure;
+    /* the history row of the home state: the raw slots and the readings (record.h); the bulk
+     * energy 1/2 (E s + 2w).s, E in CSR (3n rows) */
+    int width;
+    int u_1, du_1, half_i, half_j;
+    double half_wi, half_wj;
+    rr_readings readings;
+    const int *e_indptr;
+    const int *e_indices;
+    const double *e_values;
+    const double *two_w;
+    /* where the rows go (room of them: raw rows, and (t, dt, event) per row), and when to stop:
+     * the save interval's length (0: none) and the number of the last one saved */
+    double *rows;
+    double *clock;
+    long room;
+    double interval;
+    double frame;
+    /* work: 3n each for the start's values, 3n + 1 for y and for its difference, n for the
+     * start's u_prev, 3n for E s + 2w, width for a method's own row */
+    double *start;
+    double *start_u_prev;
+    double *y;
+    double *difference;
+    double *ey;
+    double *scratch_row;
+    /* what happened: the rows written, the steps rejected, the size wanted (RA_NEED) or the
+     * size rejected (RA_TOO_SMALL) */
+    long written;
+    long rejected;
+    double wanted;
+} ra_run;
+/* cdef end */
+
+#define RA_RUNGS 4
+#define RA_SAFETY 0.9
+#define RA_GROW 5.0
+#define RA_SHRINK 0.2
+#define RA_TINY 1e-10
+
+/* Python's max(a, b) and min(a, b): a unless b is strictly larger (smaller). */
+static inline double ra_pymax(double a, double b) { return b > a ? b : a; }
+static inline double ra_pymin(double a, double b) { return b < a ? b : a; }
+/* NumPy's maximum: NaN if either is. */
+static inline double ra_npmax(double a, double b)
+{
+    if (isnan(a) || isnan(b))
+        return NAN;
+    return a > b ? a : (b > a ? b : a);
+}
+
+/* NumPy's pairwise sum of x[0 .. n-1] (numpy/core/src/umath/loops_utils.h), the order in which
+ * np.add.reduce sums a contiguous row: the same result bit for bit. */
+static double ra_pairwise(const double *x, long n)
+{
+    if (n < 8) {
+        double r = 0.0;
+        for (long i = 0; i < n; i++)
+            r += x[i];
+        return r;
+    }
+    if (n <= 128) {
+        double r[8];
+        long i;
+        for (int j = 0; j < 8; j++)
+            r[j] = x[j];
+        for (i = 8; i < n - (n % 8); i += 8)
+            for (int j = 0; j < 8; j++)
+                r[j] += x[i + j];
+        double res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+        for (; i < n; i++)
+            res += x[i];
+        return res;
+    }
+    long n2 = n / 2;
+    n2 -= n2 % 8;
+    return ra_pairwise(x, n2) + ra_pairwise(x + n2, n - n2);
+}
+
+/* control.py's rung: the largest step of the ladder dt0 2^(j/RUNGS) that is at most h. */
+static inline double ra_rung(double dt0, double h)
+{
+    const double j = floor(RA_RUNGS * log2(h / dt0) + 1e-9);
+    const double step = dt0 * pow(2.0, j / RA_RUNGS);
+    return step <= h ? step : dt0 * pow(2.0, (j - 1.0) / RA_RUNGS);
+}
+
+/* Controller.ladder */
+static inline double ra_ladder(const ra_run *R, double h)
+{
+    if (R->dt_max != 0.0)
+        h = ra_pymin(h, R->dt_max);
+    return ra_pymax(ra_rung(R->dt0, h), ra_pymin(R->dt_min, h));
+}
+
+/* AdaptiveStepper._proposal */
+static inline double ra_proposal(const ra_run *R, int touching)
+{
+    const double h = ra_ladder(R, touching ? ra_pymin(R->h, R->cap) : R->h);
+    const double left = R->end - R->t;
+    return h >= left * (1.0 - 1e-9) ? left : h;
+}
+
+/* AdaptiveStepper._contact: > 0 while the obstacle pushes. */
+static inline double ra_contact(const ra_run *R, double u_1, double p)
+{
+    return R->rigid ? (u_1 - R->gap) + R->cell * p : u_1 - R->gap;
+}
+
+/* ErrorNorm.sizes, counted into the maxima: grown = max(maxima, sizes(y)). */
+static void ra_grown(const ra_run *R, const double *y, double grown[4])
+{
+    const int n = R->n;
+    double fields[3];
+    for (int k = 0; k < 3; k++) {
+        double m = fabs(y[(size_t)k * n]);
+        if (k == 1 && R->massless_end && n == 1)
+            m = 0.0;
+        for (int i = 1; i < n; i++) {
+            double v = fabs(y[(size_t)k * n + i]);
+            if (k == 1 && R->massless_end && i == n - 1)
+                v = 0.0;
+            m = ra_npmax(m, v);
+        }
+        fields[k] = m;
+    }
+    double strain = 0.0;
+    if (n > 1) {
+        const double *u = y + 2 * (size_t)n;
+        double m = fabs(u[1] - u[0]);
+        for (int i = 2; i < n; i++)
+            m = ra_npmax(m, fabs(u[i] - u[i - 1]));
+        strain = m / R->cell;
+    }
+    const double sizes[4] = {fields[0], fields[1], fields[2],
+                             ra_pymax(fabs(y[3 * (size_t)n]), strain)};
+    for (int k = 0; k < 4; k++)
+        grown[k] = ra_npmax(R->maxima[k], sizes[k]);
+}
+
+/* ErrorNorm.__call__ of the error e (3n + 1, overwritten) of the state y. */
+static double ra_norm(const ra_run *R, double *e, const double *y, double grown[4])
+{
+    const int n = R->n;
+    ra_grown(R, y, grown);
+    double scale[4] = {grown[0], grown[1], grown[2], grown[3]};
+    if (R->b > 0.0)
+        scale[1] = ra_pymax(scale[1], R->dt0 * scale[3] / sqrt(R->b));
+    if (R->massless_end)
+        e[2 * (size_t)n - 1] = 0.0;
+    double parts[4];
+    for (int k = 0; k < 3; k++) {
+        double *row = e + (size_t)k * n;
+        for (int i = 0; i < n; i++)
+            row[i] = row[i] * row[i];
+        parts[k] = sqrt(ra_pairwise(row, n) / n);
+    }
+    parts[3] = R->force ? fabs(e[3 * (size_t)n]) : 0.0;
+    double largest = 0.0;
+    for (int k = 0; k < 4; k++) {
+        const double ratio = scale[k] > 0.0 ? parts[k] / (R->tolerance * scale[k])
+                                            : (parts[k] == 0.0 ? 0.0 : INFINITY);
+        if (k == 0 || ratio > largest)
+            largest = ratio;
+    }
+    return largest;
+}
+
+/* AdaptiveStepper._predicted: the local error of the step h just taken (to y), by Milne's
+ * device from the last order + 1 states (control.py's extrapolate and milne). */
+static double ra_predicted(ra_run *R, double h, double grown[4])
+{
+    const int k = R->order + 1, size = 3 * R->n + 1;
+    const double *times = R->past_t + (R->count - k);
+    const double *states = R->past + (size_t)(R->count - k) * size;
+    const double t = R->t + h;
+    double *d = R->difference;
+    for (int m = 0; m < size; m++)
+        d[m] = 0.0;
+    for (int i = 0; i < k; i++) {
+        double weight = 1.0;
+        for (int j = 0; j < k; j++)
+            if (j != i)
+                weight *= (t - times[j]) / (times[i] - times[j]);
+        const double *s = states + (size_t)i * size;
+        for (int m = 0; m < size; m++)
+            d[m] += s[m] * weight;
+    }
+    double factor;
+    if (R->order == 1) {
+        factor = h / (2.0 * h + (times[1] - times[0]));
+    } else {
+        const double g0 = times[2] - times[1], g1 = times[1] - times[0];
+        const double step = pow(h, 3.0) / 12.0;
+        factor = step / (step + h * (h + g0) * (h + g0 + g1) / 6.0);
+    }
+    for (int m = 0; m < size; m++)
+        d[m] = (R->y[m] - d[m]) * factor;
+    return ra_norm(R, d, R->y, grown);
+}
+
+/* The raw history row of the home state (History.record), and its readings. */
+static void ra_row(ra_run *R, double *row)
+{
+    const int n = R->n, N = 3 * n;
+    const double *s = R->values;
+    double energy = 0.0;
+    for (int i = 0; i < N; i++) {
+        double sum = R->two_w[i];
+        for (int q = R->e_indptr[i]; q < R->e_indptr[i + 1]; q++)
+            sum += R->e_values[q] * s[R->e_indices[q]];
+        R->ey[i] = sum;
+    }
+    for (int i = 0; i < N; i++)
+        energy += R->ey[i] * s[i];
+    row[RAW_N] = (double)R->step;
+    row[RAW_ITERATIONS] = (double)R->iterations;
+    row[RAW_U_1] = s[R->u_1];
+    row[RAW_D_1] = s[R->du_1];
+    row[RAW_U_HALF] = R->half_wi * s[R->half_i] + R->half_wj * s[R->half_j];
+    row[RAW_BULK_ENERGY] = 0.5 * energy;
+    row[RAW_PRESSURE] = R->pressure;
+    if (R->readings.count) {
+        const double *const part[3] = {s, s + n, s + 2 * (size_t)n};
+        rr_read(&R->readings, n, part, 1, row + RAW_SLOTS);
+    }
+}
+
+static inline int ra_finite_row(const double *row)
+{
+    return isfinite(row[RAW_U_1]) && isfinite(row[RAW_PRESSURE]) && isfinite(row[RAW_D_1]) &&
+           isfinite(row[RAW_U_HALF]) && isfinite(row[RAW_BULK_ENERGY]);
+}
+
+static void *ra_problem(const ra_run *R, double h)
+{
+    for (int k = 0; k < R->sizes; k++)
+        if (R->size_h[k] == h)
+            return R->size_problem[k];
+    return NULL;
+}
+
+/* Back to the start of the step tried. */
+static inline void ra_restore(ra_run *R, long step, int iterations, double pressure)
+{
+    const int n = R->n;
+    memcpy(R->values, R->start, sizeof(double) * 3 * (size_t)n);
+    memcpy(R->u_prev, R->start_u_prev, sizeof(double) * (size_t)n);
+    R->step = step;
+    R->iterations = iterations;
+    R->pressure = pressure;
+}
+
+static inline void ra_scale(double *D, int n, double factor)
+{
+    for (int i = 0; i < n; i++)
+        D[i] *= factor;
+}
+
+#endif
+
+#ifdef RA_NAME
+/* Accepted steps until one of the RA_ codes happens (at most max_steps, and R->room rows). */
+long RA_NAME(ra_run *R, long max_steps)
+{
+    const int n = R->n, size = 3 * n + 1;
+    double *D = R->values + n;
+    R->written = 0;
+    for (;;) {
+        if (!(R->t < R->end))
+            return RA_END;
+        if (R->written >= max_steps || R->written >= R->room)
+            return RA_PAUSE;
+        if (R->count <= R->order)
+            return RA_RESTART;
+        const int before = ra_contact(R, R->values[3 * (size_t)n - 1], R->pressure) > 0.0;
+        const double h = ra_proposal(R, before);
+        void *problem = ra_problem(R, h);
+        if (problem == NULL) {
+            R->wanted = h;
+            return RA_NEED;
+        }
+        const long step = R->step;
+        const int iterations = R->iterations;
+        const double pressure = R->pressure;
+        memcpy(R->start, R->values, sizeof(double) * 3 * (size_t)n);
+        memcpy(R->start_u_prev, R->u_prev, sizeof(double) * (size_t)n);
+        if (h != R->dt0)
+            ra_scale(D, n, h / R->dt0);
+        if (!(RA_STEP(problem, R->values, R->u_prev, step, R->scratch_row, &R->pressure,
+                      &R->iterations))) {
+            ra_restore(R, step, iterations, pressure);
+            return RA_FAILED;
+        }
+        if (h != R->dt0)
+            ra_scale(D, n, R->dt0 / h);
+        R->step = step + 1;
+        if ((ra_contact(R, R->values[3 * (size_t)n - 1], R->pressure) > 0.0) != before) {
+            ra_restore(R, step, iterations, pressure);
+            return RA_EVENT;
+        }
+        memcpy(R->y, R->values, sizeof(double) * 3 * (size_t)n);
+        R->y[3 * (size_t)n] = R->pressure;
+        double grown[4];
+        double error = ra_predicted(R, h, grown);
+        if (!(error <= 1.0)) {  /* Controller.rejected */
+            R->rejected++;
+            ra_restore(R, step, iterations, pressure);
+            const double factor = RA_SAFETY * pow(ra_pymax(error, RA_TINY),
+                                                  -1.0 / (R->order + 1));
+            R->h = h * ra_pymin(RA_SAFETY, ra_pymax(RA_SHRINK, factor));
+            if (R->h < R->dt_min) {
+                R->wanted = h;
+                return RA_TOO_SMALL;
+            }
+            continue;
+        }
+        /* Controller.accepted, then AdaptiveStepper._accept */
+        const int k = R->order + 1;
+        error = ra_pymax(error, RA_TINY);
+        const double factor = RA_SAFETY * pow(error, -0.7 / k) *
+                              pow(ra_pymax(R->previous, RA_TINY), 0.4 / k);
+        R->previous = error;
+        const double following = h * ra_pymin(RA_GROW, ra_pymax(RA_SHRINK, factor));
+        R->t = fabs(R->end - (R->t + h)) <= 1e-12 * R->end ? R->end : R->t + h;
+        for (int m = 0; m < 4; m++)
+            R->maxima[m] = grown[m];
+        if (R->count == R->order + 1) {
+            memmove(R->past, R->past + size, sizeof(double) * (size_t)(R->count - 1) * size);
+            for (int m = 0; m + 1 < R->count; m++)
+                R->past_t[m] = R->past_t[m + 1];
+            R->count--;
+        }
+        memcpy(R->past + (size_t)R->count * size, R->y, sizeof(double) * size);
+        R->past_t[R->count++] = R->t;
+        R->h = following;
+        double *row = R->rows + (size_t)R->written * R->width;
+        ra_row(R, row);
+        double *clock = R->clock + 3 * (size_t)R->written;
+        clock[0] = R->t;
+        clock[1] = h;
+        clock[2] = 0.0;
+        R->written++;
+        if (!ra_finite_row(row))
+            return RA_PAUSE;
+        if (R->interval > 0.0 && floor(R->t / R->interval) > R->frame)
+            return RA_PAUSE;
+    }
+}
+
+#endif
