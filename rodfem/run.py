@@ -296,8 +296,9 @@ class Simulation:
         regular, stepper = self.regular, self.stepper
         every = STOP_EVERY - calls % STOP_EVERY
         since = self.history.count
-        code = regular.advance(every if self.comm.size > 1 else 1 << 30, self.interval,
-                               self.frame)
+        saving = self.files is not None or self.kept is not None  # else no save to stop at
+        code = regular.advance(every if self.comm.size > 1 else 1 << 30,
+                               self.interval if saving else None, self.frame)
         self.check(since)
         if self.history.full:
             self.flush()

@@ -30,6 +30,20 @@ from rodfem.solver.errors import StepTooSmall
 SIZES = 80  # the most step sizes one call can step with (the stepper keeps at most 64)
 
 
+def tridiagonal(E) -> np.ndarray:
+    """A tridiagonal PETSc matrix as rows (E(i, i − 1), E(i, i), E(i, i + 1)), 0 where it has no
+    entry (ValueError if it has one farther from the diagonal)."""
+    indptr, indices, values = E.getValuesCSR()
+    rows = np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
+    offset = indices - rows
+    if np.any(np.abs(offset[values != 0.0]) > 1):
+        raise ValueError("the energy's matrix is not tridiagonal")
+    band = np.zeros((indptr.size - 1, 3))
+    near = np.abs(offset) <= 1
+    band[rows[near], offset[near] + 1] = values[near]
+    return band.reshape(-1)
+
+
 class CompiledSteps:
     """Regular steps of ``stepper`` (an :class:`AdaptiveStepper` whose home method has a
     compiled loop) recorded in ``history``: :meth:`advance`."""
@@ -54,17 +68,13 @@ class CompiledSteps:
             raise ValueError("the norm's Δt₀ is not the stepper's")
         R.b, R.massless_end, R.force = norm.b, int(norm.massless_end), int(norm.force)
         energy = history.energy
-        indptr, indices, values = energy.E.getValuesCSR()
         arrays = self._arrays = {
             "past": np.zeros((stepper.order + 1) * (3 * n + 1)),
             "size_h": np.zeros(SIZES),
-            "e_indptr": np.ascontiguousarray(indptr, dtype=np.intc),
-            "e_indices": np.ascontiguousarray(indices, dtype=np.intc),
-            "e_values": np.ascontiguousarray(values, dtype=float),
+            "e_band": tridiagonal(energy.E),
             "two_w": np.array(energy.two_w.array_r, dtype=float),
-            "start": np.zeros(3 * n), "start_u_prev": np.zeros(n),
-            "y": np.zeros(3 * n + 1), "difference": np.zeros(3 * n + 1),
-            "ey": np.zeros(3 * n), "scratch_row": np.zeros(history.width),
+            "start": np.zeros(3 * n), "start_u_prev": np.zeros(n), "squares": np.zeros(3 * n),
+            "scratch_row": np.zeros(history.width),
         }
         readings = history.readings
         if readings is not None:
@@ -75,11 +85,9 @@ class CompiledSteps:
             R.readings.index = self._pointer(arrays["r_index"], "int *")
             R.readings.weight = self._pointer(arrays["r_weight"])
             R.readings.constant = self._pointer(arrays["r_constant"])
-        for name in ("past", "size_h", "e_values", "two_w", "start", "start_u_prev", "y",
-                     "difference", "ey", "scratch_row"):
+        for name in ("past", "size_h", "e_band", "two_w", "start", "start_u_prev", "squares",
+                     "scratch_row"):
             setattr(R, name, self._pointer(arrays[name]))
-        R.e_indptr = self._pointer(arrays["e_indptr"], "int *")
-        R.e_indices = self._pointer(arrays["e_indices"], "int *")
         self._problems = ffi.new("void *[]", SIZES)
         R.size_problem = self._problems
         R.width = history.width
@@ -126,12 +134,11 @@ class CompiledSteps:
         RA_TOO_SMALL are handled here: a step size made, StepTooSmall raised."""
         stepper, home, history, R = self.stepper, self.home, self.history, self.R
         self._sizes()
-        count = len(stepper.past)
         past = self._arrays["past"].reshape(stepper.order + 1, -1)
         for k, (t, y) in enumerate(zip(stepper.past_t, stepper.past)):
             past[k] = y
             R.past_t[k] = t
-        R.count = count
+        R.count, R.head = len(stepper.past), 0
         R.t, R.h, R.previous, R.cap = stepper.t, stepper.h, stepper.controller.previous, stepper.cap
         R.maxima = list(stepper.norm.maxima)
         R.values = self._pointer(home.values)
@@ -153,8 +160,9 @@ class CompiledSteps:
         stepper._home_at = None
         stepper.t, stepper.h, stepper.controller.previous = R.t, R.h, R.previous
         stepper.norm.maxima = np.array([R.maxima[k] for k in range(4)])
-        stepper.past_t = [float(R.past_t[k]) for k in range(R.count)]
-        stepper.past = [past[k].copy() for k in range(R.count)]
+        places = [(R.head + k) % past.shape[0] for k in range(R.count)]
+        stepper.past_t = [float(R.past_t[k]) for k in places]
+        stepper.past = [past[k].copy() for k in places]
         stepper.steps += written
         stepper.rejected += int(R.rejected)
         history.commit(written)

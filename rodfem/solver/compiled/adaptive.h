@@ -56,9 +56,9 @@ typedef struct {
     double b;
     int massless_end, force;
     double maxima[4];
-    /* the accepted states since the last restart, oldest first: past + k (3n + 1), k < count
-     * (at most order + 1), at the times past_t[k] */
-    int count;
+    /* the accepted states since the last restart, a ring of order + 1 places: the k-th oldest
+     * (k < count) is past + ((head + k) % (order + 1)) (3n + 1), at the time past_t[same] */
+    int count, head;
     double past_t[3];
     double *past;
     /* the problems of the step sizes at hand: size_h[k], size_problem[k], k < sizes */
@@ -73,14 +73,13 @@ typedef struct {
     int iterations;
     double pressure;
     /* the history row of the home state: the raw slots and the readings (record.h); the bulk
-     * energy 1/2 (E s + 2w).s, E in CSR (3n rows) */
+     * energy 1/2 (E s + 2w).s, E tridiagonal: e_band[3 i + 0, 1, 2] = E(i, i - 1), E(i, i),
+     * E(i, i + 1) (0 outside E and where E has no entry) */
     int width;
     int u_1, du_1, half_i, half_j;
     double half_wi, half_wj;
     rr_readings readings;
-    const int *e_indptr;
-    const int *e_indices;
-    const double *e_values;
+    const double *e_band;
     const double *two_w;
     /* where the rows go (room of them: raw rows, and (t, dt, event) per row), and when to stop:
      * the save interval's length (0: none) and the number of the last one saved */
@@ -89,13 +88,11 @@ typedef struct {
     long room;
     double interval;
     double frame;
-    /* work: 3n each for the start's values, 3n + 1 for y and for its difference, n for the
-     * start's u_prev, 3n for E s + 2w, width for a method's own row */
+    /* work: 3n for the start's values, n for its u_prev, 3n for the error's squares, width
+     * for a method's own row */
     double *start;
     double *start_u_prev;
-    double *y;
-    double *difference;
-    double *ey;
+    double *squares;
     double *scratch_row;
     /* what happened: the rows written, the steps rejected, the size wanted (RA_NEED) or the
      * size rejected (RA_TOO_SMALL) */
@@ -180,84 +177,80 @@ static inline double ra_contact(const ra_run *R, double u_1, double p)
     return R->rigid ? (u_1 - R->gap) + R->cell * p : u_1 - R->gap;
 }
 
-/* ErrorNorm.sizes, counted into the maxima: grown = max(maxima, sizes(y)). */
-static void ra_grown(const ra_run *R, const double *y, double grown[4])
+/* The largest |x[i]|, i < count, and NaN if one is (NumPy's max of np.abs): four running
+ * maxima, a maximum being the same in any order. */
+static inline double ra_largest(const double *x, int count)
+{
+    double m[4] = {0.0, 0.0, 0.0, 0.0};
+    int bad = 0, i = 0;
+    for (; i + 4 <= count; i += 4)
+        for (int j = 0; j < 4; j++) {
+            const double v = fabs(x[i + j]);
+            m[j] = v > m[j] ? v : m[j];
+            bad |= v != v;
+        }
+    for (; i < count; i++) {
+        const double v = fabs(x[i]);
+        m[0] = v > m[0] ? v : m[0];
+        bad |= v != v;
+    }
+    const double a = m[0] > m[1] ? m[0] : m[1], b = m[2] > m[3] ? m[2] : m[3];
+    return bad ? NAN : (a > b ? a : b);
+}
+
+/* The largest |u[i] - u[i - 1]|, 0 < i < count, as ra_largest. */
+static inline double ra_largest_jump(const double *u, int count)
+{
+    double m[4] = {0.0, 0.0, 0.0, 0.0};
+    int bad = 0, i = 1;
+    for (; i + 4 <= count; i += 4)
+        for (int j = 0; j < 4; j++) {
+            const double v = fabs(u[i + j] - u[i + j - 1]);
+            m[j] = v > m[j] ? v : m[j];
+            bad |= v != v;
+        }
+    for (; i < count; i++) {
+        const double v = fabs(u[i] - u[i - 1]);
+        m[0] = v > m[0] ? v : m[0];
+        bad |= v != v;
+    }
+    const double a = m[0] > m[1] ? m[0] : m[1], b = m[2] > m[3] ? m[2] : m[3];
+    return bad ? NAN : (a > b ? a : b);
+}
+
+/* ErrorNorm.grown: the maxima with the sizes of y = [s; p] counted (sizes(y): max |Theta|,
+ * |D| (an end without mass left out), |U|, and the larger of |p| and the largest strain). */
+static void ra_grown(const ra_run *R, const double *s, double p, double grown[4])
 {
     const int n = R->n;
-    double fields[3];
-    for (int k = 0; k < 3; k++) {
-        double m = fabs(y[(size_t)k * n]);
-        if (k == 1 && R->massless_end && n == 1)
-            m = 0.0;
-        for (int i = 1; i < n; i++) {
-            double v = fabs(y[(size_t)k * n + i]);
-            if (k == 1 && R->massless_end && i == n - 1)
-                v = 0.0;
-            m = ra_npmax(m, v);
-        }
-        fields[k] = m;
-    }
-    double strain = 0.0;
-    if (n > 1) {
-        const double *u = y + 2 * (size_t)n;
-        double m = fabs(u[1] - u[0]);
-        for (int i = 2; i < n; i++)
-            m = ra_npmax(m, fabs(u[i] - u[i - 1]));
-        strain = m / R->cell;
-    }
-    const double sizes[4] = {fields[0], fields[1], fields[2],
-                             ra_pymax(fabs(y[3 * (size_t)n]), strain)};
+    const double strain = n > 1 ? ra_largest_jump(s + 2 * (size_t)n, n) / R->cell : 0.0;
+    const double sizes[4] = {ra_largest(s, n),
+                             ra_largest(s + n, R->massless_end ? n - 1 : n),
+                             ra_largest(s + 2 * (size_t)n, n), ra_pymax(fabs(p), strain)};
     for (int k = 0; k < 4; k++)
         grown[k] = ra_npmax(R->maxima[k], sizes[k]);
 }
 
-/* ErrorNorm.__call__ of the error e (3n + 1, overwritten) of the state y. */
-static double ra_norm(const ra_run *R, double *e, const double *y, double grown[4])
+/* AdaptiveStepper._predicted: the local error of the step h just taken (to y = [s; p]), by
+ * Milne's device from the last order + 1 states (control.py's extrapolate and milne), in
+ * ErrorNorm's norm. The sums are NumPy's: the extrapolation from 0 term by term, the squares
+ * pairwise. */
+static double ra_predicted(ra_run *R, double h, const double *s, double p, double grown[4])
 {
-    const int n = R->n;
-    ra_grown(R, y, grown);
-    double scale[4] = {grown[0], grown[1], grown[2], grown[3]};
-    if (R->b > 0.0)
-        scale[1] = ra_pymax(scale[1], R->dt0 * scale[3] / sqrt(R->b));
-    if (R->massless_end)
-        e[2 * (size_t)n - 1] = 0.0;
-    double parts[4];
-    for (int k = 0; k < 3; k++) {
-        double *row = e + (size_t)k * n;
-        for (int i = 0; i < n; i++)
-            row[i] = row[i] * row[i];
-        parts[k] = sqrt(ra_pairwise(row, n) / n);
-    }
-    parts[3] = R->force ? fabs(e[3 * (size_t)n]) : 0.0;
-    double largest = 0.0;
-    for (int k = 0; k < 4; k++) {
-        const double ratio = scale[k] > 0.0 ? parts[k] / (R->tolerance * scale[k])
-                                            : (parts[k] == 0.0 ? 0.0 : INFINITY);
-        if (k == 0 || ratio > largest)
-            largest = ratio;
-    }
-    return largest;
-}
-
-/* AdaptiveStepper._predicted: the local error of the step h just taken (to y), by Milne's
- * device from the last order + 1 states (control.py's extrapolate and milne). */
-static double ra_predicted(ra_run *R, double h, double grown[4])
-{
-    const int k = R->order + 1, size = 3 * R->n + 1;
-    const double *times = R->past_t + (R->count - k);
-    const double *states = R->past + (size_t)(R->count - k) * size;
+    const int n = R->n, k = R->order + 1, size = 3 * n + 1, places = R->order + 1;
     const double t = R->t + h;
-    double *d = R->difference;
-    for (int m = 0; m < size; m++)
-        d[m] = 0.0;
+    double times[3], weight[3];
+    const double *states[3];
     for (int i = 0; i < k; i++) {
-        double weight = 1.0;
+        const int at = (R->head + (R->count - k) + i) % places;
+        times[i] = R->past_t[at];
+        states[i] = R->past + (size_t)at * size;
+    }
+    for (int i = 0; i < k; i++) {
+        weight[i] = 1.0;
         for (int j = 0; j < k; j++)
             if (j != i)
-                weight *= (t - times[j]) / (times[i] - times[j]);
-        const double *s = states + (size_t)i * size;
-        for (int m = 0; m < size; m++)
-            d[m] += s[m] * weight;
+                weight[i] *= (t - times[j]) / (times[i] - times[j]);
     }
     double factor;
     if (R->order == 1) {
@@ -267,25 +260,54 @@ static double ra_predicted(ra_run *R, double h, double grown[4])
         const double step = pow(h, 3.0) / 12.0;
         factor = step / (step + h * (h + g0) * (h + g0 + g1) / 6.0);
     }
-    for (int m = 0; m < size; m++)
-        d[m] = (R->y[m] - d[m]) * factor;
-    return ra_norm(R, d, R->y, grown);
+    double *sq = R->squares;
+    for (int m = 0; m < 3 * n; m++) {
+        double e = 0.0;
+        for (int i = 0; i < k; i++)
+            e += states[i][m] * weight[i];
+        e = (s[m] - e) * factor;
+        sq[m] = e * e;
+    }
+    if (R->massless_end)
+        sq[2 * (size_t)n - 1] = 0.0;
+    double e_p = 0.0;
+    for (int i = 0; i < k; i++)
+        e_p += states[i][3 * (size_t)n] * weight[i];
+    e_p = (p - e_p) * factor;
+
+    ra_grown(R, s, p, grown);
+    double scale[4] = {grown[0], grown[1], grown[2], grown[3]};
+    if (R->b > 0.0)
+        scale[1] = ra_pymax(scale[1], R->dt0 * scale[3] / sqrt(R->b));
+    double parts[4];
+    for (int c = 0; c < 3; c++)
+        parts[c] = sqrt(ra_pairwise(sq + (size_t)c * n, n) / n);
+    parts[3] = R->force ? fabs(e_p) : 0.0;
+    double largest = 0.0;
+    for (int c = 0; c < 4; c++) {
+        const double ratio = scale[c] > 0.0 ? parts[c] / (R->tolerance * scale[c])
+                                            : (parts[c] == 0.0 ? 0.0 : INFINITY);
+        if (c == 0 || ratio > largest)
+            largest = ratio;
+    }
+    return largest;
 }
 
-/* The raw history row of the home state (History.record), and its readings. */
+/* The raw history row of the home state (History.record), and its readings: the energy's sums
+ * in PETSc's order, (2w + E s) row by row in column order, then its dot with s. */
 static void ra_row(ra_run *R, double *row)
 {
     const int n = R->n, N = 3 * n;
-    const double *s = R->values;
-    double energy = 0.0;
-    for (int i = 0; i < N; i++) {
-        double sum = R->two_w[i];
-        for (int q = R->e_indptr[i]; q < R->e_indptr[i + 1]; q++)
-            sum += R->e_values[q] * s[R->e_indices[q]];
-        R->ey[i] = sum;
+    const double *s = R->values, *E = R->e_band, *w = R->two_w;
+    double energy = ((w[0] + E[1] * s[0]) + E[2] * s[1]) * s[0];
+    for (int i = 1; i < N - 1; i++) {
+        const double *e = E + 3 * (size_t)i;
+        energy += (((w[i] + e[0] * s[i - 1]) + e[1] * s[i]) + e[2] * s[i + 1]) * s[i];
     }
-    for (int i = 0; i < N; i++)
-        energy += R->ey[i] * s[i];
+    if (N > 1) {
+        const double *e = E + 3 * (size_t)(N - 1);
+        energy += ((w[N - 1] + e[0] * s[N - 2]) + e[1] * s[N - 1]) * s[N - 1];
+    }
     row[RAW_N] = (double)R->step;
     row[RAW_ITERATIONS] = (double)R->iterations;
     row[RAW_U_1] = s[R->u_1];
@@ -372,10 +394,8 @@ long RA_NAME(ra_run *R, long max_steps)
             ra_restore(R, step, iterations, pressure);
             return RA_EVENT;
         }
-        memcpy(R->y, R->values, sizeof(double) * 3 * (size_t)n);
-        R->y[3 * (size_t)n] = R->pressure;
         double grown[4];
-        double error = ra_predicted(R, h, grown);
+        double error = ra_predicted(R, h, R->values, R->pressure, grown);
         if (!(error <= 1.0)) {  /* Controller.rejected */
             R->rejected++;
             ra_restore(R, step, iterations, pressure);
@@ -398,14 +418,18 @@ long RA_NAME(ra_run *R, long max_steps)
         R->t = fabs(R->end - (R->t + h)) <= 1e-12 * R->end ? R->end : R->t + h;
         for (int m = 0; m < 4; m++)
             R->maxima[m] = grown[m];
-        if (R->count == R->order + 1) {
-            memmove(R->past, R->past + size, sizeof(double) * (size_t)(R->count - 1) * size);
-            for (int m = 0; m + 1 < R->count; m++)
-                R->past_t[m] = R->past_t[m + 1];
-            R->count--;
+        const int places = R->order + 1;
+        int at;
+        if (R->count == places) {  /* the oldest state's place */
+            at = R->head;
+            R->head = (R->head + 1) % places;
+        } else {
+            at = (R->head + R->count++) % places;
         }
-        memcpy(R->past + (size_t)R->count * size, R->y, sizeof(double) * size);
-        R->past_t[R->count++] = R->t;
+        double *kept = R->past + (size_t)at * size;
+        memcpy(kept, R->values, sizeof(double) * 3 * (size_t)n);
+        kept[3 * (size_t)n] = R->pressure;
+        R->past_t[at] = R->t;
         R->h = following;
         double *row = R->rows + (size_t)R->written * R->width;
         ra_row(R, row);
