@@ -1,0 +1,155 @@
+"""The direct loop's step family (:mod:`.family`): rk_problem for a step h from the parts.
+
+Once per run: the coupled operator C = [[A_h, −N_U], [−N_Θ, A_m]] as parts on its entries, with
+each entry's place in LAPACK's band storage of the interleaved order; R and b by slots
+(:func:`.direct._slots`'s layout) as parts, and the classes of their rows from the parts
+stacked; the load e interleaved. For a size h, at λ = Δt₀/h: C's band filled and factored by
+``dgbtrf`` (:func:`.direct.band_factors`, as :class:`~.direct.DirectKernel` does), the responses
+q = C⁻¹[0; −e] (and q_h = C⁻¹[−e; 0] for a variable exchange) by ``dgbtrs``, the compliance w and
+the exchange's scalars read off them as :class:`~rodfem.solver.methods.direct.DirectMethod` does,
+the tables of R and b combined: a new ``rk_problem`` whose other fields are the home loop's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rodfem.solver.compiled.direct import DirectKernel, band_factors
+from rodfem.solver.compiled.family import Bound, StepFamily, heat_first_step, tabled
+from rodfem.solver.compiled.laurent import combine
+
+BLOCKS = (((0, 0), "heat.A", 1.0), ((0, 1), "heat.du", -1.0),
+          ((1, 0), "momentum.dtheta", -1.0), ((1, 1), "momentum.A", 1.0))
+R_BLOCKS = (((0, 0), "heat.theta_prev"), ((1, 0), "momentum.theta_prev"),
+            ((1, 1), "momentum.du_prev"), ((1, 2), "momentum.u_prev"))
+
+
+class FamilyDirect(Bound, DirectKernel):
+    """A :class:`~.direct.DirectKernel` of a step h bound to the home method (:mod:`.family`)."""
+
+    what = "compiled direct loop"
+
+
+def _slot_parts(entries, n: int):
+    """R (2n × 3n, block order) by slots, as :func:`.direct._slots` lays it out, from its
+    entries (rows, cols, parts 3 × m): slot counts per component, offsets, the parts of its values
+    (3 × n × slots) and the largest node distance. Entries whose parts are all 0 are dropped."""
+    rows, cols, values = entries
+    keep = np.any(values != 0.0, axis=0)
+    rows, cols, values = rows[keep], cols[keep], values[:, keep]
+    c, i = np.divmod(rows, n)
+    k, j = np.divmod(cols, n)
+    dj = j - i
+    counts, offsets, index = [], [], np.empty(rows.size, dtype=np.int64)
+    for part in range(2):
+        mine = c == part
+        key = k[mine] * (2 * n + 1) + (dj[mine] + n)
+        unique, inverse = np.unique(key, return_inverse=True)
+        index[mine] = sum(counts) + inverse
+        counts.append(unique.size)
+        uk, udj = np.divmod(unique, 2 * n + 1)
+        offsets.append(3 * (udj - n) + uk)
+    dense = np.zeros((3, n, sum(counts)))
+    dense[:, i, index] = values
+    width = int(np.max(np.abs(dj))) if dj.size else 0
+    return counts, np.ascontiguousarray(np.concatenate(offsets), dtype=np.intc), dense, width
+
+
+def _blocks(parts, blocks, n: int):
+    """Entries (rows, cols, parts) of a block matrix of n × n blocks of the parts' operators."""
+    rows, cols, values = [], [], []
+    for (bi, bj), key, *sign in blocks:
+        r, c, v = parts.matrix(key)
+        rows.append(bi * n + r)
+        cols.append(bj * n + c)
+        values.append(v * (sign[0] if sign else 1.0))
+    return np.concatenate(rows), np.concatenate(cols), np.concatenate(values, axis=1)
+
+
+class DirectFamily(StepFamily):
+    """The direct loops of any size of one run (the module's docstring)."""
+
+    bound = FamilyDirect
+
+    def __init__(self, home, history, kernel: DirectKernel, parts):
+        super().__init__(home, history, kernel, parts)
+        n = kernel.n
+        N = 2 * n
+        self.n = n
+        to_interleaved = np.concatenate([2 * np.arange(n), 2 * np.arange(n) + 1])
+        self.to_block = np.argsort(to_interleaved)  # interleaved position -> block index
+        rows, cols, values = _blocks(parts, BLOCKS, n)
+        r, c = to_interleaved[rows], to_interleaved[cols]
+        kl, ku = int(max(0, np.max(r - c))), int(max(0, np.max(c - r)))
+        if (kl, ku) != (kernel.band["kl"], kernel.band["ku"]):
+            raise ValueError("the parts' coupled operator has another band than the run's")
+        self.kl, self.ku, self.ldab = kl, ku, 2 * kl + ku + 1
+        self.c_place = (kl + ku + r - c) + self.ldab * c  # in the band, column-major
+        self.c_parts = values
+        # R and b by slots and classes from the stacked parts (a node's class at every h)
+        r_counts, self.r_offset, r_parts, width = _slot_parts(_blocks(parts, R_BLOCKS, n), n)
+        if width > kernel._problem.ghost:
+            raise ValueError("the parts' R reaches farther than the run's loop")
+        self.r_counts = r_counts
+        b = np.stack([parts.vector("heat.b"), parts.vector("momentum.b")], axis=2)  # 3 × n × 2
+        self.r_class, tables = tabled({"r_value": r_parts, "b": b})
+        self.r_value, self.b = tables["r_value"], tables["b"]
+        e = combine(parts.vector("contact.e"), 1.0)
+        self.unit_force = np.zeros(N)  # [0; −e] interleaved
+        self.unit_force[1::2] = -e
+        self.unit_loss = np.zeros(N)  # [−e; 0]
+        self.unit_loss[0::2] = -e
+        end = home.massless
+        self.end_row = None if end is None else end.step_row[self.to_block]
+        self.first_step_operators = heat_first_step(parts, n) if kernel.first_step_special \
+            else None
+        self.u_1 = 2 * home.last + 1  # ΔU(1) in the interleaved unknowns
+
+    def _form(self, loop, lam: float) -> None:
+        from scipy.linalg import lapack
+
+        home, kernel, n = self.home, self.kernel, self.n
+        ffi = kernel._ffi
+        ab = np.zeros(self.ldab * 2 * n)
+        ab[self.c_place] = combine(self.c_parts, lam)
+        lu, ipiv, info = lapack.dgbtrf(ab.reshape((self.ldab, 2 * n), order="F"), self.kl,
+                                       self.ku, overwrite_ab=1)
+        band, arrays = band_factors(lu, ipiv, info, self.kl, self.ku, n)
+        q, info = lapack.dgbtrs(lu, self.kl, self.ku, self.unit_force, ipiv)
+        arrays["q"] = q
+        w = -q[self.u_1] if self.end_row is None else -float(self.end_row @ q)
+        if not w > 0.0:
+            raise RuntimeError(f"the compliance at x = 1 is {w:g}, not positive")
+        P = ffi.new("rk_problem *")
+        ffi.memmove(P, kernel._problem, ffi.sizeof("rk_problem"))
+        if kernel._problem.exchange.law != 0:  # a variable exchange: q_h and the scalars
+            qh, info = lapack.dgbtrs(lu, self.kl, self.ku, self.unit_loss, ipiv)
+            arrays["qh"] = qh
+            last = 2 * home.last
+            gamma = float(qh[last])
+            if not gamma < 0.0:
+                raise RuntimeError(f"the end's temperature response to its heat loss is "
+                                   f"{gamma:g}, not negative")
+            P.exchange.alpha, P.exchange.beta, P.exchange.gamma = (
+                float(qh[last + 1]), float(q[last]), gamma)
+        arrays["r_value"] = np.ascontiguousarray(combine(self.r_value, lam))
+        arrays["b"] = np.ascontiguousarray(combine(self.b, lam))
+        arrays["r_class"], arrays["r_offset"] = self.r_class, self.r_offset
+        arrays["s"] = np.zeros(kernel._arrays["s"].size)
+        arrays["z"] = np.zeros(2 * n)
+        for field in ("fwd", "bwd"):
+            if arrays[field] is None:
+                del arrays[field]
+                setattr(P, field, ffi.NULL)
+        for field, array in arrays.items():
+            ctype = "int *" if array.dtype == np.intc else "double *"
+            setattr(P, field, ffi.cast(ctype, ffi.from_buffer(array)))
+        P.kl, P.ku, P.pivoting = band["kl_kept"], band["ku_kept"], int(band["pivoting"])
+        P.reach = self.kl if band["pivoting"] else band["kl_kept"]
+        P.r_slots = self.r_counts
+        P.w = w
+        loop.band, loop.blocked = band, "fwd" in arrays
+        loop._arrays = {**kernel._arrays, **arrays}
+        loop.compliance = w
+        loop._problem = P
+        loop._pressure = ffi.new("double *")
