@@ -32,8 +32,6 @@ and on more than one rank (every rank would form the same loops; not needed yet)
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 
 from rodfem.solver.compiled.laurent import LaurentParts, combine, read_parts
@@ -95,8 +93,8 @@ class StepFamily:
 
     def loop(self, h: float):
         """The compiled loop of a step h, bound to the home method."""
-        loop = copy.copy(self.kernel)
-        loop.__class__ = self.bound
+        loop = object.__new__(self.bound)  # the home loop's attributes, its own arrays
+        loop.__dict__.update(self.kernel.__dict__)
         loop.family, loop.h = self, float(h)
         self._form(loop, self.dt0 / float(h))
         self.made += 1

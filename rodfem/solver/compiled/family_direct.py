@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rodfem.solver.compiled.direct import DirectKernel, band_factors
+from rodfem.solver.compiled.direct import DirectKernel
 from rodfem.solver.compiled.family import Bound, StepFamily, heat_first_step, tabled
 from rodfem.solver.compiled.laurent import combine
 
@@ -104,52 +104,59 @@ class DirectFamily(StepFamily):
         self.first_step_operators = heat_first_step(parts, n) if kernel.first_step_special \
             else None
         self.u_1 = 2 * home.last + 1  # ΔU(1) in the interleaved unknowns
+        self.F, self.template, self.size = self._problem(home, kernel)
+        self.struct_size = kernel._ffi.sizeof("rk_problem")
+
+    def _problem(self, home, kernel):
+        """The rk_family of the parts (kept alive here), and the template rk_problem: the home
+        loop's, with the classes and slots of R from the parts."""
+        ffi = kernel._ffi
+        n = self.n
+        self._kept = kept = {
+            "place": np.ascontiguousarray(self.c_place, dtype=np.int64),
+            "parts": np.ascontiguousarray(self.c_parts),
+            "r_parts": np.ascontiguousarray(self.r_value),
+            "b_parts": np.ascontiguousarray(self.b),
+            "e": np.ascontiguousarray(-self.unit_force[1::2]),
+            "r_class": np.ascontiguousarray(self.r_class, dtype=np.intc),
+            "r_offset": self.r_offset,
+        }
+        F = ffi.new("rk_family *")
+        F.n, F.kl, F.ku, F.entries = n, self.kl, self.ku, self.c_place.size
+        F.r_classes, F.r_width = self.r_value.shape[1], self.r_value.shape[2]
+        for field in ("place", "parts", "r_parts", "b_parts", "e"):
+            ctype = "long *" if field == "place" else "double *"
+            setattr(F, field, ffi.cast(ctype, ffi.from_buffer(kept[field])))
+        if self.end_row is not None:
+            kept["end_row"] = np.ascontiguousarray(self.end_row)
+            F.end_row = ffi.cast("double *", ffi.from_buffer(kept["end_row"]))
+        F.u_1 = self.u_1
+        F.exchange = int(kernel._problem.exchange.law != 0)
+        F.state = kernel._arrays["s"].size
+        template = ffi.new("rk_problem *")
+        ffi.memmove(template, kernel._problem, ffi.sizeof("rk_problem"))
+        template.r_class = ffi.cast("int *", ffi.from_buffer(kept["r_class"]))
+        template.r_offset = ffi.cast("int *", ffi.from_buffer(kept["r_offset"]))
+        template.r_slots = self.r_counts
+        return F, template, int(kernel._lib.rk_form_size(F))
 
     def _form(self, loop, lam: float) -> None:
-        from scipy.linalg import lapack
-
-        home, kernel, n = self.home, self.kernel, self.n
+        kernel = self.kernel
         ffi = kernel._ffi
-        ab = np.zeros(self.ldab * 2 * n)
-        ab[self.c_place] = combine(self.c_parts, lam)
-        lu, ipiv, info = lapack.dgbtrf(ab.reshape((self.ldab, 2 * n), order="F"), self.kl,
-                                       self.ku, overwrite_ab=1)
-        band, arrays = band_factors(lu, ipiv, info, self.kl, self.ku, n)
-        q, info = lapack.dgbtrs(lu, self.kl, self.ku, self.unit_force, ipiv)
-        arrays["q"] = q
-        w = -q[self.u_1] if self.end_row is None else -float(self.end_row @ q)
-        if not w > 0.0:
-            raise RuntimeError(f"the compliance at x = 1 is {w:g}, not positive")
+        memory = np.empty(self.size)
         P = ffi.new("rk_problem *")
-        ffi.memmove(P, kernel._problem, ffi.sizeof("rk_problem"))
-        if kernel._problem.exchange.law != 0:  # a variable exchange: q_h and the scalars
-            qh, info = lapack.dgbtrs(lu, self.kl, self.ku, self.unit_loss, ipiv)
-            arrays["qh"] = qh
-            last = 2 * home.last
-            gamma = float(qh[last])
-            if not gamma < 0.0:
-                raise RuntimeError(f"the end's temperature response to its heat loss is "
-                                   f"{gamma:g}, not negative")
-            P.exchange.alpha, P.exchange.beta, P.exchange.gamma = (
-                float(qh[last + 1]), float(q[last]), gamma)
-        arrays["r_value"] = np.ascontiguousarray(combine(self.r_value, lam))
-        arrays["b"] = np.ascontiguousarray(combine(self.b, lam))
-        arrays["r_class"], arrays["r_offset"] = self.r_class, self.r_offset
-        arrays["s"] = np.zeros(kernel._arrays["s"].size)
-        arrays["z"] = np.zeros(2 * n)
-        for field in ("fwd", "bwd"):
-            if arrays[field] is None:
-                del arrays[field]
-                setattr(P, field, ffi.NULL)
-        for field, array in arrays.items():
-            ctype = "int *" if array.dtype == np.intc else "double *"
-            setattr(P, field, ffi.cast(ctype, ffi.from_buffer(array)))
-        P.kl, P.ku, P.pivoting = band["kl_kept"], band["ku_kept"], int(band["pivoting"])
-        P.reach = self.kl if band["pivoting"] else band["kl_kept"]
-        P.r_slots = self.r_counts
-        P.w = w
-        loop.band, loop.blocked = band, "fwd" in arrays
-        loop._arrays = {**kernel._arrays, **arrays}
-        loop.compliance = w
+        ffi.memmove(P, self.template, self.struct_size)
+        info = kernel._lib.rk_form(self.F, lam, P, ffi.cast("double *", ffi.from_buffer(memory)))
+        if info == -1:
+            raise RuntimeError("the compliance at x = 1 is not positive")
+        if info == -2:
+            raise RuntimeError("the end's temperature response to its heat loss is not negative")
+        if info:
+            raise RuntimeError(f"the coupled operator is singular (dgbtf2 info = {info})")
+        loop.band = {"kl": self.kl, "ku": self.ku, "kl_kept": P.kl, "ku_kept": P.ku,
+                     "pivoting": bool(P.pivoting)}
+        loop.blocked = P.fwd != ffi.NULL
+        loop._arrays = {"memory": memory}
+        loop.compliance = P.w
         loop._problem = P
         loop._pressure = ffi.new("double *")

@@ -55,44 +55,49 @@ class PicardFamily(StepFamily):
         self.e = combine(parts.vector("contact.e"), 1.0)
         self.first_step_operators = heat_first_step(parts, n) \
             if kernel.first_step_special or home.exchange.variable else None
+        self.F, self.template, self.size = self._family(kernel)
+        self.struct_size = kernel._ffi.sizeof("pk_problem")
+
+    def _family(self, kernel):
+        """The pk_family of the parts (kept alive here) and the template pk_problem: the home
+        loop's, with the classes of the rows from the parts."""
+        ffi = kernel._ffi
+        self._kept = kept = {
+            "fixed_parts": np.ascontiguousarray(self.fixed),
+            "coupling_parts": np.ascontiguousarray(self.coupling),
+            "operator_parts": np.ascontiguousarray(np.concatenate(self.A, axis=1).reshape(3, -1)),
+            "fixed_class": np.ascontiguousarray(self.fixed_class, dtype=np.intc),
+            "coupling_class": np.ascontiguousarray(self.coupling_class, dtype=np.intc),
+        }
+        F = ffi.new("pk_family *")
+        F.n = self.n
+        F.fixed_classes, F.coupling_classes = self.fixed.shape[1], self.coupling.shape[1]
+        for field in ("fixed_parts", "coupling_parts", "operator_parts"):
+            setattr(F, field, ffi.cast("double *", ffi.from_buffer(kept[field])))
+        template = ffi.new("pk_problem *")
+        ffi.memmove(template, kernel._problem, ffi.sizeof("pk_problem"))
+        for field in ("fixed_class", "coupling_class"):
+            setattr(template, field, ffi.cast("int *", ffi.from_buffer(kept[field])))
+        template.blocks = self.blocks
+        return F, template, int(kernel._lib.pk_form_size(F))
 
     def _form(self, loop, lam: float) -> None:
-        kernel, n = self.kernel, self.n
-        ffi, lib = kernel._ffi, kernel._lib
-        factors = []
-        for A, ul in zip(self.A, (0, 1)):
-            tri = combine(A, lam)
-            out = np.zeros((n, 3))
-            info = lib.pk_factor(n, *(ffi.cast("double *", ffi.from_buffer(tri[t]))
-                                      for t in range(3)), ul,
-                                 ffi.cast("double *", ffi.from_buffer(out)), 3)
-            if info:
-                raise ValueError(f"zero pivot at node {info - 1} factoring without pivoting")
-            factors.append(out)
-        heat, momentum = factors
-        arrays = {
-            "fixed_class": self.fixed_class,
-            "fixed": np.ascontiguousarray(combine(self.fixed, lam)),
-            "coupling_class": self.coupling_class,
-            "coupling": np.ascontiguousarray(combine(self.coupling, lam)),
-            "descending": np.ascontiguousarray(
-                np.column_stack([heat[:, 2], momentum[:, 0], momentum[:, 1]])),
-            "ascending": np.ascontiguousarray(
-                np.column_stack([momentum[:, 2], heat[:, 0], heat[:, 1]])),
-            "work": np.zeros(10 * (n + 2)),
-        }
+        kernel = self.kernel
+        ffi = kernel._ffi
+        memory = np.empty(self.size)
+        P = ffi.new("pk_problem *")
+        ffi.memmove(P, self.template, self.struct_size)
+        info = kernel._lib.pk_form(self.F, lam, P, ffi.cast("double *", ffi.from_buffer(memory)))
+        if info:
+            raise ValueError(f"zero pivot at node {info - 1} factoring without pivoting")
+        loop._arrays = {"memory": memory}
         if self.home.exchange.variable:  # v = A_h⁻¹ e
             from scipy.linalg import solve_banded
 
-            arrays["unit_response"] = np.ascontiguousarray(solve_banded(
+            v = np.ascontiguousarray(solve_banded(
                 (1, 1), self.first_step_operators(lam)["A"], self.e))
-        P = ffi.new("pk_problem *")
-        ffi.memmove(P, kernel._problem, ffi.sizeof("pk_problem"))
-        for field, array in arrays.items():
-            kind = "int" if field.endswith("_class") else "double"
-            setattr(P, field, ffi.cast(kind + " *", ffi.from_buffer(array)))
-        P.blocks = self.blocks
-        loop._arrays = {**kernel._arrays, **arrays}
+            loop._arrays["unit_response"] = v
+            P.unit_response = ffi.cast("double *", ffi.from_buffer(v))
         loop._problem = P
         loop._pressure = ffi.new("double *")
         loop._iterations = ffi.new("int *")
