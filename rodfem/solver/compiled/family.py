@@ -26,8 +26,11 @@ factorisation is the same LAPACK ``dgbtrf`` (direct) or ``pk_factor`` (Picard).
 loop (its heat solve at h in NumPy), for an adaptive run's first step and its halves.
 
 :func:`step_family` makes none (None: the caller makes methods as before) where the home method
-has no compiled loop (Newton, sources, ``RODFEM_KERNEL=0``), where the parts fail their check,
-and on more than one rank (every rank would form the same loops; not needed yet).
+has no compiled loop (Newton, sources, ``RODFEM_KERNEL=0``, an eliminated end with the power
+law: whatever :func:`~rodfem.solver.compiled.compiled_loop` refuses) and where the parts fail
+their check. On several ranks every rank reads the same parts (the node-ordered operators are the
+serial ones: in 1D a node's entry sums two cells' terms, in either order the same) and forms the
+same loops, as the state is every rank's (the loops are rank-local).
 """
 
 from __future__ import annotations
@@ -44,8 +47,7 @@ def step_family(home, history, kernel):
     from rodfem.solver.compiled.direct import DirectKernel
     from rodfem.solver.compiled.picard import PicardKernel
 
-    if kernel is None or home.disc.comm.size != 1 or home.massless is not None \
-            and not isinstance(kernel, DirectKernel):
+    if kernel is None:
         return None
     parts = read_parts(home)
     if parts is None:
