@@ -15,8 +15,12 @@
   same steps, rejections and events, the same times and step sizes (to the event bracket), the
   columns to 1e-9 (tests/test_adaptive.py's tolerance against an independent reference).
 * **Where there is no family** (no compiled loop, parts that fail their check) runs make methods
-  as before.
+  as before. The parts are kept in the operator cache: a warm adaptive run assembles nothing.
 """
+
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -24,7 +28,7 @@ import pytest
 import rodfem
 import rodfem.scene
 import rodfem.solver.compiled.family as family_module
-from conftest import COMM
+from conftest import COMM, serial_only
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.history import History
 from rodfem.solver.adaptive.stepper import EVENT_WIDTH
@@ -276,3 +280,25 @@ def test_a_loop_of_another_size_is_told_apart():
     family.loop(h * (1.0 + 1e-6)).advance(4, rows)
     difference = np.abs(home.values - method.values).reshape(3, -1).max(axis=1)
     assert np.any(difference > 100 * PER_STEP * 4 * state_scales(method))
+
+
+@serial_only
+def test_a_warm_adaptive_run_assembles_nothing(tmp_path):
+    """The parts are kept in the operator cache: the second adaptive run of a scene imports no
+    dolfinx, UFL or FFCx, and writes the first's history bit for bit."""
+    code = ("import sys; from rodfem.__main__ import main; code = main(); "
+            "print(sorted(m for m in ('dolfinx', 'ufl', 'ffcx') if m in sys.modules)); "
+            "sys.exit(code)")
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path / "cache"))
+    loaded, histories = [], []
+    for i in range(2):
+        out = tmp_path / f"run{i}"
+        done = subprocess.run([sys.executable, "-c", code, "run", "stiff", "--set",
+                               "time.end=0.3", "--set", "time.adaptive=true", "--out", str(out),
+                               "--quiet"], env=env, capture_output=True, text=True, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        loaded.append(done.stdout.strip().splitlines()[-1])
+        histories.append(rodfem.load(out).history)
+    assert loaded == ["['dolfinx', 'ffcx', 'ufl']", "[]"]
+    assert len(np.unique(histories[0]["dt"])) > 10  # the steps did adapt
+    assert histories[0].tobytes() == histories[1].tobytes()

@@ -190,18 +190,41 @@ def _arrays(home) -> dict[str, np.ndarray]:
     return arrays
 
 
+def _valid(found: dict[str, np.ndarray], n: int) -> bool:
+    """Whether cached arrays are parts as :func:`_arrays` makes them, for n nodes (or its mark
+    of a failed check): every operator, finite parts of 3 rows, a matrix's entries on the nodes."""
+    if set(found) == {"failed|parts"}:
+        return True
+    names = {name(op) for op in (*MATRICES, *VECTORS)}
+    expected = {f"{k}|parts" for k in names} | {f"{name(op)}|{field}" for op in MATRICES
+                                                 for field in ("rows", "cols")}
+    if set(found) != expected:
+        return False
+    for key in names:
+        parts = found[key + "|parts"]
+        if parts.dtype != np.float64 or parts.ndim != 2 or parts.shape[0] != 3 \
+                or not np.all(np.isfinite(parts)):
+            return False
+        if key + "|rows" not in found:
+            if parts.shape[1] != n:
+                return False
+            continue
+        for field in ("rows", "cols"):
+            index = found[f"{key}|{field}"]
+            if index.dtype.kind != "i" or index.shape != (parts.shape[1],) \
+                    or np.any((index < 0) | (index >= n)):
+                return False
+    return True
+
+
 def read_parts(home) -> LaurentParts | None:
     """The parts of ``home``'s operators (the run's method, at its Δt₀), from the operator cache
     where it has them; None where a check fails (:func:`_arrays`)."""
     disc = home.disc
     key = repr(("laurent", home.time_scheme.weight, NODES, CHECK))
-
-    def valid(found: dict[str, np.ndarray]) -> bool:
-        return all(np.asarray(v).dtype.kind in "fi" and np.all(np.isfinite(v))
-                   for v in found.values())
-
+    n = disc.nodes.size
     arrays = disc.arrays(key, lambda: _arrays(home) or {"failed|parts": np.zeros((3, 0))},
-                         valid)
+                         lambda found: _valid(found, n))
     if "failed|parts" in arrays:
         return None
     return LaurentParts(arrays)
