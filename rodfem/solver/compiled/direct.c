@@ -116,10 +116,10 @@ long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, lo
  * which rk_form makes the rk_problem of a step size (direct_form.h). */
 typedef struct {
     int n, kl, ku;         /* nodes; the band of the interleaved coupled operator C */
-    int entries;           /* C's entries */
-    const long *place;     /* each entry's place in C's band storage (column-major, 2 kl + ku + 1
-                              rows) */
-    const double *parts;   /* 3 x entries: C's parts P0, P1, P2 */
+    int entries[3];        /* C's non-zero parts P0, P1, P2: how many of each */
+    const long *place;     /* each one's place in C's band storage (column-major, 2 kl + ku + 1
+                              rows), those of P0, then P1, then P2 */
+    const double *parts;   /* their values, in the same order */
     int r_classes, r_width;  /* the table of R: classes x slots */
     const double *r_parts; /* 3 x r_classes x r_width */
     const double *b_parts; /* 3 x r_classes x 2 */

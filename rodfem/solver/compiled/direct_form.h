@@ -10,7 +10,9 @@
  * pivot's reciprocal, the same rank-one updates; the factors are then laid out as
  * direct.py's band_factors does (kept bands, reciprocal diagonal, and without interchanges the
  * node-blocked recurrences of _blocked, the same expressions), the response q = C^-1 [0; -e]
- * (and q_h = C^-1 [-e; 0]) solved by dgbtrs's algorithm, and the compliance read off q.
+ * (and q_h = C^-1 [-e; 0]) solved by dgbtrs's algorithm (U's diagonal as its reciprocals, as
+ * band.h's substitutions take it), and the compliance read off q. C's parts come as lists of
+ * the non-zero ones of each power, added a power at a time: the same sums as combine's.
  */
 #ifndef RODFEM_DIRECT_FORM_H
 #define RODFEM_DIRECT_FORM_H
@@ -42,8 +44,9 @@ static inline double form_combine(const double *parts, size_t count, size_t k, d
 }
 
 /* dgbtf2 on ab (ldab x N, column-major, kl subdiagonals, ku superdiagonals, the first kl rows
- * fill-in): ipiv 0-based. Returns 0, or 1 + the first zero pivot's column. */
-static int form_factor(double *ab, int N, int kl, int ku, int *ipiv)
+ * fill-in): ipiv 0-based, and rdiag the reciprocals of U's diagonal (the pivots' reciprocals
+ * dgbtf2 scales the multipliers by). Returns 0, or 1 + the first zero pivot's column. */
+static int form_factor(double *ab, int N, int kl, int ku, int *ipiv, double *rdiag)
 {
     const int kv = ku + kl, ldab = 2 * kl + ku + 1;
     int info = 0, ju = 0;
@@ -73,8 +76,9 @@ static int form_factor(double *ab, int N, int kl, int ku, int *ipiv)
                     AB(kv + jp - c, j + c) = AB(kv - c, j + c);
                     AB(kv - c, j + c) = t;
                 }
+            const double r = 1.0 / AB(kv, j);
+            rdiag[j] = r;
             if (km > 0) {
-                const double r = 1.0 / AB(kv, j);
                 for (int i = 1; i <= km; i++)
                     AB(kv + i, j) *= r;
                 for (int c = 1; c <= ju - j; c++) {
@@ -84,16 +88,20 @@ static int form_factor(double *ab, int N, int kl, int ku, int *ipiv)
                             AB(kv + i - c, j + c) += AB(kv + i, j) * t;
                 }
             }
-        } else if (info == 0) {
-            info = j + 1;
+        } else {
+            rdiag[j] = 1.0 / AB(kv + jp, j);
+            if (info == 0)
+                info = j + 1;
         }
     }
 #undef AB
     return info;
 }
 
-/* dgbtrs's solve of x (N) by the factors: the interchanges and L, then U (dtbsv). */
-static void form_solve(const double *ab, int N, int kl, int ku, const int *ipiv, double *x)
+/* dgbtrs's solve of x (N) by the factors: the interchanges and L, then U (dtbsv's, with U's
+ * diagonal as the reciprocals rdiag, as band.h's substitutions take it). */
+static void form_solve(const double *ab, int N, int kl, int ku, const int *ipiv,
+                       const double *rdiag, double *x)
 {
     const int kd = kl + ku, ldab = 2 * kl + ku + 1;
     for (int j = 0; j < N - 1; j++) {
@@ -112,8 +120,8 @@ static void form_solve(const double *ab, int N, int kl, int ku, const int *ipiv,
         if (x[j] == 0.0)
             continue;
         const double *col = ab + (size_t)j * ldab;
-        x[j] /= col[kd];
-        const double t = x[j];
+        const double t = x[j] * rdiag[j];
+        x[j] = t;
         const int top = j - kd > 0 ? j - kd : 0;
         for (int i = j - 1; i >= top; i--)
             x[i] -= t * col[kd + i - j];
@@ -147,9 +155,19 @@ int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
     const size_t ldab = 2 * (size_t)kl + ku + 1;
     for (size_t k = 0; k < ldab * N; k++)
         ab[k] = 0.0;
-    for (int k = 0; k < F->entries; k++)
-        ab[F->place[k]] = form_combine(F->parts, F->entries, k, lam);
-    const int info = form_factor(ab, N, kl, ku, ipiv);
+    /* P0 + P1 lam + P2 lam^2, a power at a time (the same sums: a part that is 0 adds 0) */
+    const long *place = F->place;
+    const double *part = F->parts, scale[3] = {1.0, lam, lam * lam};
+    for (int k = 0; k < F->entries[0]; k++)
+        ab[place[k]] = part[k];
+    for (int power = 1; power < 3; power++) {
+        place += F->entries[power - 1];
+        part += F->entries[power - 1];
+        const double x = scale[power];
+        for (int k = 0; k < F->entries[power]; k++)
+            ab[place[k]] += part[k] * x;
+    }
+    const int info = form_factor(ab, N, kl, ku, ipiv, rdiag);
     if (info)
         return info;
     /* the kept bands, the interchanges, the reciprocal diagonal */
@@ -163,7 +181,6 @@ int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
             if (col[kd - 1 - t] != 0.0)
                 kuk = t + 1;
         pivoting |= ipiv[j] != j;
-        rdiag[j] = 1.0 / col[kd];
     }
     for (int j = 0; j < N; j++) {
         const double *col = ab + (size_t)j * ldab;
@@ -185,10 +202,8 @@ int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
                 f[1 + t] = below0;
                 f[1 + klk + t] = form_entry(ab, N, kl, ku, r1, c, 1) - ell * below0;
             }
-            const double u00 = form_entry(ab, N, kl, ku, r0, r0, 0);
             const double u01 = form_entry(ab, N, kl, ku, r0, r1, 0);
-            const double u11 = form_entry(ab, N, kl, ku, r1, r1, 0);
-            const double d00 = 1.0 / u00, d11 = 1.0 / u11;
+            const double d00 = rdiag[r0], d11 = rdiag[r1];  /* 1/U(r0, r0), 1/U(r1, r1) */
             g[0] = d00;
             g[1] = d00 * u01 * d11;
             g[2] = d11;
@@ -204,7 +219,7 @@ int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
         q[2 * i] = 0.0;
         q[2 * i + 1] = -F->e[i];
     }
-    form_solve(ab, N, kl, ku, ipiv, q);
+    form_solve(ab, N, kl, ku, ipiv, rdiag, q);
     double w = -q[F->u_1];
     if (F->end_row) {
         double y = 0.0;
@@ -219,7 +234,7 @@ int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
             qh[2 * i] = -F->e[i];
             qh[2 * i + 1] = 0.0;
         }
-        form_solve(ab, N, kl, ku, ipiv, qh);
+        form_solve(ab, N, kl, ku, ipiv, rdiag, qh);
         const int last = F->u_1 - 1;  /* dTheta(1) */
         if (!(qh[last] < 0.0))
             return -2;

@@ -80,9 +80,11 @@ class DirectFamily(StepFamily):
         self.to_block = np.argsort(to_interleaved)  # interleaved position -> block index
         rows, cols, values = _blocks(parts, BLOCKS, n)
         r, c = to_interleaved[rows], to_interleaved[cols]
+        # the band of C's non-zero entries at any size (a = 0: the blocks' own, narrower than
+        # the pattern's; the factors are the same, the zeros not eliminated)
+        nonzero = np.any(values != 0.0, axis=0)
+        r, c, values = r[nonzero], c[nonzero], values[:, nonzero]
         kl, ku = int(max(0, np.max(r - c))), int(max(0, np.max(c - r)))
-        if (kl, ku) != (kernel.band["kl"], kernel.band["ku"]):
-            raise ValueError("the parts' coupled operator has another band than the run's")
         self.kl, self.ku, self.ldab = kl, ku, 2 * kl + ku + 1
         self.c_place = (kl + ku + r - c) + self.ldab * c  # in the band, column-major
         self.c_parts = values
@@ -112,9 +114,12 @@ class DirectFamily(StepFamily):
         loop's, with the classes and slots of R from the parts."""
         ffi = kernel._ffi
         n = self.n
+        nonzero = [self.c_parts[k] != 0.0 for k in range(3)]
         self._kept = kept = {
-            "place": np.ascontiguousarray(self.c_place, dtype=np.int64),
-            "parts": np.ascontiguousarray(self.c_parts),
+            "place": np.ascontiguousarray(np.concatenate(
+                [self.c_place[mine] for mine in nonzero]), dtype=np.int64),
+            "parts": np.ascontiguousarray(np.concatenate(
+                [self.c_parts[k][mine] for k, mine in enumerate(nonzero)])),
             "r_parts": np.ascontiguousarray(self.r_value),
             "b_parts": np.ascontiguousarray(self.b),
             "e": np.ascontiguousarray(-self.unit_force[1::2]),
@@ -122,7 +127,8 @@ class DirectFamily(StepFamily):
             "r_offset": self.r_offset,
         }
         F = ffi.new("rk_family *")
-        F.n, F.kl, F.ku, F.entries = n, self.kl, self.ku, self.c_place.size
+        F.n, F.kl, F.ku = n, self.kl, self.ku
+        F.entries = [int(np.count_nonzero(mine)) for mine in nonzero]
         F.r_classes, F.r_width = self.r_value.shape[1], self.r_value.shape[2]
         for field in ("place", "parts", "r_parts", "b_parts", "e"):
             ctype = "long *" if field == "place" else "double *"
