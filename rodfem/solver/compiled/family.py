@@ -19,8 +19,10 @@ history's energy is the home step's, as for any loop of the run), its work array
 What differs from a loop made by ``make_method(disc, h)`` and ``compiled_loop`` is the operators'
 rounding only (:mod:`.laurent`: the parts recombined against the forms assembled at h), and the
 classes of the coefficient rows: computed once, from the parts stacked, so a node's class is the
-same at every h (two nodes share one where all their parts are equal bit for bit). The
-factorisation is the same LAPACK ``dgbtrf`` (direct) or ``pk_factor`` (Picard).
+same at every h (two nodes share one where all their parts are equal bit for bit). A size is
+formed by one C call, ``rk_form`` (direct_form.h: the banded LU of LAPACK's ``dgbtf2``, which
+``dgbtrf`` runs for bands this narrow) or ``pk_form`` (picard_form.h: ``pk_factor``): 7–25 µs on
+paper1, against 3–4 ms for a method made for the size (benchmarks/bench_step_family.py).
 
 **The paper scheme's first step** (U¹ = U⁰ + h P u₁, Θ¹ from (3.1)) is :meth:`first_step` of the
 loop (its heat solve at h in NumPy), for an adaptive run's first step and its halves.
@@ -104,9 +106,6 @@ class StepFamily:
 
     def _form(self, loop, lam: float) -> None:
         raise NotImplementedError
-
-    def combined(self, key: str, lam: float) -> np.ndarray:
-        return combine(self.parts.vector(key), lam)
 
 
 class Bound:

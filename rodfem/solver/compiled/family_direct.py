@@ -73,9 +73,7 @@ class DirectFamily(StepFamily):
 
     def __init__(self, home, history, kernel: DirectKernel, parts):
         super().__init__(home, history, kernel, parts)
-        n = kernel.n
-        N = 2 * n
-        self.n = n
+        n = self.n = kernel.n
         to_interleaved = np.concatenate([2 * np.arange(n), 2 * np.arange(n) + 1])
         self.to_block = np.argsort(to_interleaved)  # interleaved position -> block index
         rows, cols, values = _blocks(parts, BLOCKS, n)
@@ -96,11 +94,7 @@ class DirectFamily(StepFamily):
         b = np.stack([parts.vector("heat.b"), parts.vector("momentum.b")], axis=2)  # 3 × n × 2
         self.r_class, tables = tabled({"r_value": r_parts, "b": b})
         self.r_value, self.b = tables["r_value"], tables["b"]
-        e = combine(parts.vector("contact.e"), 1.0)
-        self.unit_force = np.zeros(N)  # [0; −e] interleaved
-        self.unit_force[1::2] = -e
-        self.unit_loss = np.zeros(N)  # [−e; 0]
-        self.unit_loss[0::2] = -e
+        self.e = combine(parts.vector("contact.e"), 1.0)  # a unit force at x = 1
         end = home.massless
         self.end_row = None if end is None else end.step_row[self.to_block]
         self.first_step_operators = heat_first_step(parts, n) if kernel.first_step_special \
@@ -122,7 +116,7 @@ class DirectFamily(StepFamily):
                 [self.c_parts[k][mine] for k, mine in enumerate(nonzero)])),
             "r_parts": np.ascontiguousarray(self.r_value),
             "b_parts": np.ascontiguousarray(self.b),
-            "e": np.ascontiguousarray(-self.unit_force[1::2]),
+            "e": np.ascontiguousarray(self.e),
             "r_class": np.ascontiguousarray(self.r_class, dtype=np.intc),
             "r_offset": self.r_offset,
         }

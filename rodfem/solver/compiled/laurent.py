@@ -135,10 +135,6 @@ class LaurentParts:
     def vector(self, key: str) -> np.ndarray:
         return self.arrays[key + "|parts"]
 
-    def at(self, key: str, lam: float) -> np.ndarray:
-        """The values of the operator ``key`` at λ (a matrix's on its entries)."""
-        return combine(self.arrays[key + "|parts"], lam)
-
 
 def _sampled(home, lams) -> list[dict[str, object]]:
     """The operators at each λ (1: the home method's own)."""
