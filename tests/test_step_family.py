@@ -302,3 +302,35 @@ def test_a_warm_adaptive_run_assembles_nothing(tmp_path):
     assert loaded == ["['dolfinx', 'ffcx', 'ufl']", "[]"]
     assert len(np.unique(histories[0]["dt"])) > 10  # the steps did adapt
     assert histories[0].tobytes() == histories[1].tobytes()
+
+
+@pytest.mark.parametrize("name, overrides", [("paper1", ("solver.method=direct",)),
+                                             ("impact", ())])
+def test_rk_form_lays_out_the_factors_as_the_kernel_does(name, overrides):
+    """rk_form's factors are LAPACK's dgbtrf's of the same band (to round-off, a BLAS may fuse
+    dger's products; measured: bit for bit, the same pivots), and laid out from them as
+    direct.py's band_factors does, bit for bit."""
+    from scipy.linalg import lapack
+
+    from rodfem.solver.compiled.direct import band_factors
+
+    disc, home, history = made_home(name, overrides)
+    family = step_family(home, history, compiled_loop(home, history))
+    lam = 0.7
+    loop = family.loop(home.dt / lam)
+    P, ffi, n = loop._problem, loop._ffi, family.n
+    N, ldab = 2 * n, family.ldab
+    lu = loop._arrays["memory"][:ldab * N].reshape((ldab, N), order="F")
+    ipiv = np.frombuffer(ffi.buffer(P.ipiv, 4 * N), dtype=np.intc)
+    band, arrays = band_factors(lu, ipiv, 0, family.kl, family.ku, n)
+    assert (P.kl, P.ku, bool(P.pivoting)) == (band["kl_kept"], band["ku_kept"], band["pivoting"])
+    for field in ("lower", "upper", "rdiag", "fwd", "bwd"):
+        expected = arrays[field]
+        got = np.frombuffer(ffi.buffer(getattr(P, field), 8 * expected.size), dtype=float)
+        assert np.array_equal(got, expected.ravel()), field
+    ab = np.zeros(ldab * N)
+    ab[family.c_place] = laurent.combine(family.c_parts, lam)
+    lapack_lu, lapack_ipiv, info = lapack.dgbtrf(ab.reshape((ldab, N), order="F"), family.kl,
+                                                family.ku)
+    assert info == 0 and np.array_equal(lapack_ipiv, ipiv)
+    assert np.max(np.abs(lapack_lu - lu)) <= 16 * EPS * np.max(np.abs(lu))

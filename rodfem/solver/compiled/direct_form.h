@@ -128,17 +128,6 @@ static void form_solve(const double *ab, int N, int kl, int ku, const int *ipiv,
     }
 }
 
-/* L(r, c) (lower) or U(r, c) of the factors, 0 outside the matrix and the factor. */
-static inline double form_entry(const double *ab, int N, int kl, int ku, int r, int c, int lower)
-{
-    const int d = r - c, kd = kl + ku;
-    if (c < 0 || c >= N || r < 0 || r >= N)
-        return 0.0;
-    if (lower ? !(d > 0 && d <= kl) : !(d <= 0 && -d <= kd))
-        return 0.0;
-    return ab[(size_t)c * (2 * kl + ku + 1) + kd + d];
-}
-
 /* P's factors, tables, responses and compliance at lam, into `memory` (rk_form_size doubles);
  * P's other fields are the caller's. Returns 0; 1 + the column of a zero pivot; -1 if the
  * compliance is not positive; -2 if the end's temperature response to its heat loss is not
@@ -190,27 +179,39 @@ int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
             upper[(size_t)j * kuk + t] = col[kd - 1 - t];
     }
     const int blocked = !pivoting && klk <= KMAX && kuk <= KMAX;
+    /* _blocked's recurrences: L(r, c) = ab[c ldab + kd + r - c] for 0 < r - c <= kl, U(r, c)
+     * the same for 0 <= c - r <= kd, 0 elsewhere and outside the matrix */
     if (blocked)
         for (int i = 0; i < n; i++) {
             const int r0 = 2 * i, r1 = 2 * i + 1;
             double *f = fwd + (size_t)i * (2 * klk + 1), *g = bwd + (size_t)i * (2 * kuk + 3);
-            const double ell = form_entry(ab, N, kl, ku, r1, r0, 1);
+            const double ell = kl >= 1 ? ab[(size_t)r0 * ldab + kd + 1] : 0.0;
             f[0] = ell;
             for (int t = 0; t < klk; t++) {
-                const int c = 2 * i - klk + t;
-                const double below0 = form_entry(ab, N, kl, ku, r0, c, 1);
+                const int c = r0 - klk + t;  /* r0 - c = klk - t in 1 .. kl */
+                double below0 = 0.0, below1 = 0.0;
+                if (c >= 0) {
+                    const double *col = ab + (size_t)c * ldab + kd + (r0 - c);
+                    below0 = col[0];
+                    below1 = r1 - c <= kl ? col[1] : 0.0;
+                }
                 f[1 + t] = below0;
-                f[1 + klk + t] = form_entry(ab, N, kl, ku, r1, c, 1) - ell * below0;
+                f[1 + klk + t] = below1 - ell * below0;
             }
-            const double u01 = form_entry(ab, N, kl, ku, r0, r1, 0);
+            const double u01 = kd >= 1 ? ab[(size_t)r1 * ldab + kd - 1] : 0.0;
             const double d00 = rdiag[r0], d11 = rdiag[r1];  /* 1/U(r0, r0), 1/U(r1, r1) */
             g[0] = d00;
             g[1] = d00 * u01 * d11;
             g[2] = d11;
             for (int t = 0; t < kuk; t++) {
-                const int c = 2 * i + 2 + t;
-                const double above1 = form_entry(ab, N, kl, ku, r1, c, 0);
-                g[3 + t] = d00 * (form_entry(ab, N, kl, ku, r0, c, 0) - u01 * d11 * above1);
+                const int c = r0 + 2 + t;  /* c - r1 = t + 1 <= kd */
+                double above0 = 0.0, above1 = 0.0;
+                if (c < N) {
+                    const double *col = ab + (size_t)c * ldab + kd;
+                    above1 = col[-(t + 1)];
+                    above0 = t + 2 <= kd ? col[-(t + 2)] : 0.0;
+                }
+                g[3 + t] = d00 * (above0 - u01 * d11 * above1);
                 g[3 + kuk + t] = d11 * above1;
             }
         }
