@@ -124,7 +124,8 @@ STEP_CASES = [("paper1", ()), ("paper1", ("solver.method=direct",)),
               ("paper1", ("discretisation.mass=redistributed-lumped",)),
               ("paper1", ("solver.method=direct", "discretisation.mass=redistributed",
                           "time.scheme=crank-nicolson", "model.zeta=0", "model.a=0")),
-              ("paper1", ("solver.method=direct", "heat_exchange.law=pressure"))]
+              ("paper1", ("solver.method=direct", "heat_exchange.law=pressure")),
+              ("paper1", ("heat_exchange.law=gap", "heat_exchange.length=0.1"))]
 
 
 def in_contact(home, kernel, history, touching: bool, limit: int = 4000):
@@ -183,7 +184,8 @@ def test_steps_agree_with_a_method_made_for_the_size(name, overrides, touching):
 
 
 @pytest.mark.parametrize("overrides", [(), ("solver.method=direct",),
-                                       ("discretisation.mass=redistributed",)])
+                                       ("discretisation.mass=redistributed",),
+                                       ("heat_exchange.law=gap", "heat_exchange.length=10")])
 def test_the_paper_schemes_first_step_of_any_size(overrides):
     disc, home, history = made_home("paper1", overrides)
     family = step_family(home, history, compiled_loop(home, history))
