@@ -163,13 +163,19 @@ class Simulation:
         self.loop_started = time.perf_counter()
 
     def _stepper(self, resume):
-        """Adaptive steps (:mod:`rodfem.solver.adaptive`): a method (and compiled loop) made
-        for each new step size."""
+        """Adaptive steps (:mod:`rodfem.solver.adaptive`): for each new step size a compiled
+        loop formed from the operators' parts and bound to the run's method
+        (:mod:`rodfem.solver.compiled.family`), or where there is none a method (and compiled
+        loop) made for it."""
         from rodfem.solver.adaptive.stepper import AdaptiveStepper
+        from rodfem.solver.compiled.family import step_family
 
         disc, history, kernel = self.disc, self.history, self.kernel
+        family = step_family(self.method, history, kernel)
 
         def make(h: float, once: bool):
+            if family is not None:
+                return self.method, family.loop(h)
             with disc.at_step(h):
                 method = make_method(disc, h)
             if kernel is None:

@@ -42,7 +42,7 @@ ROOT = Path(__file__).resolve().parents[2]
 SOURCES = ("forms/copetti.py", "rodfem/discrete/discretisation.py", "rodfem/discrete/nodes.py",
            "rodfem/discrete/compat.py", "rodfem/discrete/cache.py",
            "rodfem/solver/methods/base.py", "rodfem/output/history.py",
-           "rodfem/output/pointwise.py")
+           "rodfem/output/pointwise.py", "rodfem/solver/compiled/laurent.py")
 LIBRARIES = ("dolfinx", "ufl", "ffcx", "basix", "petsc4py")
 # The user's settings of the compilation of the forms, which change the assembled values (a
 # -ffast-math does): dolfinx's and FFCx's parameter files, read where they read them (the

@@ -163,19 +163,25 @@ class AdaptiveStepper:
         scaled (the module's docstring), and back."""
         method, loop = made = made or self._method(h)
         n = self.nodes
+        bound = method is self.home and h != self.dt0  # a loop of h on home's own state
         if method is not self.home:
             method.restore(start)
             method.values[n:2 * n] *= h / self.dt0
         elif self._home_at is not start:
             method.restore(start)
         self._home_at = None
+        if bound:
+            method.values[n:2 * n] *= h / self.dt0
         method.clock = self.t
         if loop is not None and not method.first_step_special:
             loop.advance(1, self._rows)
+        elif bound:
+            loop.first_step()
         else:
             method.advance()
         if method is not self.home:
             self.home.take_state(method)
+        if method is not self.home or bound:
             self.home.values[n:2 * n] *= self.dt0 / h
         return made
 

@@ -112,6 +112,28 @@ typedef struct {
 
 long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, long steps,
                 double *rows, double *pressure);
+
+/* The parts of a run's operators in Delta t (rodfem/solver/compiled/family_direct.py), from
+ * which rk_form makes the rk_problem of a step size (direct_form.h). */
+typedef struct {
+    int n, kl, ku;         /* nodes; the band of the interleaved coupled operator C */
+    int entries[3];        /* C's non-zero parts P0, P1, P2: how many of each */
+    const long *place;     /* each one's place in C's band storage (column-major, 2 kl + ku + 1
+                              rows), those of P0, then P1, then P2 */
+    const double *parts;   /* their values, in the same order */
+    int r_classes, r_width;  /* the table of R: classes x slots */
+    const double *r_parts; /* 3 x r_classes x r_width */
+    const double *b_parts; /* 3 x r_classes x 2 */
+    const double *e;       /* n: the load of a unit force at x = 1 */
+    const double *end_row; /* 2n, interleaved: an eliminated end's free position on the unknowns,
+                              else NULL */
+    int u_1;               /* dU(1) in the interleaved unknowns */
+    int exchange;          /* a variable heat exchange: q_h and its scalars too */
+    int state;             /* the packed state's doubles, 3 (n + 2 ghost) */
+} rk_family;
+
+long rk_form_size(const rk_family *F);
+int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory);
 long rk_adaptive(ra_run *R, long max_steps);
 /* cdef end */
 
@@ -225,6 +247,7 @@ typedef struct {
  * part (end.h), then the banded substitutions (band.h). */
 #include "end.h"
 #include "band.h"
+#include "direct_form.h"
 
 /* Returns the steps done: `steps`, or fewer where a step failed (a variable exchange's equation
  * without a root shown unique), the state then that of the last step done. A variable exchange

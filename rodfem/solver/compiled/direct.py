@@ -147,6 +147,37 @@ def _blocked(lu: np.ndarray, kl: int, ku: int, kl_kept: int, ku_kept: int, n: in
     return fwd, bwd
 
 
+def band_factors(lu: np.ndarray, ipiv: np.ndarray, info: int, kl: int, ku: int, n: int,
+                 blocked: bool = True) -> tuple[dict, dict]:
+    """The arrays of rk_problem's factors from dgbtrf's (``lu``, ``ipiv``, ``info``) of the
+    interleaved coupled operator of band (kl, ku): (the band's sizes, the arrays ``lower``,
+    ``upper``, ``rdiag``, ``ipiv``, and ``fwd``, ``bwd`` of the node-blocked substitutions, None
+    where there are row interchanges or ``blocked`` is False). RuntimeError if it is singular."""
+    if info != 0:
+        raise RuntimeError(f"the coupled operator is singular (dgbtrf info = {info})")
+    N, kd = 2 * n, kl + ku
+    ipiv = np.ascontiguousarray(ipiv, dtype=np.intc)
+    pivoting = bool(np.any(ipiv != np.arange(N)))
+    lower = lu[kd + 1:kd + 1 + kl, :].T  # lower[j, t] = L(j + 1 + t, j)
+    upper = lu[kd - 1::-1, :].T if kd else np.zeros((N, 0))  # upper[j, t] = U(j - 1 - t, j)
+    kl_kept = int(np.max(np.nonzero(lower.any(axis=0))[0], initial=-1)) + 1
+    ku_kept = int(np.max(np.nonzero(upper.any(axis=0))[0], initial=-1)) + 1
+    band = {"kl": kl, "ku": ku, "kl_kept": kl_kept, "ku_kept": ku_kept, "pivoting": pivoting}
+    arrays = {
+        "lower": np.ascontiguousarray(lower[:, :kl_kept]),
+        "upper": np.ascontiguousarray(upper[:, :ku_kept]),
+        "rdiag": 1.0 / lu[kd, :],
+        "ipiv": ipiv,
+        "fwd": None,
+        "bwd": None,
+    }
+    # Without interchanges, the node-blocked substitutions (``blocked=False``: dgbtrs's).
+    if blocked and not pivoting and max(kl_kept, ku_kept) <= KMAX:
+        # per node: these differ in their last bits from node to node
+        arrays["fwd"], arrays["bwd"] = _blocked(lu, kl, ku, kl_kept, ku_kept, n)
+    return band, arrays
+
+
 def _energy(history, n: int, compress: bool) -> tuple:
     """E by slots and [E | 2w] as a table of its distinct rows: (slot counts, offsets, width,
     class of each node, tables)."""
@@ -185,26 +216,10 @@ class DirectKernel(CompiledLoop):
         ab = np.zeros((2 * kl + ku + 1, N), order="F")
         ab[kd + r - c, c] = vals
         lu, ipiv, info = lapack.dgbtrf(ab, kl, ku)
-        if info != 0:
-            raise RuntimeError(f"the coupled operator is singular (dgbtrf info = {info})")
-        ipiv = np.ascontiguousarray(ipiv, dtype=np.intc)
-        pivoting = bool(np.any(ipiv != np.arange(N)))
-        lower = lu[kd + 1:kd + 1 + kl, :].T  # lower[j, t] = L(j + 1 + t, j)
-        upper = lu[kd - 1::-1, :].T if kd else np.zeros((N, 0))  # upper[j, t] = U(j - 1 - t, j)
-        kl_kept = int(np.max(np.nonzero(lower.any(axis=0))[0], initial=-1)) + 1
-        ku_kept = int(np.max(np.nonzero(upper.any(axis=0))[0], initial=-1)) + 1
-        self.band = {"kl": kl, "ku": ku, "kl_kept": kl_kept, "ku_kept": ku_kept,
-                     "pivoting": pivoting}
-        arrays = {
-            "lower": np.ascontiguousarray(lower[:, :kl_kept]),
-            "upper": np.ascontiguousarray(upper[:, :ku_kept]),
-            "rdiag": 1.0 / lu[kd, :],
-            "ipiv": ipiv,
-        }
-        # Without interchanges, the node-blocked substitutions (``blocked=False``: dgbtrs's).
-        self.blocked = blocked and not pivoting and max(kl_kept, ku_kept) <= KMAX
-        if self.blocked:  # per node: these differ in their last bits from node to node
-            arrays["fwd"], arrays["bwd"] = _blocked(lu, kl, ku, kl_kept, ku_kept, n)
+        self.band, arrays = band_factors(lu, ipiv, info, kl, ku, n, blocked)
+        self.blocked = arrays["fwd"] is not None
+        if not self.blocked:
+            del arrays["fwd"], arrays["bwd"]
         rows_r = {}
         # R and E by slots, b, q and 2w interleaved.
         r_counts, arrays["r_offset"], rows_r["r_value"], r_width = _slots(method.R, 2, n)
@@ -233,8 +248,9 @@ class DirectKernel(CompiledLoop):
         ffi = self._ffi
         P = ffi.new("rk_problem *")
         P.n, P.ghost = n, ghost
-        P.kl, P.ku, P.pivoting = kl_kept, ku_kept, int(pivoting)
-        P.reach = kl if pivoting else kl_kept
+        band = self.band
+        P.kl, P.ku, P.pivoting = band["kl_kept"], band["ku_kept"], int(band["pivoting"])
+        P.reach = kl if band["pivoting"] else band["kl_kept"]
         for field, array in arrays.items():
             ctype = "int *" if array.dtype == np.intc else "double *"
             assert array.flags.c_contiguous and array.dtype in (np.intc, np.float64)

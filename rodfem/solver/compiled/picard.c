@@ -97,6 +97,19 @@ int pk_factor(int n, const double *lo, const double *diag, const double *up, int
 long pk_advance(const pk_problem *P, double *values, double *u_prev, long n0, long steps,
                 double *rows, double *pressure, int *iterations, double *increment,
                 double *last_u_1);
+
+/* The parts of a run's operators in Delta t (rodfem/solver/compiled/family_picard.py), from
+ * which pk_form makes the pk_problem of a step size (picard_form.h). */
+typedef struct {
+    int n;
+    int fixed_classes, coupling_classes;
+    const double *fixed_parts;     /* 3 x fixed_classes x 20 */
+    const double *coupling_parts;  /* 3 x coupling_classes x 8 */
+    const double *operator_parts;  /* 3 x 6n: A_h's lower, diagonal, upper, then A_m's */
+} pk_family;
+
+long pk_form_size(const pk_family *F);
+int pk_form(const pk_family *F, double lam, pk_problem *P, double *memory);
 long pk_adaptive(ra_run *R, long max_steps);
 /* cdef end */
 
@@ -123,6 +136,8 @@ int pk_factor(int n, const double *lo, const double *diag, const double *up, int
     }
     return 0;
 }
+
+#include "picard_form.h"
 
 /* One 3-term row (i-1, i, i+1) added to sum in that order. */
 #define ROW3(sum, a, x, i) \

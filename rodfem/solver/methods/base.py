@@ -124,20 +124,8 @@ class Method:
         for name, F_y in (("heat", heat_y), ("momentum", momentum_y)):
             if self.sources[name] is not None:
                 F_y["source"] = f"f_{name}"
-        residuals = Residuals(disc, weight, heat_y, momentum_y)
-
-        # The residuals are named by all they depend on beyond the discretisation's own symbols
-        # and constants: a scene of the same discretisation, time scheme and sources reuses
-        # their compiled forms (Discretisation.load), and a run of the same constants their
-        # operators (the cache of Discretisation.arrays), without making the forms.
-        sourced = tuple(self.sources[name] is not None for name in ("heat", "momentum"))
-        self.heat = disc.affine_operator(residuals.heat, "ΔΘ", heat_y, loads=("source",),
-                                         key=("heat", weight, sourced))
-        self.momentum = disc.affine_operator(residuals.momentum, "ΔU", momentum_y,
-                                             loads=("source",),
-                                             key=("momentum", weight, sourced))
-        # The contact term p v(1) for p = 1: the load e of a unit force at x = 1.
-        self.contact_load = disc.vector(residuals.contact, key=("contact",))
+        self._residuals = Residuals(disc, weight, heat_y, momentum_y)
+        self.heat, self.momentum, self.contact_load = self.operators()
         self._coupled = None  # coupled_operator(), once made
         self.last = disc.nodes.size - 1  # the node x = 1
         self._index = disc.nodes.size + self.last  # of ΔU(1) in the unknowns [ΔΘ; ΔU]
@@ -170,6 +158,26 @@ class Method:
         # The end x = 1 without mass nor viscosity, eliminated in Crank–Nicolson's steps
         self.massless = massless.MasslessEnd(self) if massless.needed(self) else None
         self._set_initial_state()
+
+    def operators(self):
+        """(heat, momentum, contact_load): the affine operators of (3.1) and (3.2) and the load
+        e of a unit force at x = 1, read off the residuals at the forms' present constants (the
+        run's Δt, or another's inside ``disc.at_step``).
+
+        The residuals are named by all they depend on beyond the discretisation's own symbols
+        and constants: a scene of the same discretisation, time scheme and sources reuses their
+        compiled forms (Discretisation.load), and a run of the same constants their operators
+        (the cache of Discretisation.arrays), without making the forms."""
+        disc, residuals = self.disc, self._residuals
+        weight = residuals.weight
+        sourced = tuple(self.sources[name] is not None for name in ("heat", "momentum"))
+        heat = disc.affine_operator(residuals.heat, "ΔΘ", residuals.heat_y, loads=("source",),
+                                    key=("heat", weight, sourced))
+        momentum = disc.affine_operator(residuals.momentum, "ΔU", residuals.momentum_y,
+                                        loads=("source",), key=("momentum", weight, sourced))
+        # The contact term p v(1) for p = 1: the load e of a unit force at x = 1.
+        contact_load = disc.vector(residuals.contact, key=("contact",))
+        return heat, momentum, contact_load
 
     def saved_state(self) -> dict[str, np.ndarray]:
         """Everything the next steps depend on, as arrays (a checkpoint): the state [Θ; D; U],
