@@ -1,13 +1,14 @@
 """Benchmark: what an adaptive step costs against a step of the fixed-step compiled loop, and
 where its time goes (rodfem/solver/adaptive/stepper.py).
 
-Runs, without files: paper1 (250 cells) with ``picard`` and ``direct``, impact (1000 cells) with
-``direct``, and with ``picard`` against an elastic obstacle (ε = 0.01: Picard cannot take the
-rigid one; with a = 0 its steps are the PETSc loop's), each fixed-step and adaptive at the
-default tolerance. For each: the time loop's µs per step (``Simulation.loop``'s over the steps), of
-the adaptive run the second in its process; the first, as a run of its own, also pays the
-imports and the forms' compilation that its first new step size needs: its loop's seconds are
-given too. Then, from a third adaptive run with each part of the stepper timed (its timers add
+Runs, without files: paper1 (250 cells) with ``picard`` and ``direct``, stiff (paper1's rod
+against 1/ε = 1e4, ``direct``) with each time scheme, impact (1000 cells) with ``direct``, and
+with ``picard`` against an elastic obstacle (ε = 0.01: Picard cannot take the rigid one; with
+a = 0 its steps are the PETSc loop's), each fixed-step and adaptive at the default tolerance.
+For each: the time loop's µs per step (``Simulation.loop``'s over the steps), of the adaptive
+run the second in its process, and the ratio of the adaptive step's µs to the fixed one's; the
+first adaptive run, as a run of its own, also pays the imports and the forms' compilation that
+its first new step size needs: its loop's seconds are given too. Then, from a third adaptive run with each part of the stepper timed (its timers add
 about a microsecond per call), µs per accepted step in:
 
 * step: the method's step itself (the compiled loop, one step per call, or the PETSc one);
@@ -47,6 +48,8 @@ ROOT = Path(__file__).resolve().parent.parent
 CASES = {  # name: (scene, overrides)
     "paper1 picard": ("paper1", []),
     "paper1 direct": ("paper1", ["solver.method=direct"]),
+    "stiff paper": ("stiff", ["time.scheme=paper"]),
+    "stiff crank-nicolson": ("stiff", ["time.scheme=crank-nicolson"]),
     "impact direct": ("impact", []),
     "impact picard": ("impact", ["solver.method=picard", "obstacle.kind=elastic",
                                  "obstacle.epsilon=0.01"]),
@@ -225,7 +228,7 @@ def fastest(rounds: list[dict]) -> dict:
 
 
 def table(reports: dict[str, dict]) -> None:
-    head = ("case", "code", "fixed µs", "adaptive µs", "first run s", "steps", "rejected",
+    head = ("case", "code", "fixed µs", "adaptive µs", "adaptive/fixed", "first run s", "steps", "rejected",
             "events", *(f"{p} µs" for p in PARTS), "made (ladder/located)", "ms/made",
             "evals/event", "ms/event")
     print("| " + " | ".join(head) + " |")
@@ -238,7 +241,9 @@ def table(reports: dict[str, dict]) -> None:
             evals = sum(e["evaluations"] for e in events) / max(len(events), 1)
             ms = sum(e["ms"] for e in events) / max(len(events), 1)
             cells = (case, code, f"{r['fixed']['us_per_step']:.1f}",
-                     f"{a['us_per_step']:.1f}", f"{a['first_seconds']:.2f}", a["steps"],
+                     f"{a['us_per_step']:.1f}",
+                     f"{a['us_per_step'] / r['fixed']['us_per_step']:.1f}",
+                     f"{a['first_seconds']:.2f}", a["steps"],
                      a["rejected"], a["events"],
                      *(f"{a['split'][p]:.1f}" for p in PARTS),
                      f"{made['count']} ({made['ladder']}/{made['located']})",
