@@ -62,6 +62,11 @@ class CompiledSteps:
         R = self.R = ffi.new("ra_run *")
         R.n, R.order = n, stepper.order
         R.rigid, R.gap, R.cell = int(stepper.rigid), float(stepper.gap), stepper.cell
+        R.end_force = int(stepper.end_force)
+        if stepper.end_force:  # the obstacle's own law (not an eliminated end's in series)
+            loop.set_obstacle(R.obstacle, home)
+            if home.massless is not None:
+                raise ValueError("the end force is measured only at an end with its mass")
         R.dt0, R.dt_min, R.dt_max = stepper.dt0, control.dt_min, control.dt_max
         R.tolerance, R.end = stepper.tolerance, stepper.end
         if norm.dt0 != stepper.dt0:

@@ -28,6 +28,7 @@
 #include <stddef.h>
 #include <string.h>
 
+#include "contact.h"
 #include "record.h"
 
 /* cdef begin: the declarations cffi reads */
@@ -47,6 +48,10 @@ typedef struct {
     /* contact is on where u(1) - gap (+ cell p for the rigid obstacle) > 0 */
     int rigid;
     double gap, cell;
+    /* the contact force measured: the step's p, or (end_force) the obstacle's force at U(1),
+     * the state's own (AdaptiveStepper.y: Crank-Nicolson's step force is a discrete gradient) */
+    int end_force;
+    rc_obstacle obstacle;
     /* the controller: Delta t_0, the bounds (dt_max 0: none), tolerance, the end; the next
      * step's size h, the last accepted error, Picard's cap in contact, the time */
     double dt0, dt_min, dt_max, tolerance, end;
@@ -327,6 +332,12 @@ static inline int ra_finite_row(const double *row)
            isfinite(row[RAW_U_HALF]) && isfinite(row[RAW_BULK_ENERGY]);
 }
 
+/* AdaptiveStepper.y's last entry: the contact force measured of the home state. */
+static inline double ra_measured(const ra_run *R)
+{
+    return R->end_force ? rc_force(&R->obstacle, R->values[3 * (size_t)R->n - 1]) : R->pressure;
+}
+
 static void *ra_problem(const ra_run *R, double h)
 {
     for (int k = 0; k < R->sizes; k++)
@@ -395,7 +406,8 @@ long RA_NAME(ra_run *R, long max_steps)
             return RA_EVENT;
         }
         double grown[4];
-        double error = ra_predicted(R, h, R->values, R->pressure, grown);
+        const double measured = ra_measured(R);
+        double error = ra_predicted(R, h, R->values, measured, grown);
         if (!(error <= 1.0)) {  /* Controller.rejected */
             R->rejected++;
             ra_restore(R, step, iterations, pressure);
@@ -428,7 +440,7 @@ long RA_NAME(ra_run *R, long max_steps)
         }
         double *kept = R->past + (size_t)at * size;
         memcpy(kept, R->values, sizeof(double) * 3 * (size_t)n);
-        kept[3 * (size_t)n] = R->pressure;
+        kept[3 * (size_t)n] = measured;
         R->past_t[at] = R->t;
         R->h = following;
         double *row = R->rows + (size_t)R->written * R->width;
