@@ -182,58 +182,44 @@ static inline double ra_contact(const ra_run *R, double u_1, double p)
     return R->rigid ? (u_1 - R->gap) + R->cell * p : u_1 - R->gap;
 }
 
-/* The largest |x[i]|, i < count, and NaN if one is (NumPy's max of np.abs): four running
- * maxima, a maximum being the same in any order. */
-static inline double ra_largest(const double *x, int count)
+/* One pass over the state s for the estimate: the squares of the scaled differences from the
+ * extrapolation, e = (s - sum_i states[i] weight[i]) factor (the sum from 0 in the order of i:
+ * 0 + x is x but for the sign of a zero, which e^2 drops), and the sizes ErrorNorm.sizes reads
+ * off s: the largest |Theta|, |D| (but an end without mass), |U| and |U(i) - U(i - 1)|, each
+ * NaN where one is (four running maxima a block, a maximum being the same in any order). */
+static inline void ra_differences(int n, const double *restrict s, const double *const *states,
+                                  const double *weight, double factor, const int k,
+                                  int massless_end, double *restrict sq, double largest[3],
+                                  double *jump)
 {
-    double m[4] = {0.0, 0.0, 0.0, 0.0};
-    int bad = 0, i = 0;
-    for (; i + 4 <= count; i += 4)
-        for (int j = 0; j < 4; j++) {
-            const double v = fabs(x[i + j]);
-            m[j] = v > m[j] ? v : m[j];
+    const double *restrict a = states[0], *restrict b = states[1];
+    const double *restrict c = k == 3 ? states[2] : states[1];
+    const double wa = weight[0], wb = weight[1], wc = k == 3 ? weight[2] : 0.0;
+    for (int block = 0; block < 3; block++) {
+        double m[4] = {0.0, 0.0, 0.0, 0.0}, mj[4] = {0.0, 0.0, 0.0, 0.0};
+        int bad = 0, badj = 0;
+        const int first = block * n, count = block == 1 && massless_end ? n - 1 : n;
+        for (int i = 0; i < n; i++) {
+            const int at = first + i;
+            const double x = a[at] * wa + b[at] * wb;
+            const double e = (s[at] - (k == 3 ? x + c[at] * wc : x)) * factor;
+            sq[at] = e * e;
+            const double v = i < count ? fabs(s[at]) : 0.0;
+            m[i & 3] = v > m[i & 3] ? v : m[i & 3];
             bad |= v != v;
+            if (block == 2 && i > 0) {
+                const double d = fabs(s[at] - s[at - 1]);
+                mj[i & 3] = d > mj[i & 3] ? d : mj[i & 3];
+                badj |= d != d;
+            }
         }
-    for (; i < count; i++) {
-        const double v = fabs(x[i]);
-        m[0] = v > m[0] ? v : m[0];
-        bad |= v != v;
-    }
-    const double a = m[0] > m[1] ? m[0] : m[1], b = m[2] > m[3] ? m[2] : m[3];
-    return bad ? NAN : (a > b ? a : b);
-}
-
-/* The largest |u[i] - u[i - 1]|, 0 < i < count, as ra_largest. */
-static inline double ra_largest_jump(const double *u, int count)
-{
-    double m[4] = {0.0, 0.0, 0.0, 0.0};
-    int bad = 0, i = 1;
-    for (; i + 4 <= count; i += 4)
-        for (int j = 0; j < 4; j++) {
-            const double v = fabs(u[i + j] - u[i + j - 1]);
-            m[j] = v > m[j] ? v : m[j];
-            bad |= v != v;
+        const double p = m[0] > m[1] ? m[0] : m[1], q = m[2] > m[3] ? m[2] : m[3];
+        largest[block] = bad ? NAN : (p > q ? p : q);
+        if (block == 2) {
+            const double pj = mj[0] > mj[1] ? mj[0] : mj[1], qj = mj[2] > mj[3] ? mj[2] : mj[3];
+            *jump = badj ? NAN : (pj > qj ? pj : qj);
         }
-    for (; i < count; i++) {
-        const double v = fabs(u[i] - u[i - 1]);
-        m[0] = v > m[0] ? v : m[0];
-        bad |= v != v;
     }
-    const double a = m[0] > m[1] ? m[0] : m[1], b = m[2] > m[3] ? m[2] : m[3];
-    return bad ? NAN : (a > b ? a : b);
-}
-
-/* ErrorNorm.grown: the maxima with the sizes of y = [s; p] counted (sizes(y): max |Theta|,
- * |D| (an end without mass left out), |U|, and the larger of |p| and the largest strain). */
-static void ra_grown(const ra_run *R, const double *s, double p, double grown[4])
-{
-    const int n = R->n;
-    const double strain = n > 1 ? ra_largest_jump(s + 2 * (size_t)n, n) / R->cell : 0.0;
-    const double sizes[4] = {ra_largest(s, n),
-                             ra_largest(s + n, R->massless_end ? n - 1 : n),
-                             ra_largest(s + 2 * (size_t)n, n), ra_pymax(fabs(p), strain)};
-    for (int k = 0; k < 4; k++)
-        grown[k] = ra_npmax(R->maxima[k], sizes[k]);
 }
 
 /* AdaptiveStepper._predicted: the local error of the step h just taken (to y = [s; p]), by
@@ -265,14 +251,12 @@ static double ra_predicted(ra_run *R, double h, const double *s, double p, doubl
         const double step = pow(h, 3.0) / 12.0;
         factor = step / (step + h * (h + g0) * (h + g0 + g1) / 6.0);
     }
-    double *sq = R->squares;
-    for (int m = 0; m < 3 * n; m++) {
-        double e = 0.0;
-        for (int i = 0; i < k; i++)
-            e += states[i][m] * weight[i];
-        e = (s[m] - e) * factor;
-        sq[m] = e * e;
-    }
+    double *restrict sq = R->squares;
+    double fields[3], jump;
+    if (k == 2)
+        ra_differences(n, s, states, weight, factor, 2, R->massless_end, sq, fields, &jump);
+    else
+        ra_differences(n, s, states, weight, factor, 3, R->massless_end, sq, fields, &jump);
     if (R->massless_end)
         sq[2 * (size_t)n - 1] = 0.0;
     double e_p = 0.0;
@@ -280,7 +264,10 @@ static double ra_predicted(ra_run *R, double h, const double *s, double p, doubl
         e_p += states[i][3 * (size_t)n] * weight[i];
     e_p = (p - e_p) * factor;
 
-    ra_grown(R, s, p, grown);
+    const double sizes[4] = {fields[0], fields[1], fields[2],
+                             ra_pymax(fabs(p), n > 1 ? jump / R->cell : 0.0)};
+    for (int c = 0; c < 4; c++)
+        grown[c] = ra_npmax(R->maxima[c], sizes[c]);
     double scale[4] = {grown[0], grown[1], grown[2], grown[3]};
     if (R->b > 0.0)
         scale[1] = ra_pymax(scale[1], R->dt0 * scale[3] / sqrt(R->b));
