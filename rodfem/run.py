@@ -189,7 +189,7 @@ class Simulation:
         if kernel is not None:
             from rodfem.solver.adaptive.compiled import CompiledSteps
 
-            self.regular = CompiledSteps(stepper, history)
+            self.regular = CompiledSteps(stepper, history, family)
         return stepper
 
     def time(self) -> float:
@@ -281,13 +281,15 @@ class Simulation:
 
     def adaptive_steps(self, bar: Progress) -> str:
         """Adaptive steps to the end, or to a request to stop: the status."""
-        stepper, end, calls = self.stepper, self.scene["time.end"], 0
+        stepper, end, calls, handed = self.stepper, self.scene["time.end"], 0, False
         while stepper.t < end:
-            if self.regular is not None and self.regular.ready():
-                calls += self.regular_steps(calls)
+            if self.regular is not None and self.regular.ready() and not handed:
+                taken, handed = self.regular_steps(calls)
+                calls += taken
             else:
                 stepper.step()
                 calls += 1
+                handed = False
             bar.update(stepper.t, self.method.n)
             if interrupts.requested(self.comm, calls, STOP_EVERY, also=bool(self.io_error)):
                 return "interrupted"
@@ -295,10 +297,11 @@ class Simulation:
             self.save_fields()
         return "complete"
 
-    def regular_steps(self, calls: int) -> int:
-        """Regular adaptive steps in one compiled call (:mod:`rodfem.solver.adaptive.compiled`),
-        to the next check the ranks agree on at most, then the step it handed back to the
-        stepper, if any: the steps taken, each counted as a call of the stepper."""
+    def regular_steps(self, calls: int) -> tuple[int, bool]:
+        """Adaptive steps in one compiled call (:mod:`rodfem.solver.adaptive.compiled`), to the
+        next check the ranks agree on at most: the steps taken (each counted as a call of the
+        stepper), and whether the next step is handed back to the stepper (one it takes again:
+        an event or a failure the call did not take)."""
         regular, stepper = self.regular, self.stepper
         every = STOP_EVERY - calls % STOP_EVERY
         since = self.history.count
@@ -310,13 +313,8 @@ class Simulation:
             self.flush()
         if regular.written and frame(stepper.t, self.interval) > self.frame:
             self.save_fields()
-        taken = regular.written
         codes = regular.codes
-        if code in (codes["RA_EVENT"], codes["RA_FAILED"], codes["RA_RESTART"]) and (
-                self.comm.size == 1 or taken < every):
-            stepper.step()
-            taken += 1
-        return taken
+        return regular.written, code in (codes["RA_EVENT"], codes["RA_FAILED"])
 
     def check(self, since: int | None = None) -> None:
         """Stop at the first recorded step that is not finite (the rows before it are kept)."""

@@ -73,6 +73,23 @@ def test_most_steps_are_taken_in_compiled_calls():
     assert len(taken) < 0.05 * steps, (len(taken), steps)
 
 
+@pytest.mark.parametrize("case", ["paper1 picard", "paper1 direct", "stiff crank-nicolson"])
+def test_events_are_located_in_compiled_calls(case):
+    """With the run's step sizes formed in C, an event's tries are too: the stepper locates
+    none, and the run's events are all there."""
+    located = []
+    locate = AdaptiveStepper._locate
+
+    def counted(self, *args):
+        located.append(1)
+        return locate(self, *args)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(AdaptiveStepper, "_locate", counted)
+        result, calls, _ = run(*CASES[case], regular=True)
+    assert result.summary["adaptive"]["events"] > 0 and not located
+
+
 def test_a_step_below_dt_min_is_refused_as_by_the_stepper():
     """Where the first regular step would be taken, the tolerance is made one no step meets: the
     run stops with the stepper's StepTooSmall, at the same step and time, whether the rejections

@@ -232,7 +232,8 @@ def adaptive_run(name, overrides, monkeypatch, with_family: bool):
 def test_adaptive_runs_take_the_same_decisions(name, overrides, monkeypatch):
     before, none = adaptive_run(name, overrides, monkeypatch, False)
     after, made = adaptive_run(name, overrides, monkeypatch, True)
-    assert none == [None] and made[0] is not None and made[0].made > 10
+    # the ladder's sizes are formed here (an event's tries by the compiled adaptive steps)
+    assert none == [None] and made[0] is not None and made[0].made > 5
     assert after.summary["adaptive"] == before.summary["adaptive"]
     assert after.summary["adaptive"]["events"] >= 1
     a, b = after.history, before.history

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rodfem.solver.adaptive.stepper import EVENT_WIDTH
 from rodfem.solver.errors import StepTooSmall
 
 SIZES = 80  # the most step sizes one call can step with (the stepper keeps at most 64)
@@ -48,7 +49,7 @@ class CompiledSteps:
     """Regular steps of ``stepper`` (an :class:`AdaptiveStepper` whose home method has a
     compiled loop) recorded in ``history``: :meth:`advance`."""
 
-    def __init__(self, stepper, history):
+    def __init__(self, stepper, history, family=None):
         loop = stepper.loop
         self.stepper, self.history = stepper, history
         ffi, lib = loop._ffi, loop._lib
@@ -99,6 +100,15 @@ class CompiledSteps:
         R.u_1, R.du_1 = history.u_1, history.du_1
         i, wi, j, wj = history.half
         R.half_i, R.half_j, R.half_wi, R.half_wj = i, j, wi, wj
+        R.event_width = EVENT_WIDTH
+        if family is not None and family.forms_in_c:  # an event's tries formed in C
+            problem = "rk_problem *" if hasattr(lib, "rk_form") else "pk_problem *"
+            self._scratch = [ffi.new(problem) for _ in range(2)]
+            self._memory = [np.empty(family.size) for _ in range(2)]
+            R.family, R.template_problem = family.F, family.template
+            R.problem_bytes = family.struct_size
+            R.scratch = self._scratch
+            R.scratch_memory = [self._pointer(memory) for memory in self._memory]
         self._loops: list = []  # the loops whose problems the table points into
         self._seen = None
         self.home = home
@@ -155,7 +165,7 @@ class CompiledSteps:
         R.room = room
         R.interval = interval or 0.0
         R.frame = float(frame)
-        R.rejected = 0
+        R.rejected = R.events = 0
         code = int(self._run(R, max_steps))
         # back to the stepper
         written = self.written = int(R.written)
@@ -170,6 +180,7 @@ class CompiledSteps:
         stepper.past = [past[k].copy() for k in places]
         stepper.steps += written
         stepper.rejected += int(R.rejected)
+        stepper.events += int(R.events)
         history.commit(written)
         if code == self.codes["RA_NEED"]:
             stepper._method(float(R.wanted))

@@ -164,13 +164,16 @@ class AdaptiveStepper:
             once = rung(self.dt0, h) != h
             made = self.make(h, once)
             if once:  # the one before it is freed at once: unfreed, made at every step, they
-                # grew a run at tolerance 1e-6 to 24 GB
+                # grew a run at tolerance 1e-6 to 24 GB (a loop bound to home holds no PETSc
+                # object: nothing to collect)
                 self._located = (h, made)
-                free_garbage(self.home.disc.comm)
+                if made[0] is not self.home:
+                    free_garbage(self.home.disc.comm)
                 return made
             if len(self._methods) >= KEPT:
                 del self._methods[next(iter(self._methods))]  # the least recently used
-                free_garbage(self.home.disc.comm)
+                if made[0] is not self.home:
+                    free_garbage(self.home.disc.comm)
             self.made += 1
         self._methods[h] = made
         return made

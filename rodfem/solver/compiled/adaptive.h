@@ -36,7 +36,7 @@ enum {
     RA_END = 0,       /* t reached the end */
     RA_PAUSE = 1,     /* rows full, a save interval begun, a non-finite row, or max_steps done */
     RA_NEED = 2,      /* no problem for the step size `wanted` */
-    RA_EVENT = 3,     /* the step tried changes contact */
+    RA_EVENT = 3,     /* the step tried changes contact (where it is not located here) */
     RA_FAILED = 4,    /* the method did not solve the step tried */
     RA_RESTART = 5,   /* fewer than order + 1 states: the estimate restarts (two halves) */
     RA_TOO_SMALL = 6  /* the next step, after a rejection, is below dt_min */
@@ -99,10 +99,20 @@ typedef struct {
     double *start_u_prev;
     double *squares;
     double *scratch_row;
-    /* what happened: the rows written, the steps rejected, the size wanted (RA_NEED) or the
-     * size rejected (RA_TOO_SMALL) */
+    /* an event's tries, of sizes off the table, formed here (RA_FORM) from the run's family of
+     * step sizes: a copy of the template problem (problem_bytes) completed in one of two scratch
+     * problems and their memory; family NULL: events are handed back */
+    const void *family;
+    const void *template_problem;
+    long problem_bytes;
+    void *scratch[2];
+    double *scratch_memory[2];
+    double event_width;
+    /* what happened: the rows written, the steps rejected, the events located, the size wanted
+     * (RA_NEED) or the size rejected (RA_TOO_SMALL) */
     long written;
     long rejected;
+    long events;
     double wanted;
 } ra_run;
 /* cdef end */
@@ -353,6 +363,79 @@ static inline void ra_scale(double *D, int n, double factor)
 #endif
 
 #ifdef RA_NAME
+/* Home from the start of the step (R->start, ...) one step h on by `problem`, D scaled to the
+ * step's and back (AdaptiveStepper._take): 1, or 0 where the method did not solve it. */
+static int ra_take(ra_run *R, double h, void *problem, long step, int iterations,
+                   double pressure)
+{
+    const int n = R->n;
+    double *D = R->values + n;
+    ra_restore(R, step, iterations, pressure);
+    if (h != R->dt0)
+        ra_scale(D, n, h / R->dt0);
+    if (!(RA_STEP(problem, R->values, R->u_prev, step, R->scratch_row, &R->pressure,
+                  &R->iterations)))
+        return 0;
+    if (h != R->dt0)
+        ra_scale(D, n, R->dt0 / h);
+    R->step = step + 1;
+    return 1;
+}
+
+/* The problem of a step h: the table's, or formed in the scratch place `slot`; NULL where it
+ * cannot be formed. */
+static void *ra_sized(ra_run *R, double h, int slot)
+{
+    void *problem = ra_problem(R, h);
+    if (problem != NULL)
+        return problem;
+    memcpy(R->scratch[slot], R->template_problem, (size_t)R->problem_bytes);
+    if (RA_FORM(R->family, R->dt0 / h, R->scratch[slot], R->scratch_memory[slot]))
+        return NULL;
+    return R->scratch[slot];
+}
+
+/* AdaptiveStepper._locate: the step's size where contact changes, to a bracket event_width
+ * wide, by the Illinois method (bisection after 60 tries), from the start of the step (f_a its
+ * contact) and the step h tried (problem_b, home at its end); home is left at the far end,
+ * contact changed. Returns the size, or 0 where a try could not be formed or solved. */
+static double ra_locate(ra_run *R, double h, void *problem_b, double fa, int before,
+                        long step, int iterations, double pressure)
+{
+    const int n = R->n;
+    const double width = R->event_width;
+    double a = 0.0, b = h, fb = ra_contact(R, R->values[3 * (size_t)n - 1], R->pressure);
+    int side = 0, at_b = 1, tries = 0;
+    while (b - a > width) {
+        tries++;
+        double c = fb != fa && tries < 60 ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
+        c = ra_pymin(ra_pymax(c, a + 0.25 * width), b - 0.25 * width);
+        void *problem = ra_sized(R, c, problem_b == R->scratch[0] ? 1 : 0);
+        if (problem == NULL || !ra_take(R, c, problem, step, iterations, pressure))
+            return 0.0;
+        const double fc = ra_contact(R, R->values[3 * (size_t)n - 1], R->pressure);
+        if ((fc > 0.0) != before) {
+            b = c;
+            fb = fc;
+            at_b = 1;
+            problem_b = problem;
+            if (side == -1)
+                fa *= 0.5;
+            side = -1;
+        } else {
+            a = c;
+            fa = fc;
+            at_b = 0;
+            if (side == 1)
+                fb *= 0.5;
+            side = 1;
+        }
+    }
+    if (!at_b && !ra_take(R, b, problem_b, step, iterations, pressure))
+        return 0.0;
+    return b;
+}
+
 /* Accepted steps until one of the RA_ codes happens (at most max_steps, and R->room rows). */
 long RA_NAME(ra_run *R, long max_steps)
 {
@@ -388,21 +471,32 @@ long RA_NAME(ra_run *R, long max_steps)
         if (h != R->dt0)
             ra_scale(D, n, R->dt0 / h);
         R->step = step + 1;
-        if ((ra_contact(R, R->values[3 * (size_t)n - 1], R->pressure) > 0.0) != before) {
-            ra_restore(R, step, iterations, pressure);
-            return RA_EVENT;
+        double h_taken = h;
+        const int event =
+            (ra_contact(R, R->values[3 * (size_t)n - 1], R->pressure) > 0.0) != before;
+        if (event) {
+            if (R->family == NULL) {
+                ra_restore(R, step, iterations, pressure);
+                return RA_EVENT;
+            }
+            const double f0 = ra_contact(R, R->start[3 * (size_t)n - 1], pressure);
+            h_taken = ra_locate(R, h, problem, f0, before, step, iterations, pressure);
+            if (h_taken == 0.0) {  /* the stepper takes it again, and says why it fails */
+                ra_restore(R, step, iterations, pressure);
+                return RA_FAILED;
+            }
         }
         double grown[4];
         const double measured = ra_measured(R);
-        double error = ra_predicted(R, h, R->values, measured, grown);
+        double error = ra_predicted(R, h_taken, R->values, measured, grown);
         if (!(error <= 1.0)) {  /* Controller.rejected */
             R->rejected++;
             ra_restore(R, step, iterations, pressure);
             const double factor = RA_SAFETY * pow(ra_pymax(error, RA_TINY),
                                                   -1.0 / (R->order + 1));
-            R->h = h * ra_pymin(RA_SAFETY, ra_pymax(RA_SHRINK, factor));
+            R->h = h_taken * ra_pymin(RA_SAFETY, ra_pymax(RA_SHRINK, factor));
             if (R->h < R->dt_min) {
-                R->wanted = h;
+                R->wanted = h_taken;
                 return RA_TOO_SMALL;
             }
             continue;
@@ -413,13 +507,17 @@ long RA_NAME(ra_run *R, long max_steps)
         const double factor = RA_SAFETY * pow(error, -0.7 / k) *
                               pow(ra_pymax(R->previous, RA_TINY), 0.4 / k);
         R->previous = error;
-        const double following = h * ra_pymin(RA_GROW, ra_pymax(RA_SHRINK, factor));
-        R->t = fabs(R->end - (R->t + h)) <= 1e-12 * R->end ? R->end : R->t + h;
+        const double following = h_taken * ra_pymin(RA_GROW, ra_pymax(RA_SHRINK, factor));
+        R->t = fabs(R->end - (R->t + h_taken)) <= 1e-12 * R->end ? R->end : R->t + h_taken;
         for (int m = 0; m < 4; m++)
             R->maxima[m] = grown[m];
         const int places = R->order + 1;
         int at;
-        if (R->count == places) {  /* the oldest state's place */
+        if (event) {  /* the estimate starts again from this state: its derivatives jump */
+            R->head = at = 0;
+            R->count = 1;
+            R->events++;
+        } else if (R->count == places) {  /* the oldest state's place */
             at = R->head;
             R->head = (R->head + 1) % places;
         } else {
@@ -434,8 +532,8 @@ long RA_NAME(ra_run *R, long max_steps)
         ra_row(R, row);
         double *clock = R->clock + 3 * (size_t)R->written;
         clock[0] = R->t;
-        clock[1] = h;
-        clock[2] = 0.0;
+        clock[1] = h_taken;
+        clock[2] = event ? 1.0 : 0.0;
         R->written++;
         if (!ra_finite_row(row))
             return RA_PAUSE;

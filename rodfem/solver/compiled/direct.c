@@ -343,9 +343,11 @@ long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, lo
     return done;
 }
 
-/* The adaptive run's regular steps (adaptive.h), each step one rk_advance of its size's
- * problem. */
+/* The adaptive run's regular steps and events (adaptive.h), each step one rk_advance of its
+ * size's problem, the sizes an event tries formed by rk_form. */
 #define RA_NAME rk_adaptive
+#define RA_FORM(family, lam, problem, memory) \
+    rk_form((const rk_family *)(family), lam, (rk_problem *)(problem), memory)
 #define RA_STEP(problem, values, u_prev, n0, row, pressure, iterations) \
     (rk_advance((const rk_problem *)(problem), values, u_prev, n0, 1, row, pressure) == 1 && \
      (*(iterations) = 1, 1))

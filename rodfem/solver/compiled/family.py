@@ -104,6 +104,13 @@ class StepFamily:
         self.made += 1
         return loop
 
+    @property
+    def forms_in_c(self) -> bool:
+        """Whether a size is formed by one C call alone (``F``, ``template``, ``struct_size``
+        and ``size`` of the layout): compiled adaptive steps then form an event's tries
+        themselves (:mod:`rodfem.solver.adaptive.compiled`)."""
+        return True
+
     def _form(self, loop, lam: float) -> None:
         raise NotImplementedError
 
@@ -157,11 +164,10 @@ class Bound:
 
 def heat_first_step(parts: LaurentParts, n: int):
     """The heat operators of the first step as functions of λ: A_h banded (solve_banded's 3 × n),
-    N_Θ', N_U (sparse), b_h and e."""
-    from scipy.sparse import csr_matrix
-
+    N_Θ' and N_U as tridiagonal products (:class:`Tridiagonal`), b_h and e."""
     A = tridiagonal_parts(parts, "heat.A", n)
-    sparse = {name: parts.matrix(f"heat.{name}") for name in ("theta_prev", "du")}
+    tridiagonal = {name: tridiagonal_parts(parts, f"heat.{name}", n)
+                   for name in ("theta_prev", "du")}
 
     def at(lam: float) -> dict:
         tri = combine(A, lam)  # n × 3: (i − 1, i, i + 1) per row
@@ -171,8 +177,23 @@ def heat_first_step(parts: LaurentParts, n: int):
         banded[2, :-1] = tri[1:, 0]
         out = {"A": banded, "b": combine(parts.vector("heat.b"), lam),
                "e": combine(parts.vector("contact.e"), lam)}
-        for name, (rows, cols, values) in sparse.items():
-            out[name] = csr_matrix((combine(values, lam), (rows, cols)), shape=(n, n))
+        for name, operator in tridiagonal.items():
+            out[name] = Tridiagonal(combine(operator, lam))
         return out
 
     return at
+
+
+class Tridiagonal:
+    """``operator @ x`` of a node-ordered tridiagonal matrix given as n × 3 rows (i − 1, i,
+    i + 1): each row's terms summed in column order, as a CSR product does."""
+
+    def __init__(self, rows: np.ndarray):
+        self.rows = rows
+
+    def __matmul__(self, x: np.ndarray) -> np.ndarray:
+        t = self.rows
+        y = t[:, 1] * x
+        y[1:] = t[1:, 0] * x[:-1] + y[1:]
+        y[:-1] += t[:-1, 2] * x[1:]
+        return y

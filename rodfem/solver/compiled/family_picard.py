@@ -81,6 +81,10 @@ class PicardFamily(StepFamily):
         template.blocks = self.blocks
         return F, template, int(kernel._lib.pk_form_size(F))
 
+    @property
+    def forms_in_c(self) -> bool:
+        return not self.home.exchange.variable  # v = A_h⁻¹ e is solved here, in NumPy
+
     def _form(self, loop, lam: float) -> None:
         kernel = self.kernel
         ffi = kernel._ffi

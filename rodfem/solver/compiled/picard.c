@@ -374,8 +374,9 @@ long pk_advance(const pk_problem *P, double *values, double *u_prev_out, long n0
     return done;
 }
 
-/* The adaptive run's regular steps (adaptive.h), each step one pk_advance of its size's
- * problem; its iterations are those its row records. */
+/* The adaptive run's regular steps and events (adaptive.h), each step one pk_advance of its
+ * size's problem (its iterations those its row records), the sizes an event tries formed by
+ * pk_form. */
 static int pk_one_step(const void *problem, double *values, double *u_prev, long n0,
                        double *row, double *pressure, int *iterations)
 {
@@ -388,5 +389,7 @@ static int pk_one_step(const void *problem, double *values, double *u_prev, long
 }
 
 #define RA_NAME pk_adaptive
+#define RA_FORM(family, lam, problem, memory) \
+    pk_form((const pk_family *)(family), lam, (pk_problem *)(problem), memory)
 #define RA_STEP pk_one_step
 #include "adaptive.h"
