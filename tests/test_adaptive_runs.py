@@ -221,6 +221,7 @@ def test_an_adaptive_run_stopped_after_any_step_resumes_to_the_same_run(tmp_path
     from test_edits import rodfem as in_process
 
     from rodfem.output import interrupts
+    from rodfem.solver.adaptive.compiled import CompiledSteps
     from rodfem.solver.adaptive.stepper import AdaptiveStepper
 
     args = [*STOPPED[scene], *ADAPTIVE, "--set", "output.every=20"]
@@ -232,21 +233,27 @@ def test_an_adaptive_run_stopped_after_any_step_resumes_to_the_same_run(tmp_path
     rows = {len(h.rows) // 5, int(events[0]), int(events[0]) + 2, int(events[-1]) + 3,
             len(h.rows) // 2}
     stops = {float(h["t"][k]) for k in rows}
-    step, reached = AdaptiveStepper.step, []
+    step, advance, reached = AdaptiveStepper.step, CompiledSteps.advance, []
 
     def stepping(self):
         step(self)
         reached.append(self.t)
 
-    def requested(comm, n, every, also=False):  # after each step() of the stepper
+    def advancing(self, max_steps, interval, frame):  # one compiled step a call
+        code = advance(self, 1, interval, frame)
+        reached.append(self.stepper.t if self.written else None)  # None: no step taken
+        return code
+
+    def requested(comm, n, every, also=False):  # after each step of the stepper or loop
         return reached[-1] in stops or also
 
     stopped = 0
     with monkeypatch.context() as patch:
         patch.setattr(AdaptiveStepper, "step", stepping)
+        patch.setattr(CompiledSteps, "advance", advancing)
         patch.setattr(interrupts, "requested", requested)
         done = in_process("run", *args, "--out", out, "--quiet")
-        while state(out) == "interrupted":
+        while state(out) == "interrupted" and stopped < 2 * len(stops):
             stopped += 1
             done = in_process("resume", out, "--quiet")
     assert done.returncode == 0 and stopped >= 4, (stopped, done.stderr)
@@ -257,16 +264,23 @@ def test_an_adaptive_run_stopped_after_any_step_resumes_to_the_same_run(tmp_path
 KILLER = """
 import os, signal, sys
 from rodfem.cli import main
+from rodfem.solver.adaptive.compiled import CompiledSteps
 from rodfem.solver.adaptive.stepper import AdaptiveStepper
 
-step, end = AdaptiveStepper.step, float(sys.argv[1])
+step, advance, end = AdaptiveStepper.step, CompiledSteps.advance, float(sys.argv[1])
 
 def stepping(self):  # SIGKILL once the run reaches the time argv[1]
     step(self)
     if self.t >= end:
         os.kill(os.getpid(), signal.SIGKILL)
 
-AdaptiveStepper.step = stepping
+def advancing(self, max_steps, interval, frame):  # the same, one compiled step a call
+    code = advance(self, 1, interval, frame)
+    if self.stepper.t >= end:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return code
+
+AdaptiveStepper.step, CompiledSteps.advance = stepping, advancing
 sys.exit(main(sys.argv[2:]))
 """
 
