@@ -52,7 +52,7 @@ def parser() -> argparse.ArgumentParser:
     add_version(parser)
     sub = parser.add_subparsers(dest="command", required=True)
     for add in (_run, _sweep, _fit, _sensitivity, _resume, _plot, _paper, _stability, _verify,
-                _steady):
+                _steady, _prepare):
         add(sub)
     return parser
 
@@ -75,6 +75,21 @@ def _run(sub) -> None:
     add_progress(run, "draw the progress bar even when output is not a terminal (mpirun)")
     run.add_argument("--no-size-check", dest="large", action="store_true",
                      help="run even if the estimated output or memory exceeds what is free")
+
+
+def _prepare(sub) -> None:
+    """``rodfem prepare``: what a first run would compile, compiled ahead."""
+    prepare = sub.add_parser(
+        "prepare",
+        help="compile the loops, forms and operators of scenes ahead of their first run",
+        description="Run each scene named (by default every built-in one) for three steps into "
+        "a temporary directory, so that its compiled loops, forms and operators are in the "
+        "per-user caches before its first run ('make setup' does this for the built-in "
+        "scenes).",
+    )
+    prepare.add_argument("scenes", nargs="*", metavar="SCENE",
+                         help=f"built-in scenes ({', '.join(BUILTIN + EXTRA)}) or TOML files")
+    prepare.add_argument("--quiet", action="store_true", help="no line per scene")
 
 
 def _sweep(sub) -> None:
@@ -337,7 +352,8 @@ COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.res
             "plot": commands.plot,
             "paper": commands.paper,
             "stability": commands.stability, "verify": commands.verify,
-            "work-precision": commands.verify, "steady": commands.steady}
+            "work-precision": commands.verify, "steady": commands.steady,
+            "prepare": commands.prepare}
 
 
 def _release(status: str) -> str:
