@@ -314,7 +314,8 @@ def test_a_warm_adaptive_run_assembles_nothing(tmp_path):
 def test_rk_form_lays_out_the_factors_as_the_kernel_does(name, overrides):
     """rk_form's factors are LAPACK's dgbtrf's of the same band (to round-off, a BLAS may fuse
     dger's products; measured: bit for bit, the same pivots), and laid out from them as
-    direct.py's band_factors does, bit for bit."""
+    direct.py's band_factors does, bit for bit: the factoring in the family's work, the layout in
+    the size's memory."""
     from scipy.linalg import lapack
 
     from rodfem.solver.compiled.direct import band_factors
@@ -325,11 +326,14 @@ def test_rk_form_lays_out_the_factors_as_the_kernel_does(name, overrides):
     loop = family.loop(home.dt / lam)
     P, ffi, n = loop._problem, loop._ffi, family.n
     N, ldab = 2 * n, family.ldab
-    lu = loop._arrays["memory"][:ldab * N].reshape((ldab, N), order="F")
+    lu = family._kept["work"][:ldab * N].reshape((ldab, N), order="F")  # the last size formed
     ipiv = np.frombuffer(ffi.buffer(P.ipiv, 4 * N), dtype=np.intc)
     band, arrays = band_factors(lu, ipiv, 0, family.kl, family.ku, n)
     assert (P.kl, P.ku, bool(P.pivoting)) == (band["kl_kept"], band["ku_kept"], band["pivoting"])
-    for field in ("lower", "upper", "rdiag", "fwd", "bwd"):
+    blocked = P.fwd != ffi.NULL
+    assert blocked == (arrays["fwd"] is not None)
+    # the steps read the node-blocked recurrences where there are any, else the kept bands
+    for field in ("rdiag", *(("fwd", "bwd") if blocked else ("lower", "upper"))):
         expected = arrays[field]
         got = np.frombuffer(ffi.buffer(getattr(P, field), 8 * expected.size), dtype=float)
         assert np.array_equal(got, expected.ravel()), field

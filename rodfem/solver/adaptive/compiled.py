@@ -13,8 +13,10 @@ the run back to with the state of the last accepted step:
 
 * a step that changes contact (it is located there), or that the method does not solve;
 * the estimate's restarts, at the start and after an event (the two halves);
-* a step size with no compiled loop yet (made there, by the stepper's ``make``, and kept);
 * a step below ``time.dt_min`` (the stepper's error, StepTooSmall, raised here);
+
+a step size with no problem yet is made between two calls (by the stepper's ``make``, and kept),
+without going back to the run's loop;
 
 and the call returns when the history's block is full, a field save is due (a save interval
 begun), a row is not finite, or ``max_steps`` are done (the run's agreed checks for a stop).
@@ -145,8 +147,29 @@ class CompiledSteps:
         """Regular steps from the stepper's state, at most ``max_steps`` and the history's free
         rows, recorded in the history; stops after a step that begins a save interval
         (``frame(t, interval)`` > ``frame``). Returns the code of adaptive.h (``self.codes``)
-        that ended it; the rows written are committed, ``self.written`` of them. RA_NEED and
-        RA_TOO_SMALL are handled here: a step size made, StepTooSmall raised."""
+        that ended it; the rows written are committed, ``self.written`` of them. A step size
+        with no problem yet (RA_NEED) is made here, by the stepper, and the steps go on in C
+        (RA_NEED is returned only with ``max_steps`` or the rows used up); RA_TOO_SMALL raises
+        StepTooSmall."""
+        written = 0
+        while True:
+            code = self._call(max_steps - written, interval, frame)
+            written += self.written
+            if code == self.codes["RA_NEED"]:
+                self.stepper._method(float(self.R.wanted))
+                if written < max_steps and self.history.free > 0:
+                    continue
+            break
+        self.written = written
+        if code == self.codes["RA_TOO_SMALL"]:
+            stepper = self.stepper
+            raise StepTooSmall(self.home.name, self.home.n + 1, stepper.t + float(self.R.wanted),
+                               stepper.h, stepper.controller.dt_min)
+        return code
+
+    def _call(self, max_steps: int, interval: float | None, frame: int) -> int:
+        """One call of the compiled steps (:meth:`advance`), the stepper's state handed to it
+        and back, its rows committed (``self.written``)."""
         stepper, home, history, R = self.stepper, self.home, self.history, self.R
         self._sizes()
         past = self._arrays["past"].reshape(stepper.order + 1, -1)
@@ -182,9 +205,4 @@ class CompiledSteps:
         stepper.rejected += int(R.rejected)
         stepper.events += int(R.events)
         history.commit(written)
-        if code == self.codes["RA_NEED"]:
-            stepper._method(float(R.wanted))
-        elif code == self.codes["RA_TOO_SMALL"]:
-            raise StepTooSmall(home.name, home.n + 1, stepper.t + float(R.wanted), stepper.h,
-                               stepper.controller.dt_min)
         return code

@@ -130,9 +130,12 @@ typedef struct {
     int u_1;               /* dU(1) in the interleaved unknowns */
     int exchange;          /* a variable heat exchange: q_h and its scalars too */
     int state;             /* the packed state's doubles, 3 (n + 2 ghost) */
+    double *work;          /* rk_work_size doubles that every size shares: the band being
+                              factored, and a step's packed state and z (one step at a time) */
 } rk_family;
 
 long rk_form_size(const rk_family *F);
+long rk_work_size(const rk_family *F);
 int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory);
 long rk_adaptive(ra_run *R, long max_steps);
 /* cdef end */

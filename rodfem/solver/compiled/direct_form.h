@@ -17,15 +17,18 @@
 #ifndef RODFEM_DIRECT_FORM_H
 #define RODFEM_DIRECT_FORM_H
 
-/* The doubles of rk_form's memory (the ints of ipiv in their own doubles). */
+/* The doubles of rk_form's memory (the ints of ipiv in their own doubles): what a size keeps.
+ * The band being factored and a step's work are the family's (rk_work_size). Without
+ * interchanges the steps read the node-blocked recurrences, not the kept bands, which are then
+ * not written: their pages are never touched (a new size's cost is mostly its first touches). */
 static size_t form_layout(const rk_family *F, size_t *at)
 {
-    const size_t n = F->n, N = 2 * n, kl = F->kl, kd = F->kl + F->ku, ldab = 2 * kl + F->ku + 1;
-    const size_t sizes[13] = {ldab * N, N * kl, N * kd, N, (N + 1) / 2, n * (2 * kl + 1),
-                              n * (2 * kd + 3), N, N, (size_t)F->r_classes * F->r_width,
-                              (size_t)F->r_classes * 2, (size_t)F->state, N};
+    const size_t n = F->n, N = 2 * n, kl = F->kl, kd = F->kl + F->ku;
+    const size_t sizes[10] = {N, (N + 1) / 2, n * (2 * kl + 1), n * (2 * kd + 3), N, N,
+                              (size_t)F->r_classes * F->r_width, (size_t)F->r_classes * 2,
+                              N * kl, N * kd};
     size_t total = 0;
-    for (int k = 0; k < 13; k++) {
+    for (int k = 0; k < 10; k++) {
         at[k] = total;
         total += sizes[k];
     }
@@ -34,8 +37,15 @@ static size_t form_layout(const rk_family *F, size_t *at)
 
 long rk_form_size(const rk_family *F)
 {
-    size_t at[13];
+    size_t at[10];
     return (long)form_layout(F, at);
+}
+
+/* The family's work: the band storage (2 kl + ku + 1) x 2n, the packed state and z (2n). */
+long rk_work_size(const rk_family *F)
+{
+    return (long)((2 * (size_t)F->kl + F->ku + 1) * 2 * (size_t)F->n + (size_t)F->state
+                  + 2 * (size_t)F->n);
 }
 
 static inline double form_combine(const double *parts, size_t count, size_t k, double lam)
@@ -135,13 +145,14 @@ static void form_solve(const double *ab, int N, int kl, int ku, const int *ipiv,
 int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
 {
     const int n = F->n, N = 2 * n, kl = F->kl, ku = F->ku, kd = kl + ku;
-    size_t at[13];
+    size_t at[10];
     form_layout(F, at);
-    double *ab = memory + at[0], *lower = memory + at[1], *upper = memory + at[2];
-    double *rdiag = memory + at[3], *fwd = memory + at[5], *bwd = memory + at[6];
-    double *q = memory + at[7], *qh = memory + at[8], *rv = memory + at[9], *b = memory + at[10];
-    int *ipiv = (int *)(memory + at[4]);
+    double *rdiag = memory + at[0], *fwd = memory + at[2], *bwd = memory + at[3];
+    double *q = memory + at[4], *qh = memory + at[5], *rv = memory + at[6], *b = memory + at[7];
+    double *lower = memory + at[8], *upper = memory + at[9];
+    int *ipiv = (int *)(memory + at[1]);
     const size_t ldab = 2 * (size_t)kl + ku + 1;
+    double *ab = F->work, *s = F->work + ldab * N, *z = s + F->state;
     for (size_t k = 0; k < ldab * N; k++)
         ab[k] = 0.0;
     /* P0 + P1 lam + P2 lam^2, a power at a time (the same sums: a part that is 0 adds 0) */
@@ -171,14 +182,15 @@ int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
                 kuk = t + 1;
         pivoting |= ipiv[j] != j;
     }
-    for (int j = 0; j < N; j++) {
-        const double *col = ab + (size_t)j * ldab;
-        for (int t = 0; t < klk; t++)
-            lower[(size_t)j * klk + t] = col[kd + 1 + t];
-        for (int t = 0; t < kuk; t++)
-            upper[(size_t)j * kuk + t] = col[kd - 1 - t];
-    }
     const int blocked = !pivoting && klk <= KMAX && kuk <= KMAX;
+    if (!blocked)
+        for (int j = 0; j < N; j++) {
+            const double *col = ab + (size_t)j * ldab;
+            for (int t = 0; t < klk; t++)
+                lower[(size_t)j * klk + t] = col[kd + 1 + t];
+            for (int t = 0; t < kuk; t++)
+                upper[(size_t)j * kuk + t] = col[kd - 1 - t];
+        }
     /* _blocked's recurrences: L(r, c) = ab[c ldab + kd + r - c] for 0 < r - c <= kl, U(r, c)
      * the same for 0 <= c - r <= kd, 0 elsewhere and outside the matrix */
     if (blocked)
@@ -249,7 +261,6 @@ int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
         rv[k] = form_combine(F->r_parts, rcount, k, lam);
     for (size_t k = 0; k < bcount; k++)
         b[k] = form_combine(F->b_parts, bcount, k, lam);
-    double *s = memory + at[11], *z = memory + at[12];
     for (int k = 0; k < F->state; k++)
         s[k] = 0.0;
     P->kl = klk;

@@ -133,6 +133,8 @@ class DirectFamily(StepFamily):
         F.u_1 = self.u_1
         F.exchange = int(kernel._problem.exchange.law != 0)
         F.state = kernel._arrays["s"].size
+        kept["work"] = np.zeros(int(kernel._lib.rk_work_size(F)))  # every size's, one at a time
+        F.work = ffi.cast("double *", ffi.from_buffer(kept["work"]))
         template = ffi.new("rk_problem *")
         ffi.memmove(template, kernel._problem, ffi.sizeof("rk_problem"))
         template.r_class = ffi.cast("int *", ffi.from_buffer(kept["r_class"]))
