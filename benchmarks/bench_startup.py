@@ -9,6 +9,10 @@ and an earlier one, and against GetFEM's start, on this machine.
   add`` into a temporary directory and put first on PYTHONPATH. Both use the per-user cache as a
   user's second run finds it (compiled loops and, for this version, operators: one run of each
   first, not timed); ``RODFEM_CACHE=0`` shows this version without its operator cache.
+* a fresh machine's first run: the same command with caches of its own (an empty
+  ``$XDG_CACHE_HOME``), once after ``rodfem prepare SCENE`` (what ``make setup`` runs for every
+  built-in scene; not timed) and once without it (the loops built and the forms compiled in the
+  run), a new cache for every repeat; ``prepare``'s own time is reported too.
 * where the time goes: ``python -X importtime`` of one such run of each version, the cumulative
   import time of the main packages, and the rest of the process.
 * GetFEM (``python3-getfem``, if installed; Debian's package ships no demos, so its
@@ -16,7 +20,8 @@ and an earlier one, and against GetFEM's start, on this machine.
   the 1D mesh of 1,000 cells, the P1 space and its integration method, and assembles the mass and
   stiffness matrices, which is how the demo starts.
 
-    .venv/bin/python benchmarks/bench_startup.py [--repeats 9] [--rev c2d9fed] [--json FILE]
+    .venv/bin/python benchmarks/bench_startup.py [--repeats 9] [--fresh 3] [--rev 60c163f]
+        [--json FILE]
 
 The machine is printed first; ``--json`` also writes the numbers and the machine to FILE.
 """
@@ -101,6 +106,25 @@ def import_breakdown(arguments: list[str], env: dict, cwd: Path) -> dict:
     return {"packages": found, "imports": total}
 
 
+def fresh_machine(scene: str, out: Path, work: Path, repeats: int) -> dict:
+    """This version's first run with empty caches, after ``rodfem prepare`` and without it
+    (alternately, a new cache each time), and prepare's own time."""
+    times: dict[str, list[float]] = {"fresh machine, after rodfem prepare": [],
+                                     "fresh machine, first run compiling": [],
+                                     "rodfem prepare (make setup)": []}
+    for k in range(repeats):
+        for prepared in (True, False):
+            cache = work / f"cache-{scene}-{k}-{int(prepared)}"
+            env = environment(ROOT, XDG_CACHE_HOME=str(cache))
+            if prepared:
+                times["rodfem prepare (make setup)"].append(
+                    seconds(["-m", "rodfem", "prepare", scene, "--quiet"], env, work))
+            key = "after rodfem prepare" if prepared else "first run compiling"
+            times[f"fresh machine, {key}"].append(seconds(run_command(scene, out), env, work))
+            shutil.rmtree(cache, ignore_errors=True)
+    return {name: {"median": statistics.median(t), "all": t} for name, t in times.items()}
+
+
 def checkout(rev: str, directory: Path) -> Path:
     subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(directory), rev],
                    check=True, capture_output=True)
@@ -110,9 +134,11 @@ def checkout(rev: str, directory: Path) -> Path:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=9)
-    parser.add_argument("--rev", default="c2d9fed",
-                        help="the earlier version (a git revision; default: the one before the "
-                             "faster start)")
+    parser.add_argument("--fresh", type=int, default=3,
+                        help="repeats of a fresh machine's first run (each compiles: seconds)")
+    parser.add_argument("--rev", default="60c163f",
+                        help="the earlier version (a git revision; default: the one before "
+                             "rodfem prepare)")
     parser.add_argument("--json", type=Path, help="write the numbers and the machine here")
     args = parser.parse_args()
     info = machine()
@@ -135,6 +161,7 @@ def main() -> int:
                     times[name].append(seconds(run_command(scene, out), env, work))
             results["runs"][scene] = {name: {"median": statistics.median(t), "all": t}
                                       for name, t in times.items()}
+            results["runs"][scene].update(fresh_machine(scene, out, work, args.fresh))
             results["runs"][scene]["imports"] = {
                 name: import_breakdown(run_command(scene, out), versions[name], work)
                 for name in list(versions)[:2]}
