@@ -1,5 +1,6 @@
 """``rodfem prepare`` (what ``make setup`` runs): after it, the first run of every built-in scene,
-with fixed or adaptive steps, compiles nothing and assembles nothing new. Each test has caches
+with fixed or adaptive steps (but the manufactured scenes' adaptive ones, whose new step sizes
+are formed through dolfinx), compiles nothing and assembles nothing new. Each test has caches
 of its own ($XDG_CACHE_HOME in a temporary directory), so that it starts as a fresh machine."""
 
 import os
@@ -9,8 +10,11 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+from conftest import serial_only
 
 from rodfem.scene import BUILTIN, EXTRA
+
+pytestmark = serial_only  # each test starts processes of its own
 
 RUNS = """
 import sys, warnings
