@@ -82,8 +82,9 @@ def _prepare(sub) -> None:
     prepare = sub.add_parser(
         "prepare",
         help="compile the loops, forms and operators of scenes ahead of their first run",
-        description="Run each scene named (by default every built-in one) for three steps into "
-        "a temporary directory, so that its compiled loops, forms and operators are in the "
+        description="Run each scene named (by default every built-in one) for three steps, "
+        "fixed and adaptive, into a temporary directory, so that its compiled loops, forms and "
+        "operators are in the "
         "per-user caches before its first run ('make setup' does this for the built-in "
         "scenes).",
     )
