@@ -301,7 +301,7 @@ class Simulation:
         """Adaptive steps in one compiled call (:mod:`rodfem.solver.adaptive.compiled`), to the
         next check the ranks agree on at most: the steps taken (each counted as a call of the
         stepper), and whether the next step is handed back to the stepper (one it takes again:
-        an event or a failure the call did not take)."""
+        an event, a failure or a restart of the estimate the call did not take)."""
         regular, stepper = self.regular, self.stepper
         every = STOP_EVERY - calls % STOP_EVERY
         since = self.history.count
@@ -314,7 +314,8 @@ class Simulation:
         if regular.written and frame(stepper.t, self.interval) > self.frame:
             self.save_fields()
         codes = regular.codes
-        return regular.written, code in (codes["RA_EVENT"], codes["RA_FAILED"])
+        return regular.written, code in (codes["RA_EVENT"], codes["RA_FAILED"],
+                                         codes["RA_RESTART"])
 
     def check(self, since: int | None = None) -> None:
         """Stop at the first recorded step that is not finite (the rows before it are kept)."""

@@ -12,7 +12,8 @@ Everything else stays with the stepper (:meth:`AdaptiveStepper.step`), which the
 the run back to with the state of the last accepted step:
 
 * a step that changes contact (it is located there), or that the method does not solve;
-* the estimate's restarts, at the start and after an event (the two halves);
+* a restart of the estimate (the two halves, at the start and after an event) that the C call
+  does not take (RA_RESTART: adaptive.h says which);
 * a step below ``time.dt_min`` (the stepper's error, StepTooSmall, raised here);
 
 a step size with no problem yet is made between two calls (by the stepper's ``make``, and kept),
@@ -83,6 +84,7 @@ class CompiledSteps:
             "two_w": np.array(energy.two_w.array_r, dtype=float),
             "start": np.zeros(3 * n), "start_u_prev": np.zeros(n), "squares": np.zeros(3 * n),
             "scratch_row": np.zeros(history.width),
+            "whole": np.zeros(3 * n + 1), "held": np.zeros(4 * n),
         }
         readings = history.readings
         if readings is not None:
@@ -94,7 +96,7 @@ class CompiledSteps:
             R.readings.weight = self._pointer(arrays["r_weight"])
             R.readings.constant = self._pointer(arrays["r_constant"])
         for name in ("past", "size_h", "e_band", "two_w", "start", "start_u_prev", "squares",
-                     "scratch_row"):
+                     "scratch_row", "whole", "held"):
             setattr(R, name, self._pointer(arrays[name]))
         self._problems = ffi.new("void *[]", SIZES)
         R.size_problem = self._problems
@@ -119,10 +121,9 @@ class CompiledSteps:
         return self._ffi.cast(kind, self._ffi.from_buffer(array))
 
     def ready(self) -> bool:
-        """Whether the next step can be a regular one: past the paper scheme's first step,
-        with order + 1 states since the start or the last event."""
-        stepper = self.stepper
-        return not self.home.first_step_special and len(stepper.past) > stepper.order
+        """Whether the next steps can be taken here: past the paper scheme's first step (a
+        restart of the estimate too, from one state on)."""
+        return not self.home.first_step_special and len(self.stepper.past) > 0
 
     def _sizes(self) -> None:
         """The table of step sizes and their problems: home's, the ladder's kept by the

@@ -14,12 +14,17 @@
  *               untouched or to be restored);
  * which instantiates the loop below as RA_NAME.
  *
+ * The estimate's restarts (fewer than order + 1 states since the start or the last event) are
+ * taken here too, as the stepper takes them: the step, then the same step again as two halves,
+ * their difference the error (AdaptiveStepper._halves), the two halves accepted with a row each.
+ *
  * What it does not do, handing the run back to Python with the state of the last accepted step
- * (rodfem/solver/adaptive/compiled.py): a step that changes contact (an event, located there), a
- * step of a size it has no problem for (made there), a step the method does not solve, a step
- * while the estimate restarts (fewer than order + 1 states since the start or the last event:
- * the two halves), and a step size below dt_min. The paper scheme's special first step never
- * comes here.
+ * (rodfem/solver/adaptive/compiled.py): a step that changes contact where no step sizes can be
+ * formed here (an event, located there), a step of a size it has no problem for (made there), a
+ * step the method does not solve, a restart it does not take (RA_RESTART: one whose step or a
+ * half changes contact or fails, whose first half begins a save interval or has a row that is not
+ * finite, whose half has no problem and is off the ladder, or with room for fewer than two rows),
+ * and a step size below dt_min. The paper scheme's special first step never comes here.
  */
 #ifndef RODFEM_ADAPTIVE_H
 #define RODFEM_ADAPTIVE_H
@@ -38,7 +43,7 @@ enum {
     RA_NEED = 2,      /* no problem for the step size `wanted` */
     RA_EVENT = 3,     /* the step tried changes contact (where it is not located here) */
     RA_FAILED = 4,    /* the method did not solve the step tried */
-    RA_RESTART = 5,   /* fewer than order + 1 states: the estimate restarts (two halves) */
+    RA_RESTART = 5,   /* a restart of the estimate (two halves) the stepper takes */
     RA_TOO_SMALL = 6  /* the next step, after a rejection, is below dt_min */
 };
 
@@ -99,6 +104,10 @@ typedef struct {
     double *start_u_prev;
     double *squares;
     double *scratch_row;
+    /* a restart's work: the whole step's y (3n + 1), and the start of the step while the second
+     * half starts from the first (3n values and n of u_prev) */
+    double *whole;
+    double *held;
     /* an event's tries, of sizes off the table, formed here (RA_FORM) from the run's family of
      * step sizes: a copy of the template problem (problem_bytes) completed in one of two scratch
      * problems and their memory; family NULL: events are handed back */
@@ -232,6 +241,19 @@ static inline void ra_differences(int n, const double *restrict s, const double 
     }
 }
 
+/* ErrorNorm.grown: the maxima with y's sizes counted (its fields' largest, jump the largest
+ * |U(i) - U(i - 1)|, p its force), NaN where either is. */
+static inline void ra_grow(const ra_run *R, const double fields[3], double jump, double p,
+                           double grown[4])
+{
+    const double sizes[4] = {fields[0], fields[1], fields[2],
+                             ra_pymax(fabs(p), R->n > 1 ? jump / R->cell : 0.0)};
+    for (int c = 0; c < 4; c++)
+        grown[c] = ra_npmax(R->maxima[c], sizes[c]);
+}
+
+static double ra_norm(const ra_run *R, const double *sq, double e_p, const double grown[4]);
+
 /* AdaptiveStepper._predicted: the local error of the step h just taken (to y = [s; p]), by
  * Milne's device from the last order + 1 states (control.py's extrapolate and milne), in
  * ErrorNorm's norm. The sums are NumPy's: the extrapolation from 0 term by term, the squares
@@ -273,11 +295,15 @@ static double ra_predicted(ra_run *R, double h, const double *s, double p, doubl
     for (int i = 0; i < k; i++)
         e_p += states[i][3 * (size_t)n] * weight[i];
     e_p = (p - e_p) * factor;
+    ra_grow(R, fields, jump, p, grown);
+    return ra_norm(R, sq, e_p, grown);
+}
 
-    const double sizes[4] = {fields[0], fields[1], fields[2],
-                             ra_pymax(fabs(p), n > 1 ? jump / R->cell : 0.0)};
-    for (int c = 0; c < 4; c++)
-        grown[c] = ra_npmax(R->maxima[c], sizes[c]);
+/* ErrorNorm.__call__ of the error's squares sq (3n) and its p entry e_p, with the maxima grown
+ * by y (grown). */
+static double ra_norm(const ra_run *R, const double *sq, double e_p, const double grown[4])
+{
+    const int n = R->n;
     double scale[4] = {grown[0], grown[1], grown[2], grown[3]};
     if (R->b > 0.0)
         scale[1] = ra_pymax(scale[1], R->dt0 * scale[3] / sqrt(R->b));
@@ -293,6 +319,60 @@ static double ra_predicted(ra_run *R, double h, const double *s, double p, doubl
             largest = ratio;
     }
     return largest;
+}
+
+/* ErrorNorm.sizes of the state s: ra_differences' maxima without the differences. */
+static void ra_sizes(int n, const double *restrict s, int massless_end, double largest[3],
+                     double *jump)
+{
+    for (int block = 0; block < 3; block++) {
+        double m[4] = {0.0, 0.0, 0.0, 0.0}, mj[4] = {0.0, 0.0, 0.0, 0.0};
+        int bad = 0, badj = 0;
+        const int first = block * n, count = block == 1 && massless_end ? n - 1 : n;
+        for (int i = 0; i < n; i++) {
+            const int at = first + i;
+            const double v = i < count ? fabs(s[at]) : 0.0;
+            m[i & 3] = v > m[i & 3] ? v : m[i & 3];
+            bad |= v != v;
+            if (block == 2 && i > 0) {
+                const double d = fabs(s[at] - s[at - 1]);
+                mj[i & 3] = d > mj[i & 3] ? d : mj[i & 3];
+                badj |= d != d;
+            }
+        }
+        const double p = m[0] > m[1] ? m[0] : m[1], q = m[2] > m[3] ? m[2] : m[3];
+        largest[block] = bad ? NAN : (p > q ? p : q);
+        if (block == 2) {
+            const double pj = mj[0] > mj[1] ? mj[0] : mj[1], qj = mj[2] > mj[3] ? mj[2] : mj[3];
+            *jump = badj ? NAN : (pj > qj ? pj : qj);
+        }
+    }
+}
+
+/* The maxima of the norm with y = [s; p] counted (ErrorNorm.grown). */
+static inline void ra_grown(const ra_run *R, const double *s, double p, double grown[4])
+{
+    double fields[3], jump;
+    ra_sizes(R->n, s, R->massless_end, fields, &jump);
+    ra_grow(R, fields, jump, p, grown);
+}
+
+/* AdaptiveStepper._halves' error: ErrorNorm of (y - whole) / (2^order - 1), y = [s; p] the end
+ * of the second half and whole the end of the step. */
+static double ra_halves_error(ra_run *R, const double *s, double p)
+{
+    const int n = R->n;
+    const double divisor = pow(2.0, R->order) - 1.0, *whole = R->whole;
+    double *restrict sq = R->squares;
+    for (int i = 0; i < 3 * n; i++) {
+        const double e = (s[i] - whole[i]) / divisor;
+        sq[i] = e * e;
+    }
+    if (R->massless_end)
+        sq[2 * (size_t)n - 1] = 0.0;
+    double grown[4];
+    ra_grown(R, s, p, grown);
+    return ra_norm(R, sq, (p - whole[3 * (size_t)n]) / divisor, grown);
 }
 
 /* The raw history row of the home state (History.record), and its readings: the energy's sums
@@ -436,6 +516,145 @@ static double ra_locate(ra_run *R, double h, void *problem_b, double fa, int bef
     return b;
 }
 
+/* Home back at the start of a restart's step while the second half ran from the first. */
+static void ra_restore_held(ra_run *R, long step, int iterations, double pressure)
+{
+    const size_t n = (size_t)R->n;
+    memcpy(R->start, R->held, sizeof(double) * 3 * n);
+    memcpy(R->start_u_prev, R->held + 3 * n, sizeof(double) * n);
+    ra_restore(R, step, iterations, pressure);
+}
+
+/* The estimate's restart from the home state (AdaptiveStepper._attempt with fewer than
+ * order + 1 states since the start or the last event, and _halves): the step h, then h as two
+ * halves, the error their difference from it. Returns -1 after accepting both halves, -2 after
+ * rejecting the step (R->h the next size), RA_PAUSE after accepting them where a regular step
+ * would pause there; or, with home at the start, RA_NEED (a size to make: the step's, or its
+ * half's on the ladder), RA_RESTART (the stepper takes it: the module's comment says when),
+ * RA_PAUSE (room for fewer than two rows after some written) or RA_TOO_SMALL. */
+static long ra_restart(ra_run *R, long max_steps)
+{
+    const int n = R->n, size = 3 * n + 1, places = R->order + 1;
+    const size_t N = 3 * (size_t)n;
+    if (R->written + 2 > max_steps || R->written + 2 > R->room)
+        return R->written ? RA_PAUSE : RA_RESTART;
+    const int before = ra_contact(R, R->values[N - 1], R->pressure) > 0.0;
+    const double h = ra_proposal(R, before), half = 0.5 * h;
+    void *problem = ra_problem(R, h), *problem_half = ra_problem(R, half);
+    if (problem == NULL || problem_half == NULL) {
+        if (problem == NULL || ra_rung(R->dt0, half) == half) {
+            R->wanted = problem == NULL ? h : half;
+            return RA_NEED;
+        }
+        return RA_RESTART;  /* a half off the ladder: the stepper's size of one step */
+    }
+    const double t0 = R->t;
+    const double t1 = fabs(R->end - (t0 + half)) <= 1e-12 * R->end ? R->end : t0 + half;
+    if (R->interval > 0.0 && floor(t1 / R->interval) > R->frame)
+        return RA_RESTART;  /* the fields are saved at the first half's state */
+    const long step = R->step;
+    const int iterations = R->iterations;
+    const double pressure = R->pressure;
+    memcpy(R->start, R->values, sizeof(double) * N);
+    memcpy(R->start_u_prev, R->u_prev, sizeof(double) * (size_t)n);
+    /* the step, then its first half from the same start */
+    if (!ra_take(R, h, problem, step, iterations, pressure) ||
+        (ra_contact(R, R->values[N - 1], R->pressure) > 0.0) != before) {
+        ra_restore(R, step, iterations, pressure);
+        return RA_RESTART;
+    }
+    memcpy(R->whole, R->values, sizeof(double) * N);
+    R->whole[N] = ra_measured(R);
+    if (!ra_take(R, half, problem_half, step, iterations, pressure) ||
+        (ra_contact(R, R->values[N - 1], R->pressure) > 0.0) != before) {
+        ra_restore(R, step, iterations, pressure);
+        return RA_RESTART;
+    }
+    double *row1 = R->rows + (size_t)R->written * R->width;
+    ra_row(R, row1);
+    if (!ra_finite_row(row1)) {
+        ra_restore(R, step, iterations, pressure);
+        return RA_RESTART;
+    }
+    const int slot1 = (R->head + R->count) % places;  /* free: count < places */
+    double *y1 = R->past + (size_t)slot1 * size;
+    memcpy(y1, R->values, sizeof(double) * N);
+    y1[N] = ra_measured(R);
+    /* the second half, from the first */
+    const long step1 = R->step;
+    const int iterations1 = R->iterations;
+    const double pressure1 = R->pressure;
+    memcpy(R->held, R->start, sizeof(double) * N);
+    memcpy(R->held + N, R->start_u_prev, sizeof(double) * (size_t)n);
+    memcpy(R->start, R->values, sizeof(double) * N);
+    memcpy(R->start_u_prev, R->u_prev, sizeof(double) * (size_t)n);
+    if (!ra_take(R, half, problem_half, step1, iterations1, pressure1) ||
+        (ra_contact(R, R->values[N - 1], R->pressure) > 0.0) != before) {
+        ra_restore_held(R, step, iterations, pressure);
+        return RA_RESTART;
+    }
+    const double p2 = ra_measured(R);
+    double error = ra_halves_error(R, R->values, p2);
+    if (!(error <= 1.0)) {  /* Controller.rejected of the step */
+        R->rejected++;
+        ra_restore_held(R, step, iterations, pressure);
+        const double factor = RA_SAFETY * pow(ra_pymax(error, RA_TINY), -1.0 / (R->order + 1));
+        R->h = h * ra_pymin(RA_SAFETY, ra_pymax(RA_SHRINK, factor));
+        if (R->h < R->dt_min) {
+            R->wanted = h;
+            return RA_TOO_SMALL;
+        }
+        return -2;
+    }
+    /* Controller.accepted of the second half, then AdaptiveStepper._accept of both */
+    const int k = R->order + 1;
+    error = ra_pymax(error, RA_TINY);
+    const double factor = RA_SAFETY * pow(error, -0.7 / k) *
+                          pow(ra_pymax(R->previous, RA_TINY), 0.4 / k);
+    R->previous = error;
+    const double following = half * ra_pymin(RA_GROW, ra_pymax(RA_SHRINK, factor));
+    double grown[4];
+    ra_grown(R, y1, y1[N], grown);
+    for (int m = 0; m < 4; m++)
+        R->maxima[m] = grown[m];
+    R->t = t1;
+    R->past_t[slot1] = t1;
+    R->count++;
+    double *clock = R->clock + 3 * (size_t)R->written;
+    clock[0] = t1;
+    clock[1] = half;
+    clock[2] = 0.0;
+    R->written++;
+    ra_grown(R, R->values, p2, grown);
+    for (int m = 0; m < 4; m++)
+        R->maxima[m] = grown[m];
+    R->t = fabs(R->end - (t1 + half)) <= 1e-12 * R->end ? R->end : t1 + half;
+    int at;
+    if (R->count == places) {
+        at = R->head;
+        R->head = (R->head + 1) % places;
+    } else {
+        at = (R->head + R->count++) % places;
+    }
+    double *kept = R->past + (size_t)at * size;
+    memcpy(kept, R->values, sizeof(double) * N);
+    kept[N] = p2;
+    R->past_t[at] = R->t;
+    R->h = following;
+    double *row = R->rows + (size_t)R->written * R->width;
+    ra_row(R, row);
+    clock = R->clock + 3 * (size_t)R->written;
+    clock[0] = R->t;
+    clock[1] = half;
+    clock[2] = 0.0;
+    R->written++;
+    if (!ra_finite_row(row))
+        return RA_PAUSE;
+    if (R->interval > 0.0 && floor(R->t / R->interval) > R->frame)
+        return RA_PAUSE;
+    return -1;
+}
+
 /* Accepted steps until one of the RA_ codes happens (at most max_steps, and R->room rows). */
 long RA_NAME(ra_run *R, long max_steps)
 {
@@ -447,8 +666,12 @@ long RA_NAME(ra_run *R, long max_steps)
             return RA_END;
         if (R->written >= max_steps || R->written >= R->room)
             return RA_PAUSE;
-        if (R->count <= R->order)
-            return RA_RESTART;
+        if (R->count <= R->order) {
+            const long done = ra_restart(R, max_steps);
+            if (done == -1 || done == -2)
+                continue;
+            return done;
+        }
         const int before = ra_contact(R, R->values[3 * (size_t)n - 1], R->pressure) > 0.0;
         const double h = ra_proposal(R, before);
         void *problem = ra_problem(R, h);
