@@ -152,27 +152,7 @@ class CompiledSteps:
         with no problem yet (RA_NEED) is made here, by the stepper, and the steps go on in C
         (RA_NEED is returned only with ``max_steps`` or the rows used up); RA_TOO_SMALL raises
         StepTooSmall."""
-        written = 0
-        while True:
-            code = self._call(max_steps - written, interval, frame)
-            written += self.written
-            if code == self.codes["RA_NEED"]:
-                self.stepper._method(float(self.R.wanted))
-                if written < max_steps and self.history.free > 0:
-                    continue
-            break
-        self.written = written
-        if code == self.codes["RA_TOO_SMALL"]:
-            stepper = self.stepper
-            raise StepTooSmall(self.home.name, self.home.n + 1, stepper.t + float(self.R.wanted),
-                               stepper.h, stepper.controller.dt_min)
-        return code
-
-    def _call(self, max_steps: int, interval: float | None, frame: int) -> int:
-        """One call of the compiled steps (:meth:`advance`), the stepper's state handed to it
-        and back, its rows committed (``self.written``)."""
         stepper, home, history, R = self.stepper, self.home, self.history, self.R
-        self._sizes()
         past = self._arrays["past"].reshape(stepper.order + 1, -1)
         for k, (t, y) in enumerate(zip(stepper.past_t, stepper.past)):
             past[k] = y
@@ -183,16 +163,26 @@ class CompiledSteps:
         R.values = self._pointer(home.values)
         R.u_prev = self._pointer(home.u_prev.array)
         R.step, R.iterations, R.pressure = home.n, home.iterations, home.pressure
-        room = history.free
-        R.rows = self._pointer(history.reserve(room))
-        R.clock = self._pointer(history.reserve_clock(room))
-        R.room = room
         R.interval = interval or 0.0
         R.frame = float(frame)
         R.rejected = R.events = 0
-        code = int(self._run(R, max_steps))
+        written = 0
+        while True:  # the state stays in R between the calls: only the sizes change
+            self._sizes()
+            room = history.free
+            R.rows = self._pointer(history.reserve(room))
+            R.clock = self._pointer(history.reserve_clock(room))
+            R.room = room
+            code = int(self._run(R, max_steps - written))
+            history.commit(int(R.written))
+            written += int(R.written)
+            if code == self.codes["RA_NEED"]:
+                stepper._method(float(R.wanted))
+                if written < max_steps and history.free > 0:
+                    continue
+            break
         # back to the stepper
-        written = self.written = int(R.written)
+        self.written = written
         for vector in (home.state, home.theta, home.du, home.u, home.u_prev):
             vector.stateIncrease()  # written behind PETSc's back
         home.n, home.iterations, home.pressure = int(R.step), int(R.iterations), float(R.pressure)
@@ -205,5 +195,7 @@ class CompiledSteps:
         stepper.steps += written
         stepper.rejected += int(R.rejected)
         stepper.events += int(R.events)
-        history.commit(written)
+        if code == self.codes["RA_TOO_SMALL"]:
+            raise StepTooSmall(home.name, home.n + 1, stepper.t + float(R.wanted), stepper.h,
+                               stepper.controller.dt_min)
         return code
