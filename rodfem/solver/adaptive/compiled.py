@@ -6,7 +6,9 @@ controller's decision, the history row of the accepted state. :class:`AdaptiveSt
 these in Python at 80-100 µs each; here many of them are taken in one C call, with the same
 arithmetic in the same order (the norm's sums are NumPy's pairwise sums), so that every decision
 is the stepper's: the same steps, rejections and step sizes. The history's rows are the stepper's
-to round-off: their bulk energy is summed in C, not by PETSc.
+to round-off: their bulk energy is summed in C, not by PETSc. The estimate's restarts (the step
+taken again as two halves, after an event and at the start) and the events' location are taken
+in the same calls, as the stepper takes them.
 
 Everything else stays with the stepper (:meth:`AdaptiveStepper.step`), which the call hands
 the run back to with the state of the last accepted step:
