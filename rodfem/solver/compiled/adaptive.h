@@ -201,28 +201,68 @@ static inline double ra_contact(const ra_run *R, double u_1, double p)
     return R->rigid ? (u_1 - R->gap) + R->cell * p : u_1 - R->gap;
 }
 
+/* Controller.accepted: the step after an accepted step h of the given error (R->previous
+ * becomes it). */
+static inline double ra_accepted(ra_run *R, double h, double error)
+{
+    const int k = R->order + 1;
+    error = ra_pymax(error, RA_TINY);
+    const double factor = RA_SAFETY * pow(error, -0.7 / k) *
+                          pow(ra_pymax(R->previous, RA_TINY), 0.4 / k);
+    R->previous = error;
+    return h * ra_pymin(RA_GROW, ra_pymax(RA_SHRINK, factor));
+}
+
+/* Controller.rejected: the step to try after a rejected step h of the given error. */
+static inline double ra_rejected(const ra_run *R, double h, double error)
+{
+    const double factor = RA_SAFETY * pow(ra_pymax(error, RA_TINY), -1.0 / (R->order + 1));
+    return h * ra_pymin(RA_SAFETY, ra_pymax(RA_SHRINK, factor));
+}
+
+/* AdaptiveStepper._accept's time after a step h from t (the end itself within 1e-12 of it). */
+static inline double ra_after(const ra_run *R, double t, double h)
+{
+    return fabs(R->end - (t + h)) <= 1e-12 * R->end ? R->end : t + h;
+}
+
+/* The ring's place for a new accepted state (past.append, the oldest dropped beyond
+ * order + 1). */
+static inline int ra_place(ra_run *R)
+{
+    const int places = R->order + 1;
+    if (R->count < places)
+        return (R->head + R->count++) % places;
+    const int at = R->head;
+    R->head = (R->head + 1) % places;
+    return at;
+}
+
 /* One pass over the state s for the estimate: the squares of the scaled differences from the
  * extrapolation, e = (s - sum_i states[i] weight[i]) factor (the sum from 0 in the order of i:
  * 0 + x is x but for the sign of a zero, which e^2 drops), and the sizes ErrorNorm.sizes reads
  * off s: the largest |Theta|, |D| (but an end without mass), |U| and |U(i) - U(i - 1)|, each
- * NaN where one is (four running maxima a block, a maximum being the same in any order). */
+ * NaN where one is (four running maxima a block, a maximum being the same in any order). With
+ * k = 0 the sizes alone (states, weight and sq unused). */
 static inline void ra_differences(int n, const double *restrict s, const double *const *states,
                                   const double *weight, double factor, const int k,
                                   int massless_end, double *restrict sq, double largest[3],
                                   double *jump)
 {
-    const double *restrict a = states[0], *restrict b = states[1];
-    const double *restrict c = k == 3 ? states[2] : states[1];
-    const double wa = weight[0], wb = weight[1], wc = k == 3 ? weight[2] : 0.0;
+    const double *restrict a = k ? states[0] : s, *restrict b = k ? states[1] : s;
+    const double *restrict c = k == 3 ? states[2] : b;
+    const double wa = k ? weight[0] : 0.0, wb = k ? weight[1] : 0.0, wc = k == 3 ? weight[2] : 0.0;
     for (int block = 0; block < 3; block++) {
         double m[4] = {0.0, 0.0, 0.0, 0.0}, mj[4] = {0.0, 0.0, 0.0, 0.0};
         int bad = 0, badj = 0;
         const int first = block * n, count = block == 1 && massless_end ? n - 1 : n;
         for (int i = 0; i < n; i++) {
             const int at = first + i;
-            const double x = a[at] * wa + b[at] * wb;
-            const double e = (s[at] - (k == 3 ? x + c[at] * wc : x)) * factor;
-            sq[at] = e * e;
+            if (k) {
+                const double x = a[at] * wa + b[at] * wb;
+                const double e = (s[at] - (k == 3 ? x + c[at] * wc : x)) * factor;
+                sq[at] = e * e;
+            }
             const double v = i < count ? fabs(s[at]) : 0.0;
             m[i & 3] = v > m[i & 3] ? v : m[i & 3];
             bad |= v != v;
@@ -321,39 +361,11 @@ static double ra_norm(const ra_run *R, const double *sq, double e_p, const doubl
     return largest;
 }
 
-/* ErrorNorm.sizes of the state s: ra_differences' maxima without the differences. */
-static void ra_sizes(int n, const double *restrict s, int massless_end, double largest[3],
-                     double *jump)
-{
-    for (int block = 0; block < 3; block++) {
-        double m[4] = {0.0, 0.0, 0.0, 0.0}, mj[4] = {0.0, 0.0, 0.0, 0.0};
-        int bad = 0, badj = 0;
-        const int first = block * n, count = block == 1 && massless_end ? n - 1 : n;
-        for (int i = 0; i < n; i++) {
-            const int at = first + i;
-            const double v = i < count ? fabs(s[at]) : 0.0;
-            m[i & 3] = v > m[i & 3] ? v : m[i & 3];
-            bad |= v != v;
-            if (block == 2 && i > 0) {
-                const double d = fabs(s[at] - s[at - 1]);
-                mj[i & 3] = d > mj[i & 3] ? d : mj[i & 3];
-                badj |= d != d;
-            }
-        }
-        const double p = m[0] > m[1] ? m[0] : m[1], q = m[2] > m[3] ? m[2] : m[3];
-        largest[block] = bad ? NAN : (p > q ? p : q);
-        if (block == 2) {
-            const double pj = mj[0] > mj[1] ? mj[0] : mj[1], qj = mj[2] > mj[3] ? mj[2] : mj[3];
-            *jump = badj ? NAN : (pj > qj ? pj : qj);
-        }
-    }
-}
-
 /* The maxima of the norm with y = [s; p] counted (ErrorNorm.grown). */
 static inline void ra_grown(const ra_run *R, const double *s, double p, double grown[4])
 {
     double fields[3], jump;
-    ra_sizes(R->n, s, R->massless_end, fields, &jump);
+    ra_differences(R->n, s, NULL, NULL, 0.0, 0, R->massless_end, NULL, fields, &jump);
     ra_grow(R, fields, jump, p, grown);
 }
 
@@ -516,6 +528,15 @@ static double ra_locate(ra_run *R, double h, void *problem_b, double fa, int bef
     return b;
 }
 
+/* ra_take, and whether contact is as it was (`before`) at the step's end: a step of a restart
+ * that changes contact is the stepper's to locate. */
+static inline int ra_take_within(ra_run *R, double h, void *problem, long step, int iterations,
+                                 double pressure, int before)
+{
+    return ra_take(R, h, problem, step, iterations, pressure) &&
+           (ra_contact(R, R->values[3 * (size_t)R->n - 1], R->pressure) > 0.0) == before;
+}
+
 /* Home back at the start of a restart's step while the second half ran from the first. */
 static void ra_restore_held(ra_run *R, long step, int iterations, double pressure)
 {
@@ -549,7 +570,7 @@ static long ra_restart(ra_run *R, long max_steps)
         return RA_RESTART;  /* a half off the ladder: the stepper's size of one step */
     }
     const double t0 = R->t;
-    const double t1 = fabs(R->end - (t0 + half)) <= 1e-12 * R->end ? R->end : t0 + half;
+    const double t1 = ra_after(R, t0, half);
     if (R->interval > 0.0 && floor(t1 / R->interval) > R->frame)
         return RA_RESTART;  /* the fields are saved at the first half's state */
     const long step = R->step;
@@ -558,15 +579,13 @@ static long ra_restart(ra_run *R, long max_steps)
     memcpy(R->start, R->values, sizeof(double) * N);
     memcpy(R->start_u_prev, R->u_prev, sizeof(double) * (size_t)n);
     /* the step, then its first half from the same start */
-    if (!ra_take(R, h, problem, step, iterations, pressure) ||
-        (ra_contact(R, R->values[N - 1], R->pressure) > 0.0) != before) {
+    if (!ra_take_within(R, h, problem, step, iterations, pressure, before)) {
         ra_restore(R, step, iterations, pressure);
         return RA_RESTART;
     }
     memcpy(R->whole, R->values, sizeof(double) * N);
     R->whole[N] = ra_measured(R);
-    if (!ra_take(R, half, problem_half, step, iterations, pressure) ||
-        (ra_contact(R, R->values[N - 1], R->pressure) > 0.0) != before) {
+    if (!ra_take_within(R, half, problem_half, step, iterations, pressure, before)) {
         ra_restore(R, step, iterations, pressure);
         return RA_RESTART;
     }
@@ -588,8 +607,7 @@ static long ra_restart(ra_run *R, long max_steps)
     memcpy(R->held + N, R->start_u_prev, sizeof(double) * (size_t)n);
     memcpy(R->start, R->values, sizeof(double) * N);
     memcpy(R->start_u_prev, R->u_prev, sizeof(double) * (size_t)n);
-    if (!ra_take(R, half, problem_half, step1, iterations1, pressure1) ||
-        (ra_contact(R, R->values[N - 1], R->pressure) > 0.0) != before) {
+    if (!ra_take_within(R, half, problem_half, step1, iterations1, pressure1, before)) {
         ra_restore_held(R, step, iterations, pressure);
         return RA_RESTART;
     }
@@ -598,8 +616,7 @@ static long ra_restart(ra_run *R, long max_steps)
     if (!(error <= 1.0)) {  /* Controller.rejected of the step */
         R->rejected++;
         ra_restore_held(R, step, iterations, pressure);
-        const double factor = RA_SAFETY * pow(ra_pymax(error, RA_TINY), -1.0 / (R->order + 1));
-        R->h = h * ra_pymin(RA_SAFETY, ra_pymax(RA_SHRINK, factor));
+        R->h = ra_rejected(R, h, error);
         if (R->h < R->dt_min) {
             R->wanted = h;
             return RA_TOO_SMALL;
@@ -607,19 +624,13 @@ static long ra_restart(ra_run *R, long max_steps)
         return -2;
     }
     /* Controller.accepted of the second half, then AdaptiveStepper._accept of both */
-    const int k = R->order + 1;
-    error = ra_pymax(error, RA_TINY);
-    const double factor = RA_SAFETY * pow(error, -0.7 / k) *
-                          pow(ra_pymax(R->previous, RA_TINY), 0.4 / k);
-    R->previous = error;
-    const double following = half * ra_pymin(RA_GROW, ra_pymax(RA_SHRINK, factor));
+    const double following = ra_accepted(R, half, error);
     double grown[4];
     ra_grown(R, y1, y1[N], grown);
     for (int m = 0; m < 4; m++)
         R->maxima[m] = grown[m];
     R->t = t1;
-    R->past_t[slot1] = t1;
-    R->count++;
+    R->past_t[ra_place(R)] = t1;  /* slot1, the first free place */
     double *clock = R->clock + 3 * (size_t)R->written;
     clock[0] = t1;
     clock[1] = half;
@@ -628,14 +639,8 @@ static long ra_restart(ra_run *R, long max_steps)
     ra_grown(R, R->values, p2, grown);
     for (int m = 0; m < 4; m++)
         R->maxima[m] = grown[m];
-    R->t = fabs(R->end - (t1 + half)) <= 1e-12 * R->end ? R->end : t1 + half;
-    int at;
-    if (R->count == places) {
-        at = R->head;
-        R->head = (R->head + 1) % places;
-    } else {
-        at = (R->head + R->count++) % places;
-    }
+    R->t = ra_after(R, t1, half);
+    const int at = ra_place(R);
     double *kept = R->past + (size_t)at * size;
     memcpy(kept, R->values, sizeof(double) * N);
     kept[N] = p2;
@@ -715,9 +720,7 @@ long RA_NAME(ra_run *R, long max_steps)
         if (!(error <= 1.0)) {  /* Controller.rejected */
             R->rejected++;
             ra_restore(R, step, iterations, pressure);
-            const double factor = RA_SAFETY * pow(ra_pymax(error, RA_TINY),
-                                                  -1.0 / (R->order + 1));
-            R->h = h_taken * ra_pymin(RA_SAFETY, ra_pymax(RA_SHRINK, factor));
+            R->h = ra_rejected(R, h_taken, error);
             if (R->h < R->dt_min) {
                 R->wanted = h_taken;
                 return RA_TOO_SMALL;
@@ -725,26 +728,17 @@ long RA_NAME(ra_run *R, long max_steps)
             continue;
         }
         /* Controller.accepted, then AdaptiveStepper._accept */
-        const int k = R->order + 1;
-        error = ra_pymax(error, RA_TINY);
-        const double factor = RA_SAFETY * pow(error, -0.7 / k) *
-                              pow(ra_pymax(R->previous, RA_TINY), 0.4 / k);
-        R->previous = error;
-        const double following = h_taken * ra_pymin(RA_GROW, ra_pymax(RA_SHRINK, factor));
-        R->t = fabs(R->end - (R->t + h_taken)) <= 1e-12 * R->end ? R->end : R->t + h_taken;
+        const double following = ra_accepted(R, h_taken, error);
+        R->t = ra_after(R, R->t, h_taken);
         for (int m = 0; m < 4; m++)
             R->maxima[m] = grown[m];
-        const int places = R->order + 1;
         int at;
         if (event) {  /* the estimate starts again from this state: its derivatives jump */
             R->head = at = 0;
             R->count = 1;
             R->events++;
-        } else if (R->count == places) {  /* the oldest state's place */
-            at = R->head;
-            R->head = (R->head + 1) % places;
         } else {
-            at = (R->head + R->count++) % places;
+            at = ra_place(R);
         }
         double *kept = R->past + (size_t)at * size;
         memcpy(kept, R->values, sizeof(double) * 3 * (size_t)n);
