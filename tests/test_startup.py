@@ -34,3 +34,24 @@ def test_a_users_choice_stands(environ, name):
     environ.setenv(name, "theirs")
     entry.single_process_mpi()
     assert entry.os.environ[name] == "theirs"
+
+
+def test_a_commands_parser_alone_is_the_one_of_the_full_parser():
+    """``rodfem COMMAND …`` builds COMMAND's parser alone: the same arguments, defaults and help
+    as in the full parser, for every command there is."""
+    from rodfem import cli
+
+    def choices(parser):
+        return parser._subparsers._group_actions[0].choices
+
+    def described(parser):
+        return [(a.option_strings, a.dest, a.default, a.nargs, a.help, a.choices)
+                for a in parser._actions]
+
+    full = choices(cli.parser())
+    assert set(cli.ADDERS) == set(full)
+    for name in cli.ADDERS:
+        alone = choices(cli.parser(name))
+        assert name in alone and len(alone) <= 2  # verify makes work-precision too
+        assert described(alone[name]) == described(full[name]), name
+        assert alone[name].description == full[name].description
