@@ -244,6 +244,7 @@ static inline int ra_place(ra_run *R)
  * off s: the largest |Theta|, |D| (but an end without mass), |U| and |U(i) - U(i - 1)|, each
  * NaN where one is (four running maxima a block, a maximum being the same in any order). With
  * k = 0 the sizes alone (states, weight and sq unused). */
+__attribute__((always_inline))  /* each caller's k a constant: its own loop */
 static inline void ra_differences(int n, const double *restrict s, const double *const *states,
                                   const double *weight, double factor, const int k,
                                   int massless_end, double *restrict sq, double largest[3],
