@@ -220,6 +220,19 @@ static inline double ra_rejected(const ra_run *R, double h, double error)
     return h * ra_pymin(RA_SAFETY, ra_pymax(RA_SHRINK, factor));
 }
 
+/* AdaptiveStepper._reject of the step h (home restored by the caller): counted, the next size
+ * set; RA_TOO_SMALL where it is below dt_min (R->wanted = h), else -2. */
+static inline long ra_reject(ra_run *R, double h, double error)
+{
+    R->rejected++;
+    R->h = ra_rejected(R, h, error);
+    if (R->h < R->dt_min) {
+        R->wanted = h;
+        return RA_TOO_SMALL;
+    }
+    return -2;
+}
+
 /* AdaptiveStepper._accept's time after a step h from t (the end itself within 1e-12 of it). */
 static inline double ra_after(const ra_run *R, double t, double h)
 {
@@ -614,15 +627,9 @@ static long ra_restart(ra_run *R, long max_steps)
     }
     const double p2 = ra_measured(R);
     double error = ra_halves_error(R, R->values, p2);
-    if (!(error <= 1.0)) {  /* Controller.rejected of the step */
-        R->rejected++;
+    if (!(error <= 1.0)) {
         ra_restore_held(R, step, iterations, pressure);
-        R->h = ra_rejected(R, h, error);
-        if (R->h < R->dt_min) {
-            R->wanted = h;
-            return RA_TOO_SMALL;
-        }
-        return -2;
+        return ra_reject(R, h, error);
     }
     /* Controller.accepted of the second half, then AdaptiveStepper._accept of both */
     const double following = ra_accepted(R, half, error);
@@ -718,14 +725,11 @@ long RA_NAME(ra_run *R, long max_steps)
         double grown[4];
         const double measured = ra_measured(R);
         double error = ra_predicted(R, h_taken, R->values, measured, grown);
-        if (!(error <= 1.0)) {  /* Controller.rejected */
-            R->rejected++;
+        if (!(error <= 1.0)) {
             ra_restore(R, step, iterations, pressure);
-            R->h = ra_rejected(R, h_taken, error);
-            if (R->h < R->dt_min) {
-                R->wanted = h_taken;
-                return RA_TOO_SMALL;
-            }
+            const long code = ra_reject(R, h_taken, error);
+            if (code != -2)
+                return code;
             continue;
         }
         /* Controller.accepted, then AdaptiveStepper._accept */
