@@ -53,9 +53,7 @@ def parser(command: str | None = None) -> argparse.ArgumentParser:
     )
     add_version(parser)
     sub = parser.add_subparsers(dest="command", required=True)
-    adders = (_run, _sweep, _fit, _sensitivity, _resume, _plot, _paper, _stability, _verify,
-              _steady, _prepare)
-    for add in (ADDERS[command],) if command in ADDERS else adders:
+    for add in (ADDERS[command],) if command in ADDERS else dict.fromkeys(ADDERS.values()):
         add(sub)
     return parser
 
@@ -87,9 +85,8 @@ def _prepare(sub) -> None:
         help="compile the loops, forms and operators of scenes ahead of their first run",
         description="Run each scene named (by default every built-in one) for three steps, "
         "fixed and adaptive, into a temporary directory, so that its compiled loops, forms and "
-        "operators are in the "
-        "per-user caches before its first run ('make setup' does this for the built-in "
-        "scenes).",
+        "operators are in the per-user caches before its first run ('make setup' does this for "
+        "the built-in scenes).",
     )
     prepare.add_argument("scenes", nargs="*", metavar="SCENE",
                          help=f"built-in scenes ({', '.join(BUILTIN + EXTRA)}) or TOML files")
@@ -351,7 +348,8 @@ def _steady(sub) -> None:
     add_format(steady, "the scene's output.figure_format, else png")
 
 
-# Each subcommand's parser's maker (``verify`` makes ``work-precision`` too).
+# Each subcommand's parser's maker, in the order of the help (``verify`` makes
+# ``work-precision`` too).
 ADDERS = {"run": _run, "sweep": _sweep, "fit": _fit, "sensitivity": _sensitivity,
           "resume": _resume, "plot": _plot, "paper": _paper, "stability": _stability,
           "verify": _verify, "work-precision": _verify, "steady": _steady, "prepare": _prepare}

@@ -33,7 +33,7 @@ for name in sys.argv[2:]:
 """
 
 
-def rodfem(*arguments, cache: Path, cwd: Path) -> subprocess.CompletedProcess:
+def python(*arguments, cache: Path, cwd: Path) -> subprocess.CompletedProcess:
     env = dict(os.environ, XDG_CACHE_HOME=str(cache))
     return subprocess.run([sys.executable, *arguments], capture_output=True, text=True, env=env,
                           cwd=cwd, timeout=600)
@@ -49,7 +49,7 @@ def cached(cache: Path) -> dict[str, int | None]:
 
 def test_after_prepare_no_built_in_scene_compiles_or_assembles_anything(tmp_path):
     cache = tmp_path / "cache"
-    done = rodfem("-m", "rodfem", "prepare", cache=cache, cwd=tmp_path)
+    done = python("-m", "rodfem", "prepare", cache=cache, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     for name in (*BUILTIN, *EXTRA):
         assert f"prepared {name} (" in done.stdout
@@ -57,7 +57,7 @@ def test_after_prepare_no_built_in_scene_compiles_or_assembles_anything(tmp_path
     assert any(name.startswith("fenics/") for name in before)  # the forms, compiled
     assert any(name.startswith("rodfem/operators-") for name in before)
     assert not any(tmp_path.glob("rodfem-prepare-*"))
-    done = rodfem("-c", RUNS, str(tmp_path / "runs"), *BUILTIN, *EXTRA, cache=cache,
+    done = python("-c", RUNS, str(tmp_path / "runs"), *BUILTIN, *EXTRA, cache=cache,
                   cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert cached(cache) == before
@@ -67,12 +67,12 @@ def test_prepare_takes_a_users_scene_and_refuses_a_wrong_name_before_running(tmp
     scene = tmp_path / "mine.toml"
     scene.write_text('scene = "paper1"\n[mesh]\ncells = 40\n')
     cache = tmp_path / "cache"
-    done = rodfem("-m", "rodfem", "prepare", str(scene), "--quiet", cache=cache, cwd=tmp_path)
+    done = python("-m", "rodfem", "prepare", str(scene), "--quiet", cache=cache, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert done.stdout == ""
     operators = {n for n in cached(cache) if n.startswith("rodfem/operators-")}
     assert operators
-    done = rodfem("-m", "rodfem", "prepare", "paper1", "nosuch", cache=tmp_path / "other",
+    done = python("-m", "rodfem", "prepare", "paper1", "nosuch", cache=tmp_path / "other",
                   cwd=tmp_path)
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()
@@ -90,11 +90,11 @@ def test_a_prepared_scene_runs_to_the_same_history_as_an_unprepared_one(tmp_path
     histories = []
     for prepared in (False, True):
         if prepared:
-            done = rodfem("-m", "rodfem", "prepare", str(scene), "--quiet", cache=cache,
+            done = python("-m", "rodfem", "prepare", str(scene), "--quiet", cache=cache,
                           cwd=tmp_path)
             assert done.returncode == 0, done.stderr
         out = tmp_path / f"run{int(prepared)}"
-        done = rodfem("-m", "rodfem", "run", "paper1", *[f"--set={o}" for o in overrides],
+        done = python("-m", "rodfem", "run", "paper1", *[f"--set={o}" for o in overrides],
                       "--out", str(out), "--quiet", cache=cache if prepared else tmp_path / "c0",
                       cwd=tmp_path)
         assert done.returncode == 0, done.stderr
