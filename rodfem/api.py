@@ -99,15 +99,11 @@ def _simulate(scene, overrides, out, comm, force: bool, progress: bool) -> Resul
 
     comm = comm or MPI.COMM_WORLD
     resolved = scene_of(scene, overrides)
+    if resolved.targets:  # an accuracy target: the mesh and steps chosen for it
+        return _simulate_to_target(resolved, out, comm, force, progress)
     if out is None:
-        result = run(resolved, None, comm, progress=progress, keep_fields=True)
-        fields = None
-        if result.fields is not None:
-            _, t, values = result.fields
-            x = result.x
-            fields = Fields(x, t, (x[1:] + x[:-1]) / 2, **values)
-        done = Result(resolved, result.summary,
-                      named_history(result.history, for_scene(resolved)), fields)
+        done = _in_memory(resolved, run(resolved, None, comm, progress=progress,
+                                        keep_fields=True))
     else:
         out = Path(out)
         from rodfem.output.files import write_text
@@ -120,6 +116,49 @@ def _simulate(scene, overrides, out, comm, force: bool, progress: bool) -> Resul
     if comm.rank == 0:
         _warn_coarse(done)
     return done
+
+
+def _in_memory(scene, result) -> Result:
+    """The :class:`Result` of a run made without files."""
+    fields = None
+    if result.fields is not None:
+        _, t, values = result.fields
+        x = result.x
+        fields = Fields(x, t, (x[1:] + x[:-1]) / 2, **values)
+    return Result(scene, result.summary, named_history(result.history, for_scene(scene)), fields)
+
+
+def _simulate_to_target(scene, out, comm, force: bool, progress: bool) -> Result:
+    """:func:`simulate` of a scene with an accuracy target (:mod:`rodfem.studies.accuracy`):
+    the reported run's result, its ``errors``; a target not met warns
+    (:class:`AccuracyWarning`, on rank 0)."""
+    from rodfem.output.directories import ACCURACY_FILES, RUN_FILES, finish, prepare_directory
+    from rodfem.studies.accuracy.ladder import AccuracyWarning, LadderFailed, not_met_line
+    from rodfem.studies.accuracy.run import simulate_to_target
+
+    if out is not None:
+        out = Path(out)
+        from rodfem.output.files import write_text
+
+        prepare_directory(out, force, comm, files=(*RUN_FILES, *ACCURACY_FILES))
+        write_text(out / "scene.toml", scene.to_toml(), comm)
+    try:
+        chosen, result, record = simulate_to_target(scene, out, comm, progress=progress,
+                                                    keep_fields=out is None)
+    except LadderFailed as err:  # the failed or stopped run of the ladder, as a run's result
+        if out is not None:
+            finish(out, err.result.status, comm)
+        return _in_memory(err.scene, err.result)
+    if out is None:
+        done = _in_memory(chosen, result)
+    else:
+        comm.barrier()
+        done = load(out)
+    missed = not_met_line(record)
+    if missed is not None and comm.rank == 0:
+        warnings.warn(missed, AccuracyWarning, stacklevel=4)
+    return done
+
 
 
 def _warn_coarse(result: Result) -> None:

@@ -87,20 +87,22 @@ class SetUps:
 def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
              progress: bool = True, force_progress: bool = False,
              resume: tuple[dict, dict] | None = None, setups: SetUps | None = None,
-             keep_fields: bool = False):
+             keep_fields: bool = False, annotate: dict | None = None):
     """Run ``scene`` into the (already created) directory ``out``; return a :class:`RunResult`.
 
     With ``out=None`` nothing is written: the history is returned (``RunResult.history``), and
     with ``keep_fields`` the saved fields too (``RunResult.fields``, on rank 0).
     ``resume``: the checkpoint (arrays, metadata) of ``out`` to continue from
     (:mod:`rodfem.output.checkpoint`). ``setups``: where to find (and keep) a discretisation
-    this scene can share with others (:class:`SetUps`). The progress bar is drawn on a terminal
+    this scene can share with others (:class:`SetUps`). ``annotate``: entries added to the
+    summary (an accuracy target's estimates: :mod:`rodfem.studies.accuracy`). The progress bar is drawn on a terminal
     (``progress``), or always with ``force_progress``: under mpirun, output is not a terminal.
 
     Signals (Ctrl-C, SIGTERM, SIGHUP, SIGUSR1) stop the run at the end of a step, with its files
     whole and a checkpoint to resume from (:mod:`rodfem.output.interrupts`)."""
     started = time.perf_counter()
     run = Simulation(scene, out, comm, resume, setups, keep_fields)
+    run.annotate = annotate or {}
     on_terminal = sys.stderr.isatty() or force_progress
     enabled = progress and comm.rank == 0 and on_terminal
     bar = (Progress(scene["time.end"], enabled, of_time=True) if scene.adaptive
@@ -115,6 +117,8 @@ class Simulation:
     """One simulation's parts: its set-up (the discretisation, the method, the history and the
     files, a checkpoint's state restored), the time loop with its saves and checkpoints
     (:meth:`loop`), and the outcome written (:meth:`outcome`)."""
+
+    annotate: dict = {}  # entries added to the summary (simulate's)
 
     def __init__(self, scene: Scene, out: Path | None, comm: MPI.Comm,
                  resume: tuple[dict, dict] | None, setups: SetUps | None, keep_fields: bool):
@@ -404,6 +408,7 @@ class Simulation:
             summary["checkpoint_seconds"] = files.seconds  # rank 0's: it writes them
         if io_error:
             summary["error"] = io_error[0]
+        summary.update(self.annotate)
         if self.out is not None:
             self.write_summary(summary, status)
         return RunResult(status, summary, error, self.disc.nodes.x.copy(),

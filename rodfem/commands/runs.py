@@ -67,7 +67,8 @@ def run(args: argparse.Namespace) -> int:
         # A directory marked is one with its scene.toml, which resume reads: a signal between
         # the two is taken after both.
         with interrupts.deferred():
-            prepare_directory(out, args.force, MPI.COMM_WORLD, keep=scene_file)
+            prepare_directory(out, args.force, MPI.COMM_WORLD, keep=scene_file,
+                              files=run_files(scene))
             write_text(out / "scene.toml", scene.to_toml(), MPI.COMM_WORLD)
     except (OutputError, SizeError) as err:
         say(f"rodfem: error: {err}")
@@ -75,11 +76,69 @@ def run(args: argparse.Namespace) -> int:
     if interrupts.signal_received() is not None:
         raise interrupts.Interrupted(interrupts.signal_received())
     handover.pause_for_tests(MPI.COMM_WORLD)
+    if scene.targets:
+        return run_to_target(scene, out, args.quiet)
     from rodfem.run import simulate
 
     result = simulate(scene, out, MPI.COMM_WORLD, progress=not args.quiet,
                       force_progress=args.progress)
     return report_run(scene, result, out, args.quiet)
+
+
+def run_to_target(scene, out: Path, quiet: bool) -> int:
+    """A scene with an accuracy target (:mod:`rodfem.studies.accuracy`): its ladder of runs,
+    each said in a line (unless ``quiet``), then the reported run into ``out``, its line, and
+    the estimates (a warning for a target not met, said even when quiet)."""
+    from mpi4py import MPI
+
+    from rodfem.output.directories import finish
+    from rodfem.studies.accuracy.ladder import LadderFailed, not_met_line
+    from rodfem.studies.accuracy.run import simulate_to_target
+
+    talk = None if quiet else (lambda line: say(f"rodfem: {line}"))
+    try:
+        chosen, result, record = simulate_to_target(scene, out, MPI.COMM_WORLD, talk,
+                                                    progress=not quiet)
+    except LadderFailed as err:  # nothing written but the scene: a resume starts it again
+        failed = err.result
+        finish(out, "interrupted" if failed.status == "interrupted" else "failed",
+               MPI.COMM_WORLD)
+        where = f"{err.scene['mesh.cells']} cells"
+        if failed.status == "interrupted":
+            import signal
+
+            name = signal.Signals(failed.signal).name if failed.signal else "a signal"
+            say(f"rodfem: interrupted by {name} while choosing the mesh and steps (a run on "
+                f"{where}); 'rodfem resume {out}' starts the choice again")
+            return 128 + (failed.signal or signal.SIGINT)
+        say(f"rodfem: a run on {where} chosen for the accuracy target failed: "
+            f"{_advice(err.scene, failed.error)} Nothing but the scene is in {out}.")
+        return EXIT_DIVERGED
+    code = report_run(chosen, result, out, quiet)
+    if code == 0:
+        missed = not_met_line(record)
+        if missed is not None:
+            say(f"rodfem: warning: {missed}")
+        elif not quiet:
+            say(f"rodfem: {accuracy_line(record)}", sys.stdout)
+    return code
+
+
+def accuracy_line(record: dict) -> str:
+    """The estimates of a run whose targets are met, in one line."""
+    accuracy = record["accuracy"]
+    step = next(f"{key} = {accuracy[key]:g}" for key in ("tolerance", "dt") if key in accuracy)
+    parts = [f"{name} = {e['value']:.6g} ± {e['error']:.2g} (target {e['target']:g})"
+             for name, e in accuracy["measures"].items()]
+    return (f"accuracy met: {'; '.join(parts)}; {accuracy['cells']} cells, time.{step}, "
+            f"{accuracy['runs']} runs")
+
+
+def run_files(scene) -> tuple[str, ...]:
+    """The files a run of ``scene`` writes into its directory."""
+    from rodfem.output.directories import ACCURACY_FILES, RUN_FILES
+
+    return (*RUN_FILES, *ACCURACY_FILES) if scene.targets else RUN_FILES
 
 
 def report_run(scene, result, out: Path, quiet: bool) -> int:
@@ -164,9 +223,12 @@ def resume(args: argparse.Namespace) -> int:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
     from rodfem.run import simulate
+    from rodfem.studies.accuracy.run import recorded
 
+    if scene.targets:  # stopped while choosing its mesh and steps: chosen again
+        return run_to_target(scene, out, args.quiet)
     if checkpoint is None and not args.quiet:
         say(f"rodfem: {out} has no checkpoint yet; running it again from step 0")
     result = simulate(scene, out, comm, progress=not args.quiet, force_progress=args.progress,
-                      resume=checkpoint)
+                      resume=checkpoint, annotate=recorded(out))
     return report_run(scene, result, out, args.quiet)

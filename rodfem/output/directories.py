@@ -42,6 +42,7 @@ if TYPE_CHECKING:
 
 RUN_FILES = ("history.h5", "fields.xdmf", "fields", "scene.toml", "summary.json",
              "checkpoint.npz")
+ACCURACY_FILES = ("accuracy.csv", "accuracy.json")  # a run with an accuracy target's too
 FIGURE_DIRS = ("figures", "figure5")
 # The names of the figures rodfem draws (rodfem.post; "_<run>" when several runs are drawn).
 FIGURE_NAMES = re.compile(r"^((contact|energy)(_.+)?\.(png|pdf|svg)"

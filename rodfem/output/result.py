@@ -85,6 +85,12 @@ class Result:
         columns = {name: self.history[name] for name in self.history.dtype.names}
         return _measures(columns, self.scene, self.summary)
 
+    @property
+    def errors(self) -> dict[str, float]:
+        """The estimated absolute error of each measure held to an accuracy target
+        (``[accuracy]``: summary.json's ``errors``); empty for a run without one."""
+        return dict(self.summary.get("errors") or {})
+
     def to_pandas(self):
         """The history as a ``pandas.DataFrame`` indexed by t (a row per kept step, as
         :attr:`history`), a column per other name with the history's own values and dtype

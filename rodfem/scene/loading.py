@@ -95,6 +95,7 @@ def _check_consistency(scene: Scene) -> None:
     _check_steps(scene)
     _check_mass(scene)
     _check_data(scene)
+    _check_accuracy(scene)
 
 
 def _check_combinations(scene: Scene) -> None:
@@ -199,6 +200,18 @@ def _check_adaptive(scene: Scene) -> None:
         raise SceneError(f"time.dt: the first step must be >= time.dt_min = {low!r}, got {dt!r}")
     if high and dt > high:
         raise SceneError(f"time.dt: the first step must be <= time.dt_max = {high!r}, got {dt!r}")
+
+
+def _check_accuracy(scene: Scene) -> None:
+    """An accuracy target needs measures to hold to it, and room to refine the mesh."""
+    if scene["accuracy.target"] > 0.0 and not scene.measures:
+        raise SceneError("accuracy.target: holds the measures a scene declares, and this one "
+                         'declares none; add them in a [measures] table, e.g. peak = { column = '
+                         '"sigma_1", reduce = "max_abs" } (docs/accuracy.md)')
+    most, cells = scene["accuracy.cells_max"], scene["mesh.cells"]
+    if most and most < cells:
+        raise SceneError(f"accuracy.cells_max: must be 0 or at least mesh.cells = {cells}, "
+                         f"got {most}")
 
 
 def _check_data(scene: Scene) -> None:

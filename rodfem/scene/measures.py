@@ -39,6 +39,8 @@ ENTRIES = {
     "reduce": ("choice", True, "what is made of the column over the window"),
     "window": ("list of reals", False, "the interval of time [t0, t1] reduced over; without "
                "one, the whole run"),
+    "target": ("real", False, "the relative error wanted of this measure, 0 < target <= 0.5, "
+               "in place of accuracy.target (docs/accuracy.md)"),
 }
 ENTRY_KEYS = tuple(ENTRIES)
 # The built-in measures' names (rodfem.output.measures.NAMES) and results.csv's own columns.
@@ -47,6 +49,7 @@ BUILTIN_NAMES = ("t_final", "u_1_final", "sigma_1_final", "max_penetration", "co
                  "loop_seconds")
 RESERVED = (*BUILTIN_NAMES, "index", "status", "error")
 NAME = re.compile(r"[a-z_][a-z0-9_]*")
+MAX_TARGET = 0.5  # the largest relative error a target may ask (accuracy.target's bound)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,12 +61,15 @@ class Declared:
     column: str
     reduce: str
     window: tuple[float, float] | None = None
+    target: float | None = None  # the relative error wanted (None: accuracy.target's)
 
     def data(self) -> dict[str, Any]:
         """As TOML data: what :func:`parse` reads back."""
         entry: dict[str, Any] = {"column": self.column, "reduce": self.reduce}
         if self.window is not None:
             entry["window"] = list(self.window)
+        if self.target is not None:
+            entry["target"] = self.target
         return entry
 
 
@@ -134,7 +140,16 @@ def entry(name: Any, spec: Any, adaptive: bool, end: float) -> Declared:
         shown = repr(reduce) if isinstance(reduce, str) else "of another kind"
         raise SceneError(f"{what}: unknown reduce {shown}; allowed: {', '.join(REDUCTIONS)}")
     window = _window(what, spec["window"], end) if "window" in spec else None
-    return Declared(name, _column(what, spec["column"], adaptive), reduce, window)
+    target = _target(what, spec["target"]) if "target" in spec else None
+    return Declared(name, _column(what, spec["column"], adaptive), reduce, window, target)
+
+
+def _target(what: str, target: Any) -> float:
+    number = isinstance(target, (int, float)) and not isinstance(target, bool)
+    if not number or not 0.0 < target <= MAX_TARGET:
+        raise SceneError(f"{what}: target must be a number with 0 < target <= {MAX_TARGET:g} "
+                         f"(a relative error), got {target!r}")
+    return float(target)
 
 
 def parse(table: Any, adaptive: bool, end: float) -> tuple[Declared, ...]:
@@ -177,5 +192,7 @@ def toml_lines(measures: tuple[Declared, ...]) -> list[str]:
     lines = ["[measures]"]
     for m in measures:
         window = f", window = [{m.window[0]!r}, {m.window[1]!r}]" if m.window else ""
-        lines.append(f'{m.name} = {{ column = "{m.column}", reduce = "{m.reduce}"{window} }}')
+        target = f", target = {m.target!r}" if m.target is not None else ""
+        lines.append(f'{m.name} = {{ column = "{m.column}", reduce = "{m.reduce}"{window}'
+                     f'{target} }}')
     return [*lines, ""]

@@ -9,7 +9,7 @@ from typing import Any
 
 from rodfem.scene.expressions import Expression, shorten
 from rodfem.scene.measures import Declared, toml_lines
-from rodfem.scene.schema import MODEL_NAMES, SCHEMA, SOURCE_NAMES, Key
+from rodfem.scene.schema import MODEL_NAMES, OPTIONAL_SECTIONS, SCHEMA, SOURCE_NAMES, Key
 from rodfem.scene.values import _check_value, _toml_value
 
 
@@ -37,8 +37,14 @@ class Scene(Mapping):
             raise KeyError(dotted) from None
 
     def __iter__(self) -> Iterator[str]:
-        return (f"{section}.{key}" for section, keys in SCHEMA.items()
+        return (f"{section}.{key}" for section, keys in SCHEMA.items() if self._written(section)
                 for key, spec in keys.items() if _applies(self, spec))
+
+    def _written(self, section: str) -> bool:
+        """Whether the resolved scene writes ``section``: every section but an optional one
+        (:data:`~rodfem.scene.schema.OPTIONAL_SECTIONS`) whose keys all hold their defaults."""
+        return section not in OPTIONAL_SECTIONS or any(
+            self.sections[section][key] != spec.default for key, spec in SCHEMA[section].items())
 
     def __len__(self) -> int:
         return sum(1 for _ in self)
@@ -46,7 +52,7 @@ class Scene(Mapping):
     def __contains__(self, dotted: object) -> bool:
         section, _, key = dotted.partition(".") if isinstance(dotted, str) else ("", "", "")
         spec = SCHEMA.get(section, {}).get(key)
-        return spec is not None and _applies(self, spec)
+        return spec is not None and self._written(section) and _applies(self, spec)
 
     def get(self, dotted: str, default: Any = None) -> Any:
         """The value of a key that applies, else ``default`` (as for a dict)."""
@@ -54,6 +60,14 @@ class Scene(Mapping):
 
     def __repr__(self) -> str:
         return _summary(self)
+
+    @property
+    def targets(self) -> dict[str, float]:
+        """The relative error wanted of each declared measure ({name: target}; empty: none,
+        the scene's own mesh and steps): its own ``target``, else ``accuracy.target``."""
+        common = self.sections["accuracy"]["target"]
+        wanted = {m.name: m.target if m.target is not None else common for m in self.measures}
+        return {name: target for name, target in wanted.items() if target > 0.0}
 
     @property
     def steps(self) -> int:
@@ -84,7 +98,8 @@ class Scene(Mapping):
         :func:`validate` of it gives this scene again; a ``measures`` table where it declares
         any."""
         data = {section: {key: self.sections[section][key] for key, spec in keys.items()
-                          if _applies(self, spec)} for section, keys in SCHEMA.items()}
+                          if _applies(self, spec)} for section, keys in SCHEMA.items()
+                if self._written(section)}
         if self.measures:
             data["measures"] = {m.name: m.data() for m in self.measures}
         return data

@@ -59,6 +59,8 @@ REDISTRIBUTED = ("redistributed", "redistributed-lumped", "dispersion-free")
 FIELDS = ("theta", "u", "sigma", "velocity", "heat_flux")
 QUANTITIES = ("theta_1", "heat_flux_1", "contact_force", "contact", "penetration")
 FIGURE_FORMATS = ("png", "pdf", "svg")  # rodfem.output.figures
+# Sections a resolved scene writes only where one of their keys is not the default.
+OPTIONAL_SECTIONS = ("accuracy",)
 
 
 SCHEMA: dict[str, dict[str, Key]] = {
@@ -164,6 +166,21 @@ SCHEMA: dict[str, dict[str, Key]] = {
     "source": {
         "heat": Key("expression", "0", help="source of the heat equation, in x and t"),
         "momentum": Key("expression", "0", help="source of the momentum equation, in x and t"),
+    },
+    # A run told how accurate its declared measures must be chooses its own mesh and steps
+    # (rodfem.studies.accuracy); the section is written only where a key differs from its default.
+    "accuracy": {
+        "target": Key("real", 0.0, minimum=0.0, maximum=0.5,
+                      help="the relative error wanted on every declared measure (a measure may "
+                      "give its own target); the run then refines mesh.cells and the time step "
+                      "(time.tolerance, or time.dt with fixed steps) until each measure's "
+                      "estimated error is within it; 0: no target, the scene's mesh and steps"),
+        "cells_max": Key("integer", 0, minimum=0, maximum=MAX_CELLS,
+                         help="the most cells the refinement may take; 0: 64 times mesh.cells, "
+                         "at most 100000"),
+        "runs_max": Key("integer", 10, minimum=3, maximum=100,
+                        help="the most runs the refinement may make, the run reported "
+                        "included"),
     },
     "output": {
         "every": Key("integer", 0, minimum=0, maximum=MAX_STEPS,

@@ -1,0 +1,65 @@
+"""How far a measure is from its converged value, from runs refined in one direction.
+
+Two runs that differ only in h (cells c and 2c), or only in the time step (Δt and Δt/2 with fixed
+steps, tolerance τ and τ/10 with adaptive ones), differ in a measure m by d = |m_fine − m_coarse|.
+If the error of m falls by a factor R ≥ 2 from one run to the next, the finer run's error is
+d/(R − 1) ≤ d: the difference alone bounds it. A third, coarser run gives the rate R of this
+measure, observed: R = d₀/d with d₀ the difference before. Then
+
+* the order is p = log(R)/log(ρ) (ρ: the refinement, 2 in h and in Δt, 10 in the tolerance);
+* in h and in Δt, where the scheme has an order q (P1: 2 in h; the paper's scheme 1 and
+  Crank–Nicolson 2 in Δt), the measure is *in its asymptotic range* where |p − q| ≤ :data:`BAND`,
+  and the finer run's error is d/(ρ^p' − 1) with p' = min(p, q) (Richardson with the smaller of
+  the two orders: never below the scheme's own estimate);
+* outside that band, or for the tolerance (which has no order of its own), the same with R
+  taken as at most 2: the error is at least the difference d itself, and where the differences
+  do not shrink, the larger of the two (the measure is not converging yet: its runs are refined
+  further).
+
+These are estimates, not bounds: ``tests/test_accuracy_targets.py`` measures how often they cover
+the true error (against runs converged in both h and Δt) and by how much they exceed it.
+NumPy-free.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+SPACE_ORDER = 2  # P1 elements, in h
+TIME_ORDERS = {"paper": 1, "crank-nicolson": 2}
+BAND = 0.5  # |observed order − the scheme's| within which a measure is in its asymptotic range
+TOLERANCE_RATIO = 10.0  # each adaptive run's tolerance over the next one's
+
+
+@dataclasses.dataclass(frozen=True)
+class Estimate:
+    """The estimated error of a measure in one direction: ``error`` (absolute), the difference
+    it came from, the observed order (None: two runs only) and whether that order is the
+    scheme's (None: no scheme order to check, or two runs only)."""
+
+    error: float
+    difference: float
+    order: float | None = None
+    asymptotic: bool | None = None
+
+
+def estimate(values: list[float], ratio: float, order: float | None) -> Estimate:
+    """The error of the last of ``values`` (a measure over runs refined by ``ratio`` each, the
+    coarsest first; two or three of them), the scheme's ``order`` in that direction (None:
+    none)."""
+    if len(values) < 2:
+        raise ValueError("an estimate needs two runs at least")
+    d = abs(values[-1] - values[-2])
+    if len(values) == 2:
+        return Estimate(d, d)
+    before = abs(values[-2] - values[-3])
+    if d == 0.0:
+        return Estimate(0.0, 0.0, math.inf if before > 0.0 else None, None)
+    if before <= d:  # not converging (yet): the larger difference, no order
+        return Estimate(before, d, None, False if order else None)
+    rate = before / d
+    observed = math.log(rate) / math.log(ratio)
+    asymptotic = None if order is None else abs(observed - order) <= BAND
+    rate = min(rate, ratio ** order) if asymptotic else min(rate, 2.0)
+    return Estimate(d / (rate - 1.0), d, observed, asymptotic)

@@ -1,0 +1,319 @@
+"""A scene with an accuracy target run to it: the mesh and the time step refined until every
+targeted measure's estimated error is within its target (``[accuracy]``, docs/accuracy.md).
+
+The runs (each a plain run of the scene, in memory, its mesh and time step set):
+
+1. the scene's own cells c₀ and time step (``time.tolerance``, the scheme's default where 0, or
+   ``time.dt``), then 2c₀ at the same step: the error in h; then 2c₀ at the next time level (a
+   tenth of the tolerance, or half the step): the error in time;
+2. then, while some measure's estimate (its error in h plus its error in time, each from the
+   latest pair of runs that differ in that direction alone, :mod:`.estimates`) exceeds its target
+   times |m|, the direction whose estimate is the larger, for the measure furthest from its
+   target, is refined once more: cells doubled, or the next time level;
+3. until every measure is within its target (met), or ``accuracy.cells_max`` would be passed, or
+   ``accuracy.runs_max`` runs are made (not met: said, never hidden).
+
+The run reported is the last (the finest in both), made again into the run directory with its
+files. Each direction's error is measured where the runs differ in it alone: the error in h at
+the time level where it was last refined, and the error in time on the mesh where it was last
+refined, each taken to hold at the other's refinement (the adaptive steps hold a relative error
+whatever the mesh; a mesh's error does not depend on a time step far smaller than its own
+scales). Every run is deterministic, so the whole ladder is reproducible bit for bit from the
+scene, serially and on any number of ranks (each run uses them all).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from rodfem.scene import Scene
+from rodfem.scene.loading import validate
+from rodfem.scene.schema import MAX_STEPS, TOLERANCES
+from rodfem.studies.accuracy.estimates import (SPACE_ORDER, TIME_ORDERS, TOLERANCE_RATIO,
+                                               Estimate, estimate)
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+CELLS_FACTOR, CELLS_CAP = 64, 100_000  # accuracy.cells_max = 0: 64 c₀, at most 100,000
+COLUMNS = ("run", "cells", "time_step", "steps", "rejected_steps", "seconds")  # accuracy.csv
+
+
+@dataclasses.dataclass(frozen=True)
+class Rung:
+    """One run of the ladder: its cells, time level, the targeted measures' values, steps,
+    rejected steps and wall time."""
+
+    cells: int
+    level: int
+    values: dict[str, float]
+    steps: int
+    rejected: int
+    seconds: float
+
+
+class AccuracyWarning(UserWarning):
+    """A run with an accuracy target could not meet it within ``accuracy.cells_max`` and
+    ``accuracy.runs_max``: the message names each measure missed, its estimated error, and
+    why (the result is that of the finest run made)."""
+
+
+class LadderFailed(RuntimeError):
+    """A run of the ladder did not complete: ``result`` is its :class:`rodfem.run.RunResult`."""
+
+    def __init__(self, rung_scene: Scene, result):
+        super().__init__(result.status)
+        self.scene, self.result = rung_scene, result
+
+
+class Ladder:
+    """The runs of ``scene`` at its targets (:attr:`Scene.targets`), made by :meth:`climb`."""
+
+    def __init__(self, scene: Scene, comm: MPI.Comm, say: Callable[[str], None] | None = None):
+        if not scene.targets:
+            raise ValueError("the scene has no accuracy target")
+        self.scene, self.comm, self.say = scene, comm, say
+        self.targets = scene.targets
+        scheme = scene["time.scheme"]
+        self.adaptive = scene.adaptive
+        if self.adaptive:
+            self.time_key, self.ratio, self.order = "time.tolerance", TOLERANCE_RATIO, None
+            self.first = scene["time.tolerance"] or TOLERANCES[scheme]
+        else:
+            self.time_key, self.ratio, self.order = "time.dt", 2.0, TIME_ORDERS[scheme]
+            self.first = scene["time.dt"]
+        self.cells0 = scene["mesh.cells"]
+        self.cells_max = scene["accuracy.cells_max"] or max(
+            self.cells0, min(CELLS_FACTOR * self.cells0, CELLS_CAP))
+        self.runs_max = scene["accuracy.runs_max"]
+        self.rungs: dict[tuple[int, int], Rung] = {}
+        self.limit: str | None = None  # what stopped the refinement short of the targets
+        from rodfem.run import SetUps
+
+        self.setups = SetUps()
+
+    # -- the runs ------------------------------------------------------------------------------
+
+    def step(self, level: int) -> float:
+        """The time step (fixed) or tolerance (adaptive) of a time level."""
+        return self.first / self.ratio ** level
+
+    def scene_at(self, cells: int, level: int) -> Scene:
+        """The plain scene of a rung: the scene's, with its cells and time step, and no target
+        (running it gives that rung's run, bit for bit)."""
+        data = self.scene.data()
+        data.pop("accuracy", None)
+        data["mesh"]["cells"] = cells
+        data["time"][self.time_key.split(".")[1]] = self.step(level)
+        for entry in data.get("measures", {}).values():
+            entry.pop("target", None)
+        step = f"{self.time_key} = {self.step(level):g}"
+        chosen = f"{cells} cells and {step} chosen for its accuracy target"
+        data["description"] = f"{self.scene.description}; {chosen}" if self.scene.description \
+            else chosen
+        return validate(data, self.scene.source)
+
+    def run(self, cells: int, level: int) -> Rung:
+        from rodfem.run import simulate
+
+        scene = self.scene_at(cells, level)
+        started = time.perf_counter()
+        result = simulate(scene, None, self.comm, progress=False, setups=self.setups)
+        seconds = self.comm.allreduce(time.perf_counter() - started, op=_max())
+        if result.status != "complete":
+            raise LadderFailed(scene, result)
+        measures = result.summary["measures"]
+        adaptive = result.summary.get("adaptive") or {}
+        rung = Rung(cells, level, {name: float(measures[name]) for name in self.targets},
+                    int(result.summary["steps"]), int(adaptive.get("rejected", 0)), seconds)
+        self.rungs[cells, level] = rung
+        if self.say is not None:
+            self.say(self.line(rung))
+        return rung
+
+    # -- the estimates -------------------------------------------------------------------------
+
+    def _space(self, name: str, cells: int, level: int) -> Estimate | None:
+        """The error in h of ``name`` at (cells, level): from cells/2 (and cells/4) beside
+        cells, at this time level or one next to it (None: no such runs)."""
+        for k in (level, level - 1, level + 1):
+            chain = [self.rungs.get((cells // 4, k)), self.rungs.get((cells // 2, k)),
+                     self.rungs.get((cells, k))]
+            values = _trailing(chain, name)
+            if len(values) >= 2:
+                return estimate(values, 2.0, SPACE_ORDER)
+        return None
+
+    def _time(self, name: str, cells: int, level: int) -> Estimate | None:
+        """The error in time of ``name`` at (cells, level): from the time levels before it, on
+        this mesh or the one of half its cells (None: no such runs)."""
+        for c in (cells, cells // 2):
+            chain = [self.rungs.get((c, level - 2)), self.rungs.get((c, level - 1)),
+                     self.rungs.get((c, level))]
+            values = _trailing(chain, name)
+            if len(values) >= 2:
+                return estimate(values, self.ratio, self.order)
+        return None
+
+    def companions(self, cells: int, level: int) -> list[tuple[int, int]]:
+        """The runs (cells, level) still needed beside (cells, level) for an estimate in each
+        direction made near it: half its cells at its time level, its cells at the level
+        before."""
+        name = next(iter(self.targets))
+        needed = []
+        if self._space(name, cells, level) is None:
+            needed.append((cells // 2, level))
+        if self._time(name, cells, level) is None:
+            needed.append((cells, level - 1))
+        return needed
+
+    def errors(self, cells: int, level: int) -> dict[str, dict]:
+        """Each targeted measure at (cells, level): its value, error in h and in time, their
+        sum, and whether it is within its target."""
+        out = {}
+        rung = self.rungs[cells, level]
+        for name, target in self.targets.items():
+            space, time_ = self._space(name, cells, level), self._time(name, cells, level)
+            parts = [e.error for e in (space, time_) if e is not None]
+            error = sum(parts) if len(parts) == 2 else math.inf
+            value = rung.values[name]
+            out[name] = {"value": value, "error": error, "target": target,
+                         "met": bool(error <= target * abs(value)), "space": space,
+                         "time": time_}
+        return out
+
+    # -- the climb -----------------------------------------------------------------------------
+
+    def climb(self) -> tuple[int, int, dict[str, dict]]:
+        """Run until the targets are met or a limit is reached: the reported (cells, level) and
+        its :meth:`errors`."""
+        cells, level = self.cells0, 0
+        self.run(cells, level)
+        if 2 * cells > self.cells_max:
+            self.limit = "cells_max"
+            return cells, level, self.errors(cells, level)
+        cells *= 2
+        self.run(cells, level)
+        level += 1
+        self.run(cells, level)
+        while True:
+            for companion in self.companions(cells, level):
+                if len(self.rungs) >= self.runs_max:
+                    break
+                self.run(*companion)
+            errors = self.errors(cells, level)
+            if all(e["met"] for e in errors.values()):
+                return cells, level, errors
+            if len(self.rungs) >= self.runs_max:
+                self.limit = "runs_max"
+                return cells, level, errors
+            worst = max(errors.values(), key=_shortfall)
+            space = worst["space"].error >= worst["time"].error
+            if space and 2 * cells > self.cells_max:
+                self.limit = "cells_max"
+                return cells, level, errors
+            if not space and not self._time_room(level + 1):
+                self.limit = "time"
+                return cells, level, errors
+            if space:
+                cells *= 2
+            else:
+                level += 1
+            self.run(cells, level)
+
+    def _time_room(self, level: int) -> bool:
+        """Whether a time level can be run: a tolerance above 0 (its bound's floor), a fixed
+        step within the scene's bound on steps."""
+        step = self.step(level)
+        if self.adaptive:
+            return step >= 1e-14
+        return self.scene["time.end"] / step <= MAX_STEPS
+
+    # -- what is said and written --------------------------------------------------------------
+
+    def line(self, rung: Rung) -> str:
+        values = ", ".join(f"{name} = {value:.6g}" for name, value in rung.values.items())
+        rejected = f" ({rung.rejected} rejected)" if self.adaptive else ""
+        return (f"accuracy: run {len(self.rungs)} (at most {self.runs_max}): {rung.cells} cells, "
+                f"{self.time_key} = {self.step(rung.level):g}: {rung.steps} steps{rejected}, "
+                f"{values}, {rung.seconds:.2f} s")
+
+    def rows(self) -> list[dict]:
+        """accuracy.csv's rows: every run in the order made."""
+        return [{"run": i + 1, "cells": r.cells, "time_step": self.step(r.level),
+                 "steps": r.steps, "rejected_steps": r.rejected, "seconds": r.seconds,
+                 **r.values} for i, r in enumerate(self.rungs.values())]
+
+    def record(self, cells: int, level: int, errors: dict[str, dict]) -> dict:
+        """summary.json's ``errors`` and ``accuracy``."""
+        measures = {}
+        for name, e in errors.items():
+            entry = {"value": e["value"], "error": e["error"], "target": e["target"],
+                     "met": e["met"]}
+            for direction in ("space", "time"):
+                part: Estimate | None = e[direction]
+                entry[direction] = None if part is None else {
+                    "error": part.error, "difference": part.difference,
+                    "order": _finite(part.order), "asymptotic": part.asymptotic}
+            measures[name] = entry
+        met = all(e["met"] for e in errors.values())
+        return {"errors": {name: e["error"] for name, e in errors.items()},
+                "accuracy": {"target": self.scene["accuracy.target"] or None,
+                             "cells": cells, self.time_key.split(".")[1]: self.step(level),
+                             "runs": len(self.rungs), "met": met,
+                             "limit": None if met else self.limit,
+                             "cells_max": self.cells_max, "runs_max": self.runs_max,
+                             "seconds": sum(r.seconds for r in self.rungs.values()),
+                             "measures": measures}}
+
+
+def not_met_line(record: dict) -> str | None:
+    """The one warning line of targets not met (None: all met)."""
+    accuracy = record["accuracy"]
+    if accuracy["met"]:
+        return None
+    missed = [f"{name} ± {e['error']:.3g} ({_percent(e)} of {abs(e['value']):.6g}, target "
+              f"{e['target']:g})" for name, e in accuracy["measures"].items() if not e["met"]]
+    why = {"cells_max": f"more than accuracy.cells_max = {accuracy['cells_max']} cells "
+                        "would be needed",
+           "runs_max": f"accuracy.runs_max = {accuracy['runs_max']} runs were made",
+           "time": "the time step can be refined no further"}[accuracy["limit"]]
+    return (f"accuracy target not met for {'; '.join(missed)}: {why}; the run reported has "
+            f"{accuracy['cells']} cells")
+
+
+def _percent(e: dict) -> str:
+    if not math.isfinite(e["error"]) or e["value"] == 0.0:
+        return "an unknown share"
+    return f"{100.0 * e['error'] / abs(e['value']):.3g} %"
+
+
+def _shortfall(e: dict) -> float:
+    wanted = e["target"] * abs(e["value"])
+    return math.inf if wanted == 0.0 else e["error"] / wanted
+
+
+def _trailing(chain: list[Rung | None], name: str) -> list[float]:
+    """The values of ``name`` of the last runs of ``chain`` present in a row (ending with its
+    last; none if that is missing)."""
+    values = []
+    for rung in reversed(chain):
+        if rung is None:
+            break
+        values.append(rung.values[name])
+    return values[::-1]
+
+
+def _finite(value: float | None) -> float | None:
+    return value if value is None or math.isfinite(value) else None
+
+
+def _max():
+    from mpi4py import MPI
+
+    return MPI.MAX
+
