@@ -3,8 +3,8 @@
 Two runs that differ only in h (cells c and 2c), or only in the time step (Δt and Δt/2 with fixed
 steps, tolerance τ and τ/10 with adaptive ones), differ in a measure m by d = |m_fine − m_coarse|.
 If the error of m falls by a factor R ≥ 2 from one run to the next, the finer run's error is
-d/(R − 1) ≤ d: the difference alone bounds it. A third, coarser run gives the rate R of this
-measure, observed: R = d₀/d with d₀ the difference before. Then
+d/(R − 1) ≤ d: the difference alone bounds it. The pair one refinement coarser gives the rate R of
+this measure, observed: R = d₀/d with d₀ that pair's difference. Then
 
 * the order is p = log(R)/log(ρ) (ρ: the refinement, 2 in h and in Δt, 10 in the tolerance);
 * in h and in Δt, where the scheme has an order q (P1: 2 in h; the paper's scheme 1 and
@@ -44,16 +44,17 @@ class Estimate:
     asymptotic: bool | None = None
 
 
-def estimate(values: list[float], ratio: float, order: float | None) -> Estimate:
-    """The error of the last of ``values`` (a measure over runs refined by ``ratio`` each, the
-    coarsest first; two or three of them), the scheme's ``order`` in that direction (None:
-    none)."""
-    if len(values) < 2:
+def estimate(differences: list[float], ratio: float, order: float | None) -> Estimate:
+    """The error of the finer run of the last pair of runs refined by ``ratio`` in one
+    direction, from |m_fine − m_coarse| of that pair (``differences[-1]``) and, where known,
+    of the pair one refinement coarser (``differences[-2]``); the scheme's ``order`` in that
+    direction (None: none)."""
+    if not differences:
         raise ValueError("an estimate needs two runs at least")
-    d = abs(values[-1] - values[-2])
-    if len(values) == 2:
+    d = differences[-1]
+    if len(differences) == 1:
         return Estimate(d, d)
-    before = abs(values[-2] - values[-3])
+    before = differences[-2]
     if d == 0.0:
         return Estimate(0.0, 0.0, math.inf if before > 0.0 else None, None)
     if before <= d:  # not converging (yet): the larger difference, no order

@@ -137,27 +137,39 @@ class Ladder:
 
     # -- the estimates -------------------------------------------------------------------------
 
-    def _space(self, name: str, cells: int, level: int) -> Estimate | None:
-        """The error in h of ``name`` at (cells, level): from cells/2 (and cells/4) beside
-        cells, at this time level or one next to it (None: no such runs)."""
-        for k in (level, level - 1, level + 1):
-            chain = [self.rungs.get((cells // 4, k)), self.rungs.get((cells // 2, k)),
-                     self.rungs.get((cells, k))]
-            values = _trailing(chain, name)
-            if len(values) >= 2:
-                return estimate(values, 2.0, SPACE_ORDER)
+    def _difference(self, name: str, pairs) -> float | None:
+        """|m_fine − m_coarse| of ``name`` for the first pair ((coarse, fine) keys) made."""
+        for coarse, fine in pairs:
+            if coarse in self.rungs and fine in self.rungs:
+                return abs(self.rungs[fine].values[name] - self.rungs[coarse].values[name])
         return None
 
+    def _levels(self, level: int) -> list[int]:
+        """The time levels made, the nearest to ``level`` first (the finer of two as near)."""
+        return sorted({k for _, k in self.rungs}, key=lambda k: (abs(k - level), -k))
+
+    def _space(self, name: str, cells: int, level: int) -> Estimate | None:
+        """The error in h of ``name`` at (cells, level): from cells/2 beside cells at this time
+        level or one next to it (None: no such pair), and for its observed order the pair of
+        cells/4 and cells/2 at the nearest level that has it."""
+        last = self._difference(name, (((cells // 2, k), (cells, k))
+                                       for k in (level, level - 1, level + 1)))
+        if last is None:
+            return None
+        before = self._difference(name, (((cells // 4, k), (cells // 2, k))
+                                         for k in self._levels(level)))
+        return estimate([d for d in (before, last) if d is not None], 2.0, SPACE_ORDER)
+
     def _time(self, name: str, cells: int, level: int) -> Estimate | None:
-        """The error in time of ``name`` at (cells, level): from the time levels before it, on
-        this mesh or the one of half its cells (None: no such runs)."""
-        for c in (cells, cells // 2):
-            chain = [self.rungs.get((c, level - 2)), self.rungs.get((c, level - 1)),
-                     self.rungs.get((c, level))]
-            values = _trailing(chain, name)
-            if len(values) >= 2:
-                return estimate(values, self.ratio, self.order)
-        return None
+        """The error in time of ``name`` at (cells, level): from the level before on this mesh
+        or on half its cells (None: no such pair), and for its observed order the pair of the
+        two levels before that, on the finest mesh up to this one that has it."""
+        last = self._difference(name, (((c, level - 1), (c, level)) for c in (cells, cells // 2)))
+        if last is None:
+            return None
+        meshes = sorted({c for c, _ in self.rungs if c <= cells}, reverse=True)
+        before = self._difference(name, (((c, level - 2), (c, level - 1)) for c in meshes))
+        return estimate([d for d in (before, last) if d is not None], self.ratio, self.order)
 
     def companions(self, cells: int, level: int) -> list[tuple[int, int]]:
         """The runs (cells, level) still needed beside (cells, level) for an estimate in each
@@ -295,17 +307,6 @@ def _percent(e: dict) -> str:
 def _shortfall(e: dict) -> float:
     wanted = e["target"] * abs(e["value"])
     return math.inf if wanted == 0.0 else e["error"] / wanted
-
-
-def _trailing(chain: list[Rung | None], name: str) -> list[float]:
-    """The values of ``name`` of the last runs of ``chain`` present in a row (ending with its
-    last; none if that is missing)."""
-    values = []
-    for rung in reversed(chain):
-        if rung is None:
-            break
-        values.append(rung.values[name])
-    return values[::-1]
 
 
 def _finite(value: float | None) -> float | None:
