@@ -58,7 +58,7 @@ def estimate(differences: list[float], ratio: float, order: float | None) -> Est
     if d == 0.0:
         return Estimate(0.0, 0.0, math.inf if before > 0.0 else None, None)
     if before <= d:  # not converging (yet): the larger difference, no order
-        return Estimate(before, d, None, False if order else None)
+        return Estimate(d, d, None, False if order else None)
     rate = before / d
     observed = math.log(rate) / math.log(ratio)
     asymptotic = None if order is None else abs(observed - order) <= BAND

@@ -1,0 +1,246 @@
+"""Accuracy targets (``[accuracy]``): a run that chooses its own mesh and time step until each
+declared measure's estimated error is within its target, the estimates checked against exact
+values (the manufactured solution), the refusals, the run directory and its resume; serially
+and under ``mpirun -n 2`` (the same estimates, bit for bit)."""
+
+from __future__ import annotations
+
+import json
+import math
+import random
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+import rodfem
+from rodfem.scene import SceneError, load
+from rodfem.studies.accuracy.estimates import estimate
+
+COMM = MPI.COMM_WORLD
+RODFEM = str(Path(sys.executable).with_name("rodfem"))
+
+# The manufactured solution u = (cos t + sin t) sin(πx/2), θ = e^{−t} x (1 − x)² and three of its
+# measures' exact values at T: u(1, T), θ(1/2, T) and ∫₀ᵀ θ(1/2, t) dt.
+MEASURES = """
+[measures]
+u_end = { column = "u_1", reduce = "final" }
+theta_mid = { column = "theta@0.5", reduce = "final" }
+theta_int = { column = "theta@0.5", reduce = "integral" }
+"""
+
+
+def exact(end: float) -> dict[str, float]:
+    return {"u_end": math.cos(end) + math.sin(end), "theta_mid": math.exp(-end) / 8.0,
+            "theta_int": (1.0 - math.exp(-end)) / 8.0}
+
+
+def scene_file(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
+    path = tmp_path / name
+    if COMM.rank == 0:
+        path.write_text(text)
+    COMM.barrier()
+    return path
+
+
+@pytest.fixture
+def shared(tmp_path_factory):
+    """A directory all ranks share."""
+    path = COMM.bcast(str(tmp_path_factory.mktemp("accuracy")) if COMM.rank == 0 else None)
+    return Path(path)
+
+
+# -- the estimate of one direction -----------------------------------------------------------
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_richardson_is_exact_for_a_pure_power_law_in_its_asymptotic_range(order):
+    ratio, limit, c = 2.0, 3.0, 0.7
+    values = [limit + c * (0.1 / ratio**j) ** order for j in range(3)]
+    found = estimate([abs(values[1] - values[0]), abs(values[2] - values[1])], ratio, order)
+    assert found.asymptotic is True and found.order == pytest.approx(order, abs=1e-9)
+    assert found.error == pytest.approx(abs(values[2] - limit), rel=1e-9)
+
+
+def test_an_order_outside_the_schemes_band_is_not_trusted():
+    # errors falling as h^0.6 where the scheme promises h²: flagged, and the estimate is the
+    # geometric tail at the observed rate, never the scheme's (which would be 6 times too small)
+    values = [1.0 + 0.5 * (0.1 / 2**j) ** 0.6 for j in range(3)]
+    d = [abs(values[1] - values[0]), abs(values[2] - values[1])]
+    found = estimate(d, 2.0, 2)
+    assert found.asymptotic is False
+    true = abs(values[2] - 1.0)
+    assert found.error >= true * (1.0 - 1e-12)
+    # a rate faster than 2 outside the band is not trusted beyond 2: the difference itself
+    fast = estimate([1.0, 1.0 / 50.0], 2.0, 2)
+    assert fast.asymptotic is False and fast.error == pytest.approx(1.0 / 50.0)
+
+
+def test_differences_that_do_not_shrink_give_the_larger_and_no_order():
+    found = estimate([0.01, 0.02], 2.0, 2)
+    assert found.error == 0.02 and found.order is None and found.asymptotic is False
+    # two runs only: the difference (the error at least halves per refinement)
+    assert estimate([0.3], 10.0, None).error == 0.3
+
+
+# -- refusals --------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("text, wanted", [
+    ('scene = "stiff"\n[accuracy]\ntarget = 0.01\n', "declares none"),
+    ('scene = "stiff"\n[accuracy]\ntarget = 0.6\n' + MEASURES, "accuracy.target"),
+    ('scene = "stiff"\n[accuracy]\ntarget = 0.01\ncells_max = 100\n' + MEASURES,
+     "at least mesh.cells = 250"),
+    ('scene = "stiff"\n[measures]\np = { column = "sigma_1", reduce = "max", target = 0 }\n',
+     "0 < target <= 0.5"),
+    ('scene = "stiff"\n[measures]\np = { column = "sigma_1", reduce = "max", target = "1%" }\n',
+     "target must be a number"),
+])
+def test_bad_targets_are_one_line_exit_2_nothing_written(shared, text, wanted):
+    path = scene_file(shared, text.replace("theta@0.5", "u_1"), "bad.toml")
+    with pytest.raises(SceneError, match=wanted.replace("(", r"\(").replace(".", r"\.")):
+        load(str(path))
+    if COMM.size == 1:
+        out = shared / "never"
+        done = subprocess.run([RODFEM, "run", str(path), "--out", str(out)],
+                              capture_output=True, text=True)
+        assert done.returncode == 2 and not out.exists()
+        assert done.stderr.count("\n") == 1 and wanted in done.stderr
+
+
+def test_a_scene_without_a_target_writes_no_accuracy_section():
+    plain = load("stiff")
+    assert "[accuracy]" not in plain.to_toml() and "accuracy.target" not in plain
+    assert plain.targets == {}
+    with pytest.raises(SceneError, match="declares none"):
+        load("stiff", ["accuracy.target=0.02"])
+
+
+def test_targets_of_a_scene_are_its_measures_own_or_the_common_one(shared):
+    path = scene_file(shared, 'scene = "stiff"\n[accuracy]\ntarget = 0.01\n[measures]\n'
+                      'peak = { column = "sigma_1", reduce = "max_abs", target = 0.001 }\n'
+                      'end = { column = "u_1", reduce = "final" }\n', "targets.toml")
+    scene = load(str(path))
+    assert scene.targets == {"peak": 0.001, "end": 0.01}
+    again = load(str(scene_file(shared, scene.to_toml(), "again.toml")))
+    assert again.targets == scene.targets and again.to_toml() == scene.to_toml()
+
+
+# -- runs to a target ------------------------------------------------------------------------
+
+
+def manufactured(shared: Path, target: float, extra: str = "") -> Path:
+    return scene_file(shared, f'scene = "manufactured"\n[mesh]\ncells = 16\n[time]\n'
+                      f'dt = 0.05\nscheme = "crank-nicolson"\n{extra}[accuracy]\n'
+                      f'target = {target!r}\n' + MEASURES, "manufactured.toml")
+
+
+def test_a_target_is_met_and_every_estimate_covers_the_exact_error(shared):
+    result = rodfem.simulate(manufactured(shared, 1e-3))
+    accuracy = result.summary["accuracy"]
+    assert accuracy["met"] is True and accuracy["limit"] is None
+    assert set(result.errors) == {"u_end", "theta_mid", "theta_int"}
+    for name, value in exact(1.0).items():
+        error, true = result.errors[name], abs(result.measures[name] - value)
+        assert true <= error <= 1e-3 * abs(result.measures[name])  # covered, and within target
+        assert error <= 30.0 * true  # and not wildly pessimistic
+        entry = accuracy["measures"][name]
+        # Crank–Nicolson and P1 on a smooth solution: both orders observed, and in range
+        assert entry["space"]["asymptotic"] is True and entry["time"]["asymptotic"] is True
+    assert result.scene["mesh.cells"] == accuracy["cells"] > 16  # the mesh was refined
+    assert "accuracy.target" not in result.scene  # the reported run's own scene
+
+
+def test_a_target_not_met_is_said_and_the_finest_run_reported(shared):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = rodfem.simulate(manufactured(shared, 1e-6, ""), {"accuracy.runs_max": 3})
+    accuracy = result.summary["accuracy"]
+    assert accuracy["met"] is False and accuracy["limit"] == "runs_max"
+    assert accuracy["runs"] == 3 and result.scene["mesh.cells"] == 32
+    said = [w for w in caught if issubclass(w.category, rodfem.AccuracyWarning)]
+    assert len(said) == (1 if COMM.rank == 0 else 0)
+    if said:
+        assert "not met for u_end" in str(said[0].message)
+        assert "accuracy.runs_max = 3" in str(said[0].message)
+
+
+def test_the_run_directory_reruns_and_resumes_to_the_same_result(shared):
+    path = manufactured(shared, 1e-3)
+    out, again = shared / "run", shared / "again"
+    result = rodfem.simulate(path, out=out, force=True)
+    rows = np.genfromtxt(out / "accuracy.csv", delimiter=",", names=True)
+    assert len(rows) == result.summary["accuracy"]["runs"]
+    last = rows[rows["cells"] == result.scene["mesh.cells"]]
+    assert any(row["u_end"] == result.measures["u_end"] for row in last)  # bit for bit
+    # scene.toml is the reported run's own scene: run again, the same history bit for bit
+    plain = rodfem.simulate(out / "scene.toml", out=again, force=True)
+    assert plain.history.dtype == result.history.dtype
+    assert plain.history.tobytes() == result.history.tobytes()
+    assert plain.errors == {}
+    assert json.loads((out / "accuracy.json").read_text())["errors"] == result.errors
+    if COMM.size == 1:  # a complete run resumes to nothing; the command says the estimates
+        done = subprocess.run([RODFEM, "resume", str(out)], capture_output=True, text=True)
+        assert done.returncode == 0
+        done = subprocess.run([RODFEM, "run", str(path), "--out", str(shared / "cli")],
+                              capture_output=True, text=True)
+        assert done.returncode == 0 and "accuracy met: u_end = " in done.stdout
+        summary = json.loads((shared / "cli" / "summary.json").read_text())
+        assert summary["errors"] == result.errors
+
+
+def test_a_run_stopped_while_choosing_resumes_to_the_same_result(shared):
+    if COMM.size != 1:
+        pytest.skip("signals to one process")
+    path = manufactured(shared, 1e-3)
+    out = shared / "stopped"
+    code = ("import os, signal, sys\n"
+            "from rodfem.studies.accuracy import ladder\n"
+            "run = ladder.Ladder.run\n"
+            "def stop(self, cells, level):\n"
+            "    if len(self.rungs) == 2: os.kill(os.getpid(), signal.SIGTERM)\n"
+            "    return run(self, cells, level)\n"
+            "ladder.Ladder.run = stop\n"
+            "from rodfem.__main__ import main\n"
+            "sys.exit(main())\n")
+    done = subprocess.run([sys.executable, "-c", code, "run", str(path), "--out", str(out),
+                           "--quiet"], capture_output=True, text=True)
+    assert done.returncode == 143, done.stderr
+    assert "rodfem resume" in done.stderr and not (out / "history.h5").exists()
+    done = subprocess.run([RODFEM, "resume", str(out), "--quiet"], capture_output=True,
+                          text=True)
+    assert done.returncode == 0, done.stderr
+    whole = rodfem.simulate(path, out=shared / "whole", force=True)
+    resumed = rodfem.load(out)
+    assert resumed.errors == whole.errors
+    assert resumed.history.tobytes() == whole.history.tobytes()
+
+
+@pytest.mark.slow
+def test_estimates_cover_the_exact_errors_of_random_scenes(shared):
+    """Over random manufactured scenes (the model's a, b, ζ, the end time, the first mesh and
+    step, the scheme and the target), the estimates cover the exact errors in at least 95 % of
+    cases and are never more than 30 times the exact error."""
+    rng = random.Random(20261206)
+    covered, ratios = [], []
+    for i in range(10):
+        a, b, zeta = rng.uniform(0.1, 1.0), rng.uniform(0.5, 2.0), rng.uniform(0.05, 0.5)
+        end = rng.choice([0.5, 1.0, 1.5])
+        scheme = rng.choice(["crank-nicolson", "paper"])
+        target = rng.choice([1e-2, 1e-3]) if scheme == "crank-nicolson" else 1e-2
+        text = (f'scene = "manufactured"\n[model]\na = {a!r}\nb = {b!r}\nzeta = {zeta!r}\n'
+                f'[mesh]\ncells = {rng.choice([8, 16])}\n[time]\nend = {end!r}\n'
+                f'dt = {end / rng.choice([10, 20])!r}\nscheme = "{scheme}"\n'
+                f'[accuracy]\ntarget = {target!r}\nruns_max = 14\n' + MEASURES)
+        result = rodfem.simulate(scene_file(shared, text, f"random{i}.toml"))
+        for name, value in exact(end).items():
+            true = abs(result.measures[name] - value)
+            covered.append(true <= result.errors[name])
+            if true > 0.0:
+                ratios.append(result.errors[name] / true)
+    assert sum(covered) >= 0.95 * len(covered), covered
+    assert max(ratios) <= 30.0, ratios
