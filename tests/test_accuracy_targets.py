@@ -224,7 +224,10 @@ def test_a_run_stopped_while_choosing_resumes_to_the_same_result(shared):
 def test_estimates_cover_the_exact_errors_of_random_scenes(shared):
     """Over random manufactured scenes (the model's a, b, ζ, the end time, the first mesh and
     step, the scheme and the target), the estimates cover the exact errors in at least 95 % of
-    cases and are never more than 30 times the exact error."""
+    cases, and in nine cases of ten are at most 30 times the exact error. (Not in all: where the
+    errors in h and in time have opposite signs and nearly the same size, the exact error is far
+    below either, and their sum, the estimate, is not: 184 times on one of these 30 cases,
+    docs/accuracy-targets.md.)"""
     rng = random.Random(20261206)
     covered, ratios = [], []
     for i in range(10):
@@ -243,4 +246,4 @@ def test_estimates_cover_the_exact_errors_of_random_scenes(shared):
             if true > 0.0:
                 ratios.append(result.errors[name] / true)
     assert sum(covered) >= 0.95 * len(covered), covered
-    assert max(ratios) <= 30.0, ratios
+    assert sum(r <= 30.0 for r in ratios) >= 0.9 * len(ratios), sorted(ratios)
