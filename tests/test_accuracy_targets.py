@@ -247,3 +247,13 @@ def test_estimates_cover_the_exact_errors_of_random_scenes(shared):
                 ratios.append(result.errors[name] / true)
     assert sum(covered) >= 0.95 * len(covered), covered
     assert sum(r <= 30.0 for r in ratios) >= 0.9 * len(ratios), sorted(ratios)
+
+
+def test_a_study_of_scenes_with_targets_is_refused_before_anything_runs(shared):
+    path = scene_file(shared, 'scene = "stiff"\n[grid]\n"model.zeta" = [0.1, 0.2]\n[measures]\n'
+                      'peak = { column = "sigma_1", reduce = "max_abs", target = 0.01 }\n',
+                      "sweep.toml")
+    from rodfem.studies.sweep.design import load as load_sweep
+
+    with pytest.raises(SceneError, match="held by rodfem run and rodfem.simulate"):
+        load_sweep(path).scenes()

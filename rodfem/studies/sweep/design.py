@@ -97,7 +97,12 @@ class Sweep:
             data = with_values(self.base, {**self.fixed, **point}, self.name)
             if self.measures:
                 data["measures"] = self.measures
-            return validate(data, self.source)
+            scene = validate(data, self.source)
+            if scene.targets:
+                raise SceneError("accuracy targets ([accuracy], a measure's target) are held by "
+                                 "rodfem run and rodfem.simulate, not by the scenes of a study: "
+                                 "remove them here, or run the scenes one by one")
+            return scene
         except SceneError as err:
             raise SceneError(f"{self.name}: scene {index + 1} of {len(self)} "
                              f"({describe(point)}): {err}") from None
