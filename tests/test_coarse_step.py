@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import rodfem
+import rodfem.output.results
 import rodfem.scene
 from conftest import COMM, history_rows
 from rodfem.cli import main
@@ -170,9 +171,9 @@ def test_a_sweep_says_it_once_for_each_kind(shared_dir, capsys):
     if COMM.rank == 0:
         lines = err.splitlines()
         assert len(lines) == 2, err
-        assert lines[0].startswith("rodfem: warning: scene 0 and 1 more of the 6: time.dt = "
-                                   "0.001 is coarse for this obstacle: 10 steps"), err
-        assert lines[1].startswith("rodfem: warning: scene 3 and 2 more of the 6: the rigid"), err
+        assert lines[0].startswith("rodfem: warning: scenes 0, 1 of 6 (the coarsest: scene 0): "
+                                   "time.dt = 0.001 is coarse for this obstacle: 10 steps"), err
+        assert lines[1].startswith("rodfem: warning: scenes 3–5 of 6: the rigid"), err
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always")
         result = rodfem.sweep(str(spec))
@@ -194,3 +195,52 @@ def test_resume_says_it_as_run_does(shared_dir, capsys):
     assert code == 0
     if COMM.rank == 0:
         assert err.count("\n") == 1 and err.startswith("rodfem: warning: time.dt = 0.001"), err
+
+
+MIXED = {"scene": "paper1", "set": {"time.end": 0.5, "mesh.cells": 40, "solver.method": "direct"},
+         "grid": {"time.adaptive": [False, True],
+                  "obstacle.epsilon": [1e-4, 0.01, 2e-4, 4e-4, 9e-4, 0.02]}}
+
+
+def test_a_sweep_names_every_coarse_scene_and_flags_each_row(shared_dir):
+    """results.csv's ``coarse`` is coarse_run of each scene's run alone, ``steps`` and
+    ``rejected_steps`` its summary's; the warning names every coarse scene (the fixed steps
+    against ε < 0.01, not the adaptive ones); the same table under mpirun as on one rank."""
+    from mpi4py import MPI
+
+    from rodfem.model.timescales import coarse_run
+    from rodfem.output.measures import TIMINGS
+    from rodfem.studies.sweep import design
+    from rodfem.studies.sweep.run import load_sweep, run_sweep
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rodfem.CoarseStepWarning)
+        result = run_sweep(MIXED, shared_dir / "mixed")
+        sweep = design.parse(MIXED, "mixed")
+        flagged = []
+        for i in range(len(sweep)):
+            alone = rodfem.simulate(sweep.scene(i), comm=MPI.COMM_SELF)
+            coarse = coarse_run(alone.scene, {**alone.summary, "status": alone.status})
+            flagged += [i] if coarse is not None else []
+            assert result["coarse"][i] == (coarse is not None)
+            assert result["steps"][i] == alone.summary["steps"]
+            assert result["rejected_steps"][i] == alone.summary.get("adaptive", {}).get(
+                "rejected", 0)
+    assert flagged == [0, 2, 3, 4]
+    assert result.coarse_steps[0].startswith("scenes 0, 2–4 of 12 (the coarsest: scene 0): "
+                                             "time.dt = 0.001 is coarse"), result.coarse_steps
+    assert len(result.coarse_steps) == 1
+    assert (result["rejected_steps"][6:] > 0).any() and (result["rejected_steps"][:6] == 0).all()
+    assert (result["steps"][:6] == 500).all()
+    read = load_sweep(shared_dir / "mixed")
+    for name in ("coarse", "steps", "rejected_steps"):
+        assert read[name].dtype.kind == "i" and read[name].tolist() == result[name].tolist()
+    assert "coarse" not in rodfem.output.results.measure_names(tuple(read.columns))
+    if COMM.size > 1:  # the same table as one rank alone
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", rodfem.CoarseStepWarning)
+            alone = run_sweep(MIXED, comm=MPI.COMM_SELF)
+        assert alone.coarse_steps == result.coarse_steps
+        for name in result.columns:
+            if name not in TIMINGS:
+                assert result[name].tolist() == alone[name].tolist(), name
