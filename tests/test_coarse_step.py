@@ -244,3 +244,67 @@ def test_a_sweep_names_every_coarse_scene_and_flags_each_row(shared_dir):
         for name in result.columns:
             if name not in TIMINGS:
                 assert result[name].tolist() == alone[name].tolist(), name
+
+
+STUDY = """scene = "paper1"
+samples = 4
+outputs = ["u_1_final"]
+[set]
+"mesh.cells" = 40
+"time.end" = 0.5
+"solver.method" = "direct"
+[parameters]
+"obstacle.epsilon" = { log = [1e-4, 0.1] }
+"""
+
+
+def test_a_sensitivity_study_counts_its_coarse_runs_in_one_line(shared_dir, capsys):
+    """The paper's step (1e-3) is coarse below ε = 0.01 (fewer than 100 steps per √ε): the
+    runs there that touched are counted in one warning line, with the fix, flagged in
+    runs/results.csv, and said again by load_sensitivity."""
+    study, out = shared_dir / "sobol.toml", shared_dir / "sobol"
+    if COMM.rank == 0:
+        study.write_text(STUDY, encoding="utf-8")
+    COMM.barrier()
+    code = main(["sensitivity", str(study), "--out", str(out), "--quiet"])
+    err = COMM.bcast(capsys.readouterr().err if COMM.rank == 0 else None, root=0)
+    assert code == 0
+    runs = rodfem.load_sweep(out / "runs")
+    expected = (runs["obstacle.epsilon"] < 0.01) & (runs["contact_intervals"] > 0)
+    assert 0 < expected.sum() < len(runs)
+    assert runs["coarse"].tolist() == expected.astype(int).tolist()
+    lines = [line for line in err.splitlines() if "coarse" in line]
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"rodfem: warning: {expected.sum()} of the {len(runs)} runs had a "
+                               "fixed step coarse for their contact (flagged in the coarse "
+                               "column of runs/results.csv); the coarsest: time.dt = 0.001"), err
+    assert "fix: time.adaptive = true, or time.dt = " in lines[0]
+    loaded = rodfem.load_sensitivity(out)
+    assert lines[0].removeprefix("rodfem: warning: ") in loaded.warnings
+
+
+def test_a_fit_counts_its_coarse_runs_in_fit_json_and_one_line(shared_dir, capsys):
+    """The fit of test_fit.py (ε near 0.012 with Δt = 2e-3: 55 steps per √ε, where the paper's
+    scheme needs 100) runs every point with a coarse step: fit.json counts them, the command
+    says so in one line; at Δt = 2e-4 (158 steps per √ε at ε = 1e-3, the range's stiffest) it
+    counts none and says nothing."""
+    from test_fit import FIT, write_fit
+
+    for dt, coarse in ((0.002, True), (0.0002, False)):
+        fit = write_fit(shared_dir / f"in{dt}", FIT.replace('"time.dt" = 0.002',
+                                                            f'"time.dt" = {dt}'))
+        code = main(["fit", str(fit), "--out", str(shared_dir / f"out{dt}"), "--quiet"])
+        err = COMM.bcast(capsys.readouterr().err if COMM.rank == 0 else None, root=0)
+        assert code == 0, err
+        numbers = rodfem.load_fit(shared_dir / f"out{dt}").numbers
+        lines = [line for line in err.splitlines() if "coarse" in line]
+        if coarse:
+            runs = numbers["runs"]
+            assert numbers["coarse_runs"] == runs > 3
+            assert lines == [f"rodfem: warning: {numbers['coarse_warning']}"], err
+            assert numbers["coarse_warning"].startswith(
+                f"{runs} of the {runs} runs had a fixed step coarse for their contact "
+                "(fit.json's coarse_runs); the coarsest: time.dt = 0.002 is coarse"), err
+        else:
+            assert numbers["coarse_runs"] == 0 and numbers["coarse_warning"] is None
+            assert lines == [], err

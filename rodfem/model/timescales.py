@@ -130,3 +130,15 @@ def coarse_run(scene, summary: dict) -> CoarseStep | None:
             or not contact.get("touching"):
         return None
     return coarse_step(scene)
+
+
+def study_line(judged: list[CoarseStep], total: int, where: str) -> str | None:
+    """The one line of a study over many runs (``rodfem fit``, ``rodfem sensitivity``): how many
+    of its ``total`` runs had a fixed step coarse for their contact (``judged``: their
+    :func:`coarse_step`), where they are flagged, and the line of the coarsest, with its fix
+    (None: none was)."""
+    if not judged:
+        return None
+    worst = min(judged, key=lambda c: (c.kind != "elastic", c.steps))
+    return (f"{len(judged)} of the {total} runs had a fixed step coarse for their contact "
+            f"({where}); the coarsest: {worst.line}")

@@ -171,6 +171,18 @@ def coarse_steps(sweep: Sweep, result: SweepResult) -> tuple[str, ...]:
                  + f": {judged.line}" for indices, worst, judged in found.values())
 
 
+def coarse_study_line(sweep: Sweep, result: SweepResult, where: str) -> str | None:
+    """The one line of a study whose runs are ``sweep`` (``rodfem sensitivity``): how many of
+    them were coarse (results.csv's ``coarse``), flagged ``where``, and the fix
+    (:func:`rodfem.model.timescales.study_line`); None: none was."""
+    from rodfem.model.timescales import coarse_step, study_line
+
+    judged = [coarse_step(sweep.scene(int(index))) for index, coarse in zip(
+        result.columns.get("index", ()), result.columns.get("coarse", ()), strict=True)
+        if coarse == 1]
+    return study_line([j for j in judged if j is not None], len(result), where)
+
+
 def _warned(sweep: Sweep, result: SweepResult, comm: MPI.Comm) -> SweepResult:
     """``result`` with its :func:`coarse_steps` (judged on rank 0)."""
     lines = comm.bcast(coarse_steps(sweep, result) if comm.rank == 0 else None, root=0)
