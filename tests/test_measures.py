@@ -219,7 +219,8 @@ def test_a_sweeps_columns_are_single_runs_measures(shared_dir, simulate):
     out = shared_dir / "sweep"
     assert main(["sweep", str(sweep), "--out", str(out), "--quiet"]) == 0
     axes, columns = table.read(out / "results.csv")
-    names = ["index", "obstacle.gap", "status", *BUILT_IN, "peak", "touching", "late", "error"]
+    names = ["index", "obstacle.gap", "status", *BUILT_IN, "peak", "touching", "late",
+             *table.RUN, "error"]
     assert list(columns) == names
     assert table.measure_names(names) == (*BUILT_IN, "peak", "touching", "late")
     single = str(scene_file(shared_dir, own + SWEPT, "single.toml"))
@@ -235,10 +236,17 @@ def test_a_sweeps_columns_are_single_runs_measures(shared_dir, simulate):
 
 
 def test_results_csv_of_an_earlier_rodfem_still_reads():
-    old = table.text(("model.k",), [table.line(0, {"model.k": 1.0}, ("model.k",), "complete",
+    now = table.text(("model.k",), [table.line(0, {"model.k": 1.0}, ("model.k",), "complete",
                                                {"t_final": 1.0})])
+    axes, columns = table.parse(now)
+    assert axes == ("model.k",) and table.measure_names(list(columns)) == BUILT_IN
+    assert [columns[name].tolist() for name in table.RUN] == [[0], [0], [0]]
+    # before the run's columns: the measures, then error
+    old = "index,model.k,status," + ",".join(BUILT_IN) + ",error\n0,1.0,complete" \
+        + ",1.0" * len(BUILT_IN) + ",\n"
     axes, columns = table.parse(old)
     assert axes == ("model.k",) and table.measure_names(list(columns)) == BUILT_IN
+    assert not set(table.RUN) & set(columns)
     new = table.text(("model.k",), [table.line(0, {"model.k": 1.0}, ("model.k",), "complete",
                                                {"peak": 2.5}, "", ("peak",))], ("peak",))
     _, columns = table.parse(new)

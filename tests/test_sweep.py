@@ -335,6 +335,8 @@ def test_every_measure_is_documented_with_its_meaning():
     text = (Path(__file__).resolve().parents[1] / "docs" / "sweeps.md").read_text()
     for measure in TABLE:
         assert f"| `{measure.name}` | {measure.meaning} |" in text, measure.name
+    for name, meaning in table.RUN_MEANINGS.items():  # the run's columns, after the measures
+        assert f"| `{name}` | {meaning} |" in text, name
 
 
 @serial_only

@@ -136,9 +136,11 @@ def test_map_and_lines_over_two_grid_axes(tmp_path, drawn):
     bar = drawn["sweep_max_penetration.png"].axes[1]
     assert bar.get_ylabel() == "max penetration $[u(1) - g]_+$ [$L$]"
     lines = drawn["sweep_max_penetration_lines.png"].axes[0]
+    # ε = 1e-4 at Δt = 2e-4: 50 steps per √ε, coarse for the paper's scheme (ringed)
     assert [t.get_text() for t in lines.get_legend().get_texts()] == \
-        [rf"$\varepsilon$ = {v}" for v in ("0.0001", "0.001", "0.01", "0.1")]
-    y = np.concatenate([line.get_ydata() for line in lines.lines])
+        [rf"$\varepsilon$ = {v}" for v in ("0.0001", "0.001", "0.01", "0.1")] \
+        + ["step coarse for the contact"]
+    y = np.concatenate([line.get_ydata() for line in lines.lines[:-1]])
     assert y.size == 8 and y.min() > 0
     scale = "log" if y.max() / y.min() >= 100 else "linear"
     assert lines.get_yscale() == scale and bar.get_yscale() == scale
@@ -393,3 +395,42 @@ def test_a_measure_that_differs_only_by_a_failed_scene_is_not_drawn():
     drawn, skipped = choice.choose(columns, None)
     assert drawn == ["u_1_final"]
     assert "t_final (the same in every scene)" in skipped
+
+
+def test_coarse_scenes_and_missed_accuracy_are_marked_with_a_legend(tmp_path, drawn):
+    """ε = 1e-4 … 1e-3 at Δt = 2e-4 (50 … 158 steps per √ε): the scenes results.csv flags
+    coarse are ringed, under a legend entry; an accuracy_met column, where the table has one,
+    boxes its zeros; a map outlines the cells of both."""
+    out = sweep(tmp_path, LOG)
+    layout, columns = sweep_figures.load_sweep(out)
+    coarse = columns["coarse"] == 1
+    assert coarse.tolist() == [True, True, False]  # S = 50, 89 < 100 ≤ 158
+    plot_sweep(out, measures=["max_penetration"])
+    ax = drawn["sweep_max_penetration.png"].axes[0]
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["step coarse for the contact"]
+    ring = ax.lines[-1]
+    np.testing.assert_array_equal(ring.get_xdata(), columns["obstacle.epsilon"][coarse])
+    np.testing.assert_array_equal(ring.get_ydata(), columns["max_penetration"][coarse])
+    assert ring.get_markerfacecolor() == "none"
+    # without the column, nothing more; with it, its zeros boxed
+    columns["accuracy_met"] = np.array([1, 0, 0])
+    sweep_figures._measure(tmp_path, layout, columns, "max_penetration")
+    ax = drawn["sweep_max_penetration.png"].axes[0]
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == \
+        ["step coarse for the contact", "accuracy target not met"]
+    np.testing.assert_array_equal(ax.lines[-1].get_xdata(), columns["obstacle.epsilon"][1:])
+    # no coarse scene: no legend at all
+    columns["coarse"][:] = 0
+    del columns["accuracy_met"]
+    sweep_figures._measure(tmp_path, layout, columns, "max_penetration")
+    assert drawn["sweep_max_penetration.png"].axes[0].get_legend() is None
+    # a map: the cells outlined
+    two = sweep(tmp_path, TWO, name="two")
+    layout, columns = sweep_figures.load_sweep(two)
+    columns["accuracy_met"] = (columns["obstacle.epsilon"] > 0.05).astype(int)
+    sweep_figures._measure(tmp_path, layout, columns, "max_penetration")
+    ax = drawn["sweep_max_penetration.png"].axes[0]
+    outlined = [p for p in ax.patches if not p.get_fill()]
+    assert len(outlined) == np.sum(columns["coarse"] == 1) + np.sum(columns["accuracy_met"] == 0)
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == \
+        ["step coarse for the contact", "accuracy target not met"]

@@ -67,6 +67,8 @@ def _ended(call, out: Path, quiet: bool) -> int:
     numbers = result.numbers
     if numbers["warning"]:
         say(f"rodfem: warning: {numbers['warning']}")
+    if numbers.get("coarse_warning"):  # a fit.json of an earlier rodfem has none
+        say(f"rodfem: warning: {numbers['coarse_warning']}")
     if numbers["status"] != "converged":
         say(f"rodfem: warning: the fit stopped before converging ({numbers['message']}); "
             "allow more with max_evaluations")

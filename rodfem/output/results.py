@@ -3,7 +3,8 @@
 Columns: ``index`` (the scene's place in the sweep, from 0), the swept keys (named by the key,
 e.g. ``model.k``), ``status`` (complete | failed | interrupted), the built-in measures of
 :mod:`rodfem.output.measures`, the measures the scenes declare (:mod:`rodfem.scene.measures`:
-the same for every scene of a sweep) and ``error`` (why a scene failed; empty otherwise).
+the same for every scene of a sweep), what the sweep says of each scene's run (:data:`RUN`:
+``steps``, ``rejected_steps``, ``coarse``) and ``error`` (why a scene failed; empty otherwise).
 :func:`measure_names` gives the measures of a header. Numbers are
 written to round-trip precision (``repr``), so the table of a sweep is the same text whatever the
 number of ranks and however often it was stopped and resumed — but for ``loop_seconds``, a
@@ -27,6 +28,17 @@ from rodfem.output.measures import NAMES as MEASURE_NAMES
 NAME = "results.csv"
 HISTORIES = "histories.h5"  # the scenes' histories a sweep keeps (rodfem sweep --histories)
 STATUSES = ("complete", "failed", "interrupted")
+# Of each scene's run, after its measures (docs/sweeps.md lists them with these meanings). A scene
+# whose set-up failed took no step: 0, 0, 0. The tables of an earlier rodfem have none of them.
+RUN_MEANINGS = {
+    "steps": "the steps the run took",
+    "rejected_steps": "the steps an adaptive run rejected and took again smaller (0 for a fixed "
+                      "step)",
+    "coarse": "1 where the run's fixed step was coarse for its contact (it touched the obstacle "
+              "with fewer steps per contact time √(b ε) than its scheme needs, or touched the "
+              "rigid obstacle: the warning of docs/time-schemes.md), else 0",
+}
+RUN = tuple(RUN_MEANINGS)
 
 
 class ResultsError(ValueError):
@@ -38,13 +50,20 @@ DECLARED = re.compile(r"[a-z_][a-z0-9_]*")  # a declared measure's name (rodfem.
 
 def header(axes: tuple[str, ...], declared: tuple[str, ...] = ()) -> list[str]:
     """The names of the columns: ``declared``, the names of the measures the scenes declare."""
-    return ["index", *axes, "status", *MEASURE_NAMES, *declared, "error"]
+    return ["index", *axes, "status", *MEASURE_NAMES, *declared, *RUN, "error"]
+
+
+def _run_columns(names: list[str]) -> bool:
+    """Whether a header's names end with the run's columns (:data:`RUN`), then error."""
+    return tuple(names[-1 - len(RUN):-1]) == RUN
 
 
 def measure_names(names: list[str] | tuple[str, ...]) -> tuple[str, ...]:
-    """The measures of a header (its names): every column between status and error."""
+    """The measures of a header (its names): every column between status and the run's columns
+    (:data:`RUN`; error, in the tables of an earlier rodfem)."""
     names = list(names)
-    return tuple(names[names.index("status") + 1:names.index("error")])
+    end = len(names) - 1 - (len(RUN) if _run_columns(names) else 0)
+    return tuple(names[names.index("status") + 1:end])
 
 
 def _text(value: Any) -> str:
@@ -57,10 +76,14 @@ def _text(value: Any) -> str:
 
 
 def line(index: int, point: dict[str, Any], axes: tuple[str, ...], status: str,
-         measures: dict[str, Any], error: str = "", declared: tuple[str, ...] = ()) -> str:
-    """One row of results.csv, without its newline (``declared``: as for :func:`header`)."""
+         measures: dict[str, Any], error: str = "", declared: tuple[str, ...] = (),
+         run: dict[str, int] | None = None) -> str:
+    """One row of results.csv, without its newline (``declared``: as for :func:`header`;
+    ``run``: the run's columns by name, :data:`RUN`, 0 where not given)."""
+    run = run or {}
     cells = [index, *(point[a] for a in axes), status,
-             *(measures.get(name, math.nan) for name in (*MEASURE_NAMES, *declared)), error]
+             *(measures.get(name, math.nan) for name in (*MEASURE_NAMES, *declared)),
+             *(int(run.get(name, 0)) for name in RUN), error]
     buffer = io.StringIO()
     # the terminator is the writer's, dropped after: a cell with a newline is quoted for it
     csv.writer(buffer, lineterminator="\r\n").writerow([_text(c) for c in cells])
@@ -122,8 +145,9 @@ def status(line: str, axes: tuple[str, ...]) -> str:
 
 def _measures_of(names: list[str]) -> bool:
     """Whether the names after status are the built-in measures, then declared ones (none in
-    the tables of an earlier rodfem), then error."""
-    after = names[names.index("status") + 1:-1]
+    the tables of an earlier rodfem), then the run's columns (none in those tables), then
+    error."""
+    after = list(measure_names(names))
     built_in, declared = after[:len(MEASURE_NAMES)], after[len(MEASURE_NAMES):]
     return (tuple(built_in) == MEASURE_NAMES and len(set(declared)) == len(declared)
             and all(DECLARED.fullmatch(name) and name not in MEASURE_NAMES for name in declared))

@@ -14,7 +14,10 @@ units (:mod:`rodfem.output.names`), on a log scale where the design or the value
   axes, coloured by the measure.
 
 A scene that failed or was interrupted, or whose measure is nan, is left out of lines and shown
-as a hatched grey cell in maps (a grey cross among points). The scenes' histories themselves, kept
+as a hatched grey cell in maps (a grey cross among points). Scenes whose fixed step was coarse
+for their contact (results.csv's ``coarse``) are ringed in red, with a legend entry "step coarse
+for the contact", and, where the table has an ``accuracy_met`` column, those with 0 there are
+boxed in black, "accuracy target not met" (:data:`MARKS`). The scenes' histories themselves, kept
 with ``--histories``, are overlaid by :mod:`rodfem.post.scenes`. Reads the sweep's files only and
 draws with matplotlib, off-screen (its figures are not pyplot's: nothing to close, no backend).
 """
@@ -37,6 +40,11 @@ from rodfem.post.runs import PlotError
 
 SIZE, DPI = (6.4, 4.8), 100
 MISSING = dict(facecolor="lightgrey", edgecolor="grey", hatch="//", linewidth=0)
+# The scenes marked in every figure of a measure: the column, the value that marks a scene, the
+# legend's words and the mark (hollow, over the scene's point or cell). A column the table does
+# not have marks nothing (accuracy_met: the tables of sweeps that set no accuracy target).
+MARKS = (("coarse", 1, "step coarse for the contact", dict(marker="o", color="tab:red")),
+         ("accuracy_met", 0, "accuracy target not met", dict(marker="s", color="black")))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -137,13 +145,28 @@ def _save(fig: Figure, path: Path) -> Path:
     return formats.save(fig, path, dpi=DPI)
 
 
-def _lines(ax, x, labels, key, log, y, ok, groups) -> None:
+def _marks(columns) -> list[tuple[np.ndarray, str, dict]]:
+    """The rows each of :data:`MARKS` marks, with its words and mark, of the columns the table
+    has."""
+    return [(np.asarray(columns[name]) == value, words, style)
+            for name, value, words, style in MARKS if name in columns]
+
+
+def _lines(ax, x, labels, key, log, y, ok, groups, marks=()) -> None:
     """The measure against x, one line per (label, rows) of ``groups``, valid rows only; y on a
-    log scale where the drawn values span decades."""
+    log scale where the drawn values span decades; the rows of ``marks`` (:func:`_marks`)
+    ringed."""
+    drawn = np.zeros(len(y), dtype=bool)
     for label, rows in groups:
         keep = rows & ok
+        drawn |= keep
         order = np.argsort(x[keep], kind="stable") if labels is None else slice(None)
         ax.plot(x[keep][order], y[keep][order], marker="o", label=label)
+    for rows, words, style in marks:
+        if (rows & drawn).any():
+            ax.plot(x[rows & drawn], y[rows & drawn], linestyle="none", marker=style["marker"],
+                    markersize=12, markerfacecolor="none", markeredgecolor=style["color"],
+                    markeredgewidth=1.5, label=words)
     _scale(ax, "x", x, labels, key, log)
     if choice.logarithmic(y[ok]):
         ax.set_yscale("log")
@@ -152,8 +175,9 @@ def _lines(ax, x, labels, key, log, y, ok, groups) -> None:
         ax.text(0.5, 0.5, "no complete scene", transform=ax.transAxes, ha="center")
 
 
-def _map(ax, fig, sweep, columns, label, y, ok, rows) -> None:
-    """The measure over the first two grid axes, at the rows ``rows``."""
+def _map(ax, fig, sweep, columns, label, y, ok, rows, marks=()) -> None:
+    """The measure over the first two grid axes, at the rows ``rows``; the cells of ``marks``
+    (:func:`_marks`) outlined."""
     first, second = [a for a in sweep.axes if sweep.design[a] == "grid"][:2]
     xs, ys = ([_key(v) for v in sweep.grid[a]] for a in (first, second))
     grid = np.full((len(ys), len(xs)), np.nan)
@@ -173,17 +197,32 @@ def _map(ax, fig, sweep, columns, label, y, ok, rows) -> None:
     for which, axis in (("x", first), ("y", second)):
         _scale(ax, which, np.array([]), sweep.grid[axis], axis)
     fig.colorbar(image, ax=ax, label=label)
+    inset = 0.06
+    for k, (marked, words, style) in enumerate(marks):
+        for n, r in enumerate(np.flatnonzero(marked & rows & ok)):
+            i = xs.index(_key(columns[first][r]))
+            j = ys.index(_key(columns[second][r]))
+            d = 0.5 - inset * (k + 1)  # one inside the other where a cell has both
+            ax.add_patch(Rectangle((i - d, j - d), 2 * d, 2 * d, fill=False, linewidth=2,
+                                   edgecolor=style["color"], label=words if n == 0 else None))
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), fontsize="small")
 
 
-def _scatter(ax, fig, sweep, columns, label, y, ok) -> None:
+def _scatter(ax, fig, sweep, columns, label, y, ok, marks=()) -> None:
     (x, xl), (z, zl) = (_positions(columns[a]) for a in sweep.axes[:2])
     points = ax.scatter(x[ok], z[ok], c=y[ok], cmap="viridis", norm=_norm(y[ok]),
                         edgecolors="black")
     ax.scatter(x[~ok], z[~ok], marker="x", color="grey", label="failed or nan")
+    for rows, words, style in marks:
+        if (rows & ok).any():
+            ax.scatter(x[rows & ok], z[rows & ok], s=200, marker=style["marker"],
+                       facecolors="none", edgecolors=style["color"], linewidths=1.5,
+                       label=words)
     _scale(ax, "x", x, xl, sweep.axes[0], sweep.axes[0] in sweep.logs)
     _scale(ax, "y", z, zl, sweep.axes[1], sweep.axes[1] in sweep.logs)
     fig.colorbar(points, ax=ax, label=label)
-    if (~ok).any():
+    if (~ok).any() or any((rows & ok).any() for rows, _, _ in marks):
         ax.legend(loc="best")
 
 
@@ -276,25 +315,29 @@ def _measure(out: Path, sweep: Layout, columns, name: str, fmt: str = "png") -> 
     ok = (columns["status"] == "complete") & np.isfinite(y)
     label = names.measure_label(name, sweep.declared)
     title = names.measure_title(name, sweep.declared)
-    first = axes[0]
+    first, marks = axes[0], _marks(columns)
     if len(axes) == 1:
         fig, ax = _figure(f"{title} against {_symbol(first)}")
-        _lines(ax, *_positions(columns[first]), first, first in sweep.logs, y, ok, [(None, at)])
+        _lines(ax, *_positions(columns[first]), first, first in sweep.logs, y, ok, [(None, at)],
+               marks)
         ax.set_ylabel(label)
+        if ax.get_legend_handles_labels()[0]:  # the marks'
+            ax.legend(loc="best")
     elif len(grid_axes) >= 2:
         fig, ax = _figure(f"{title} over {_symbol(grid_axes[0])} and {_symbol(grid_axes[1])}"
                           + (f"\nat {_where(columns, others)}" if others else ""))
-        _map(ax, fig, sweep, columns, label, y, ok, at)
+        _map(ax, fig, sweep, columns, label, y, ok, at, marks)
     else:
         fig, ax = _figure(f"{title} over {_symbol(first)} and {_symbol(axes[1])}")
-        _scatter(ax, fig, sweep, columns, label, y, ok)
+        _scatter(ax, fig, sweep, columns, label, y, ok, marks)
     written = [_save(fig, out / f"sweep_{name}.{fmt}")]
     if len(axes) == 2 and len(grid_axes) == 2:
         fig, ax = _figure(f"{title} against {_symbol(first)}")
         keys = [_key(v) for v in columns[axes[1]]]
         groups = [(f"{_symbol(axes[1])} = {_shown(v)}", np.array([k == _key(v) for k in keys]))
                   for v in sweep.grid[axes[1]]]
-        _lines(ax, *_positions(columns[first]), first, first in sweep.logs, y, ok, groups)
+        _lines(ax, *_positions(columns[first]), first, first in sweep.logs, y, ok, groups,
+               marks)
         ax.set_ylabel(label)
         # beside the axes, not over them: "best" still covers lines where every corner has one
         ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,

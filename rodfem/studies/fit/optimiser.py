@@ -91,10 +91,14 @@ class Evaluations:
     ``known`` (a journal's, by the point's bits)."""
 
     def __init__(self, problem: Problem, comm: MPI.Comm, log: journal.Journal | None = None,
-                 known: dict[bytes, np.ndarray] | None = None, progress: bool = False):
+                 known: dict[bytes, np.ndarray] | None = None, progress: bool = False,
+                 flagged: frozenset[bytes] = frozenset()):
         self.problem, self.comm, self.log, self.progress = problem, comm, log, progress
         self.cache: dict[bytes, np.ndarray] = {}
         self.known = dict(known or {})
+        # the points whose run had a fixed step coarse for its contact (results.csv's coarse;
+        # a journal's record says it after the point: "<point> coarse")
+        self.flagged = set(flagged)
         self.order: dict[bytes, int] = {}  # each point's place in the replay: its record's
         self.batches = self.ran = 0
 
@@ -135,6 +139,7 @@ class Evaluations:
                                f"{shown}") from None
         names = None
         mine = []
+        coarse_cell = table.header(sweep.axes, sweep.declared).index("coarse")
 
         def record(outcome) -> None:
             nonlocal names
@@ -158,10 +163,12 @@ class Evaluations:
                     mine.append((outcome.index, "failed", "the sum of the squares of its "
                                  "weighted residuals overflows (scale the weights)"))
                     return
+                coarse = table.cells(outcome.line)[coarse_cell] == "1"
                 if self.log is not None:
                     key = new[outcome.index]
-                    self.log.append(self.order[key], key.hex(), r[None, :])
-                mine.append((outcome.index, "complete", r))
+                    self.log.append(self.order[key], key.hex() + (" coarse" if coarse else ""),
+                                    r[None, :])
+                mine.append((outcome.index, "complete", (r, coarse)))
             else:
                 mine.append((outcome.index, outcome.status, table.cells(outcome.line)[-1]))
 
@@ -174,7 +181,9 @@ class Evaluations:
         self.batches += 1
         for index, status, found in every:
             if status == "complete":
-                self.cache[new[index]] = found
+                self.cache[new[index]], coarse = found
+                if coarse:
+                    self.flagged.add(new[index])
         if errors:
             raise WriteError(errors[0])
         self._check_signal()
@@ -190,6 +199,18 @@ class Evaluations:
             print(f"fit: batch {self.batches}: {plural(len(new), 'run')} "
                   f"({plural(len(self.cache), 'point')} in all), |r| = {norm:.6g} at "
                   f"{design.describe(sweep.points[0])}", file=sys.stderr, flush=True)
+
+
+def coarse_line(evaluations: Evaluations) -> tuple[int, str | None]:
+    """How many of the points run had a fixed step coarse for their contact, and the line that
+    says so with the fix (:func:`rodfem.model.timescales.study_line`; None: none had)."""
+    from rodfem.model.timescales import coarse_step, study_line
+
+    problem = evaluations.problem
+    judged = [coarse_step(problem.scene(np.frombuffer(key))) for key in evaluations.cache
+              if key in evaluations.flagged]
+    judged = [j for j in judged if j is not None]
+    return len(judged), study_line(judged, len(evaluations.cache), "fit.json's coarse_runs")
 
 
 def jacobian(evaluations: Evaluations, u: np.ndarray) -> np.ndarray:

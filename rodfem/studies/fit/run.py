@@ -22,6 +22,7 @@ from rodfem.studies.fit.optimiser import (
     Problem,
     WriteError,
     at_bounds,
+    coarse_line,
     jacobian,
     optimise,
     statistics,
@@ -112,7 +113,8 @@ def run_fit(spec, out: str | Path | None = None, comm: MPI.Comm | None = None, *
 
 
 def _into(out: Path, problem: Problem, comm: MPI.Comm, written: dict, session: int,
-          known: dict, progress: bool, figure_format: str | None = None) -> FitResult:
+          known: dict, progress: bool, figure_format: str | None = None,
+          flagged: frozenset[bytes] = frozenset()) -> FitResult:
     """The fit into ``out`` (held by this command), its marker's status written however it
     ends."""
     from rodfem.output.directories import finish
@@ -123,8 +125,8 @@ def _into(out: Path, problem: Problem, comm: MPI.Comm, written: dict, session: i
     try:
         with interrupts.deferred():
             try:
-                result = _solve(problem, Evaluations(problem, comm, log, known, progress), comm,
-                                out, figure_format)
+                result = _solve(problem, Evaluations(problem, comm, log, known, progress,
+                                                     flagged), comm, out, figure_format)
             finally:
                 log.close()
         status = "complete"
@@ -148,6 +150,7 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
     r = evaluations.batch([u])[0]
     stderr, correlation, why = statistics(problem, u, r, jacobian(evaluations, u))
     warnings = [w for w in (why, at_bounds(problem, u, found.active_mask)) if w]
+    coarse_runs, coarse_warning = coarse_line(evaluations)
     interrupts.stop_if_received(comm)  # a signal in the phases after the optimiser stops them
     data = problem.data
     model = data.model(r)
@@ -162,6 +165,7 @@ def _solve(problem: Problem, evaluations: Evaluations, comm: MPI.Comm,
         "status": "converged" if found.status > 0 else "stopped", "message": found.message,
         "columns": list(data.columns), "points": len(data.t), "counts": data.counts(),
         "start": problem.start, "warning": "; ".join(warnings) or None,
+        "coarse_runs": coarse_runs, "coarse_warning": coarse_warning,
         "model": {c: [None if np.isnan(x) else x for x in model[:, j].tolist()]
                   for j, c in enumerate(data.columns)}}
     fitted = _fitted(problem.scene(u), comm, out)
@@ -240,24 +244,26 @@ def resume(out: Path, comm: MPI.Comm, progress: bool = False,
     written = read_meta(out)
     study = parameters.parse(written["study"], written["name"], out, OWN)
     problem = problem_of(study, out / "data.csv", (written["base"], written["source"]))
-    known, error = {}, None
+    known, flagged, error = {}, frozenset(), None
     if comm.rank == 0:
         try:
-            known = {bytes.fromhex(r.line): r.history()[0]
-                     for r in journal.read(out, tag(written)).values()}
+            records = journal.read(out, tag(written)).values()
+            known = {bytes.fromhex(r.line.split()[0]): r.history()[0] for r in records}
+            flagged = frozenset(bytes.fromhex(r.line.split()[0]) for r in records
+                                if r.line.endswith(" coarse"))
         except journal.JournalError as err:
             error = (f"{err.path} holds points of another fit than the directory's study.json; "
                      "run the fit again with --force")
         except (ValueError, IndexError, TypeError) as err:
             error = f"{out}: its journal is not this fit's ({err}); run the fit again with --force"
-    error, known = comm.bcast((error, known), root=0)
+    error, known, flagged = comm.bcast((error, known, flagged), root=0)
     if error is not None:
         raise SceneError(error)
     session = comm.bcast(journal.sessions(out) if comm.rank == 0 else None, root=0)
     mark_running(out, comm)
     # the format asked for now, else the one the fit was started with (study.json)
     figure_format = checked(format) if format is not None else written.get("figure")
-    return _into(out, problem, comm, written, session, known, progress, figure_format)
+    return _into(out, problem, comm, written, session, known, progress, figure_format, flagged)
 
 
 def fit(study, out: str | Path | None = None, comm=None, *, force: bool = False,

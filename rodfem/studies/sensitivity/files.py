@@ -137,6 +137,25 @@ def samples_text(plan: indices.Plan) -> str:
     return "\n".join(lines) + "\n"
 
 
+def coarse_warning(sweep, runs) -> list[str]:
+    """The line that says how many of the runs had a fixed step coarse for their contact, with
+    the fix (none: no run had)."""
+    from rodfem.studies.sweep.run import coarse_study_line
+
+    line = coarse_study_line(sweep, runs, "flagged in the coarse column of runs/results.csv")
+    return [line] if line else []
+
+
+def _coarse(runs: Path, columns: dict) -> list[str]:
+    """The line of the runs whose fixed step was coarse for their contact, said again (the
+    runs' sweep read from their sweep.json)."""
+    from rodfem.studies.sweep.files import SweepResult, parsed, read_meta
+
+    if "coarse" not in columns or not (columns["coarse"] == 1).any():
+        return []
+    return coarse_warning(parsed(runs, read_meta(runs)), SweepResult(columns, (), "complete"))
+
+
 def load_sensitivity(path: str | Path) -> SensitivityResult:
     """The indices of a sensitivity directory (written by ``rodfem sensitivity``).
 
@@ -182,6 +201,8 @@ def load_sensitivity(path: str | Path) -> SensitivityResult:
             warnings = [indices.failed_line(failed, len(found["status"]))] if failed else [
                 line for m in data["outputs"] if m not in analysed and m in found
                 and (line := indices.left_out(m, found[m])) is not None]
+            if not failed:
+                warnings += _coarse(path / "runs", found)
     return SensitivityResult(data["method"], columns, tuple(rows), keys,
                              tuple(data["outputs"]), status, path, tuple(warnings), failed,
                              numbers={"runs": indices.count(data["method"], data["samples"],

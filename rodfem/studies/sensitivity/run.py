@@ -37,6 +37,7 @@ from rodfem.studies.sensitivity.files import (
     FIGURE,
     FILES,
     SensitivityResult,
+    coarse_warning,
     load_sensitivity,
     meta,
     read_meta,
@@ -186,6 +187,7 @@ def _analysed(found: Campaign, runs: SweepResult, out: Path | None, comm: MPI.Co
                 rows, warnings = indices.analyse(found.plan, {m: np.asarray(runs[m], dtype=float)
                                                               for m in found.outputs})
             analysis = time.perf_counter() - started
+            warnings += coarse_warning(found.sweep, runs)
         ran = len(found.sweep) if ran is None else ran
         if out is not None and comm.rank == 0 and ran != 0:  # a resumed campaign's, this time
             try:

@@ -76,8 +76,21 @@ def run_scene(sweep: Sweep, index: int, setups, keep_history: bool) -> Outcome:
     names = (column.name for column in for_scene(scene))  # an adaptive run's t, dt and event too
     values = measures({name: rows[:, j] for j, name in enumerate(names)}, scene, summary)
     error = " ".join(summary.get("error", "").split())
-    line = table.line(index, point, sweep.axes, result.status, values, error, sweep.declared)
+    line = table.line(index, point, sweep.axes, result.status, values, error, sweep.declared,
+                      run_columns(scene, {**summary, "status": result.status}))
     return Outcome(index, result.status, line, rows if keep_history else None)
+
+
+def run_columns(scene, summary: dict) -> dict[str, int]:
+    """What results.csv says of a scene's run beside its measures
+    (:data:`rodfem.output.results.RUN`): its steps, the steps an adaptive run rejected, and
+    whether its fixed step was coarse for its contact
+    (:func:`rodfem.model.timescales.coarse_run`)."""
+    from rodfem.model.timescales import coarse_run
+
+    return {"steps": int(summary.get("steps", 0)),
+            "rejected_steps": int((summary.get("adaptive") or {}).get("rejected", 0)),
+            "coarse": int(coarse_run(scene, summary) is not None)}
 
 
 class Progress:

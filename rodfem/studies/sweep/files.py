@@ -95,7 +95,7 @@ class SweepResult:
         lines += [f"    {key}: {span(self.columns[key])}" for key in self.axes[:6]]
         if len(self.axes) > 6:
             lines.append(f"    … {len(self.axes) - 6} more swept keys")
-        measures = [c for c in self.columns if c not in ("index", "status", "error", *self.axes)]
+        measures = list(table.measure_names(tuple(self.columns)))
         lines.append(f"    {len(measures)} measures: {', '.join(measures[:4])}"
                      f"{', …' if len(measures) > 4 else ''}")
         if self.coarse_steps:

@@ -136,29 +136,51 @@ def run_sweep(spec, out: str | Path | None = None, comm: MPI.Comm | None = None,
                                     progress_line), comm)
 
 
+def scene_list(indices: list[int], total: int) -> str:
+    """Scenes by index, compactly: "scene 4 of 12", "scenes 2, 3, 5–9 of 12" (three or more in
+    a row as a range)."""
+    runs: list[list[int]] = []
+    for i in sorted(indices):
+        if runs and i == runs[-1][-1] + 1:
+            runs[-1].append(i)
+        else:
+            runs.append([i])
+    parts = [f"{r[0]}–{r[-1]}" if len(r) >= 3 else ", ".join(map(str, r)) for r in runs]
+    return f"scene{'s' if len(indices) > 1 else ''} {', '.join(parts)} of {total}"
+
+
 def coarse_steps(sweep: Sweep, result: SweepResult) -> tuple[str, ...]:
-    """The warnings of the complete scenes that touched the obstacle with a fixed step coarse
-    for it (:func:`rodfem.model.timescales.coarse_step`): one line for each kind, of the scene
-    with the fewest steps per contact time, and how many more there are."""
+    """The warnings of the scenes whose fixed step was coarse for their contact (results.csv's
+    ``coarse``: :func:`rodfem.model.timescales.coarse_run`): one line for each kind, naming
+    every such scene, with the judgement of the one with the fewest steps per contact time."""
     from rodfem.model.timescales import coarse_step
 
-    found: dict[str, tuple[int, int, object]] = {}  # kind: (count, index, judgement)
-    for index, status, intervals in zip(result.columns.get("index", ()),
-                                        result.columns.get("status", ()),
-                                        result.columns.get("contact_intervals", ()),
-                                        strict=True):
-        if status != "complete" or not float(intervals) > 0.0:  # nan: not measured
+    found: dict[str, tuple[list[int], int, object]] = {}  # kind: (indices, worst, judgement)
+    for index, coarse in zip(result.columns.get("index", ()), result.columns.get("coarse", ()),
+                             strict=True):
+        judged = coarse_step(sweep.scene(int(index))) if coarse == 1 else None
+        if judged is None:
             continue
-        coarse = coarse_step(sweep.scene(int(index)))
-        if coarse is None:
-            continue
-        count, worst, judged = found.get(coarse.kind, (0, int(index), coarse))
-        if coarse.steps < judged.steps:
-            worst, judged = int(index), coarse
-        found[coarse.kind] = (count + 1, worst, judged)
-    return tuple(f"scene {index}" + (f" and {count - 1} more of the {len(result)}"
-                                     if count > 1 else "") + f": {judged.line}"
-                 for count, index, judged in found.values())
+        indices, worst, before = found.get(judged.kind, ([], int(index), judged))
+        if judged.steps < before.steps:
+            worst, before = int(index), judged
+        found[judged.kind] = ([*indices, int(index)], worst, before)
+    return tuple(scene_list(indices, len(result))
+                 + (f" (the coarsest: scene {worst})" if len(indices) > 1
+                    and judged.kind == "elastic" else "")
+                 + f": {judged.line}" for indices, worst, judged in found.values())
+
+
+def coarse_study_line(sweep: Sweep, result: SweepResult, where: str) -> str | None:
+    """The one line of a study whose runs are ``sweep`` (``rodfem sensitivity``): how many of
+    them were coarse (results.csv's ``coarse``), flagged ``where``, and the fix
+    (:func:`rodfem.model.timescales.study_line`); None: none was."""
+    from rodfem.model.timescales import coarse_step, study_line
+
+    judged = [coarse_step(sweep.scene(int(index))) for index, coarse in zip(
+        result.columns.get("index", ()), result.columns.get("coarse", ()), strict=True)
+        if coarse == 1]
+    return study_line([j for j in judged if j is not None], len(result), where)
 
 
 def _warned(sweep: Sweep, result: SweepResult, comm: MPI.Comm) -> SweepResult:
