@@ -249,11 +249,42 @@ def test_estimates_cover_the_exact_errors_of_random_scenes(shared):
     assert sum(r <= 30.0 for r in ratios) >= 0.9 * len(ratios), sorted(ratios)
 
 
-def test_a_study_of_scenes_with_targets_is_refused_before_anything_runs(shared):
-    path = scene_file(shared, 'scene = "stiff"\n[grid]\n"model.zeta" = [0.1, 0.2]\n[measures]\n'
-                      'peak = { column = "sigma_1", reduce = "max_abs", target = 0.01 }\n',
+def test_a_sweep_holds_its_scenes_to_their_targets_a_study_refuses_them(shared):
+    """A sweep's scenes are each run to their targets: results.csv gains each targeted
+    measure's error and accuracy_met, the rows those of the scenes run alone, on any number of
+    ranks; a fit's or sensitivity study's runs refuse targets (one line, before anything runs)."""
+    base = manufactured(shared, 1e-3).read_text().replace("cells = 16", "cells = 8")
+    scene_file(shared, base, "base.toml")
+    path = scene_file(shared, 'scene = "base.toml"\n[grid]\n"model.zeta" = [0.1, 0.3]\n',
                       "sweep.toml")
+    swept = rodfem.sweep(path, out=shared / "sweep", force=True)
+    rows = (shared / "sweep" / "results.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    assert header[-6:] == ["coarse", "u_end_error", "theta_mid_error", "theta_int_error",
+                           "accuracy_met", "error"]
+    for zeta, row in zip((0.1, 0.3), rows[1:]):
+        alone = rodfem.simulate(scene_file(shared, 'scene = "base.toml"\n[model]\n'
+                                           f"zeta = {zeta!r}\n", f"alone{zeta}.toml"),
+                                comm=MPI.COMM_SELF)
+        cells = dict(zip(header, row.split(",")))
+        assert cells["accuracy_met"] == "1"
+        for name in ("u_end", "theta_mid", "theta_int"):
+            assert cells[f"{name}_error"] == repr(alone.errors[name])
+            assert cells[name] == repr(alone.measures[name])
+    assert list(swept.columns["accuracy_met"]) == [1, 1]
+    assert swept.columns["u_end_error"].dtype == float
+    from rodfem.studies.sweep.parameters import parse as study
+
+    data = {"scene": str(shared / "base.toml"), "parameters": {"model.zeta": [0.1, 0.3]}}
+    with pytest.raises(SceneError, match="not held by a study's runs"):
+        study(data, "fit.toml")
+
+
+def test_the_scenes_of_a_sweep_hold_the_same_measures_to_targets(shared):
+    path = scene_file(shared, 'scene = "stiff"\n[grid]\n"accuracy.target" = [0.01, 0]\n'
+                      '[measures]\npeak = { column = "sigma_1", reduce = "max_abs" }\n',
+                      "mixed.toml")
     from rodfem.studies.sweep.design import load as load_sweep
 
-    with pytest.raises(SceneError, match="held by rodfem run and rodfem.simulate"):
+    with pytest.raises(SceneError, match="every scene of a sweep holds the same measures"):
         load_sweep(path).scenes()

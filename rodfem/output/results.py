@@ -4,7 +4,9 @@ Columns: ``index`` (the scene's place in the sweep, from 0), the swept keys (nam
 e.g. ``model.k``), ``status`` (complete | failed | interrupted), the built-in measures of
 :mod:`rodfem.output.measures`, the measures the scenes declare (:mod:`rodfem.scene.measures`:
 the same for every scene of a sweep), what the sweep says of each scene's run (:data:`RUN`:
-``steps``, ``rejected_steps``, ``coarse``) and ``error`` (why a scene failed; empty otherwise).
+``steps``, ``rejected_steps``, ``coarse``), where the scenes hold measures to an accuracy
+target each one's estimated error (``<measure>_error``) and ``accuracy_met`` (1 where every
+target was met, else 0), and ``error`` (why a scene failed; empty otherwise).
 :func:`measure_names` gives the measures of a header. Numbers are
 written to round-trip precision (``repr``), so the table of a sweep is the same text whatever the
 number of ranks and however often it was stopped and resumed — but for ``loop_seconds``, a
@@ -39,6 +41,14 @@ RUN_MEANINGS = {
               "rigid obstacle: the warning of docs/time-schemes.md), else 0",
 }
 RUN = tuple(RUN_MEANINGS)
+# Of a sweep whose scenes hold measures to an accuracy target (docs/accuracy-targets.md), after
+# the run's columns: each targeted measure's estimated error, then whether every target was met.
+ERROR_SUFFIX, ACCURACY_MET = "_error", "accuracy_met"
+
+
+def accuracy_names(targeted: tuple[str, ...]) -> tuple[str, ...]:
+    """The columns of the accuracy of ``targeted`` measures (none without them)."""
+    return (*(f"{name}{ERROR_SUFFIX}" for name in targeted), ACCURACY_MET) if targeted else ()
 
 
 class ResultsError(ValueError):
@@ -48,22 +58,42 @@ class ResultsError(ValueError):
 DECLARED = re.compile(r"[a-z_][a-z0-9_]*")  # a declared measure's name (rodfem.scene.measures)
 
 
-def header(axes: tuple[str, ...], declared: tuple[str, ...] = ()) -> list[str]:
-    """The names of the columns: ``declared``, the names of the measures the scenes declare."""
-    return ["index", *axes, "status", *MEASURE_NAMES, *declared, *RUN, "error"]
+def header(axes: tuple[str, ...], declared: tuple[str, ...] = (),
+           targeted: tuple[str, ...] = ()) -> list[str]:
+    """The names of the columns: ``declared``, the names of the measures the scenes declare;
+    ``targeted``, those of them held to an accuracy target."""
+    return ["index", *axes, "status", *MEASURE_NAMES, *declared, *RUN,
+            *accuracy_names(targeted), "error"]
 
 
-def _run_columns(names: list[str]) -> bool:
-    """Whether a header's names end with the run's columns (:data:`RUN`), then error."""
-    return tuple(names[-1 - len(RUN):-1]) == RUN
+def _run_start(names: list[str]) -> int | None:
+    """Where a header's run columns (:data:`RUN`) begin: followed by the accuracy columns of
+    some of the measures before them, then error (None: a table of an earlier rodfem)."""
+    for start in range(len(names) - len(RUN) - 1, names.index("status"), -1):
+        if tuple(names[start:start + len(RUN)]) == RUN:
+            after = names[start + len(RUN):-1]
+            targeted = tuple(n.removesuffix(ERROR_SUFFIX) for n in after[:-1])
+            if tuple(after) == accuracy_names(targeted) \
+                    and set(targeted) <= set(names[:start]):
+                return start
+    return None
 
 
 def measure_names(names: list[str] | tuple[str, ...]) -> tuple[str, ...]:
     """The measures of a header (its names): every column between status and the run's columns
     (:data:`RUN`; error, in the tables of an earlier rodfem)."""
     names = list(names)
-    end = len(names) - 1 - (len(RUN) if _run_columns(names) else 0)
-    return tuple(names[names.index("status") + 1:end])
+    start = _run_start(names)
+    return tuple(names[names.index("status") + 1:len(names) - 1 if start is None else start])
+
+
+def targeted_names(names: list[str] | tuple[str, ...]) -> tuple[str, ...]:
+    """The measures of a header held to an accuracy target (those with an error column)."""
+    names = list(names)
+    start = _run_start(names)
+    if start is None:
+        return ()
+    return tuple(n.removesuffix(ERROR_SUFFIX) for n in names[start + len(RUN):-2])
 
 
 def _text(value: Any) -> str:
@@ -77,23 +107,28 @@ def _text(value: Any) -> str:
 
 def line(index: int, point: dict[str, Any], axes: tuple[str, ...], status: str,
          measures: dict[str, Any], error: str = "", declared: tuple[str, ...] = (),
-         run: dict[str, int] | None = None) -> str:
-    """One row of results.csv, without its newline (``declared``: as for :func:`header`;
-    ``run``: the run's columns by name, :data:`RUN`, 0 where not given)."""
-    run = run or {}
+         run: dict[str, int] | None = None, targeted: tuple[str, ...] = (),
+         accuracy: dict[str, Any] | None = None) -> str:
+    """One row of results.csv, without its newline (``declared``, ``targeted``: as for
+    :func:`header`; ``run``: the run's columns by name, :data:`RUN`, 0 where not given;
+    ``accuracy``: the accuracy columns by name, nan and 0 where not given)."""
+    run, accuracy = run or {}, accuracy or {}
     cells = [index, *(point[a] for a in axes), status,
              *(measures.get(name, math.nan) for name in (*MEASURE_NAMES, *declared)),
-             *(int(run.get(name, 0)) for name in RUN), error]
+             *(int(run.get(name, 0)) for name in RUN),
+             *(accuracy.get(name, 0 if name == ACCURACY_MET else math.nan)
+               for name in accuracy_names(targeted)), error]
     buffer = io.StringIO()
     # the terminator is the writer's, dropped after: a cell with a newline is quoted for it
     csv.writer(buffer, lineterminator="\r\n").writerow([_text(c) for c in cells])
     return buffer.getvalue().removesuffix("\r\n")
 
 
-def text(axes: tuple[str, ...], lines: list[str], declared: tuple[str, ...] = ()) -> str:
+def text(axes: tuple[str, ...], lines: list[str], declared: tuple[str, ...] = (),
+         targeted: tuple[str, ...] = ()) -> str:
     """The whole file: the header and the rows (in the order given)."""
     buffer = io.StringIO()
-    csv.writer(buffer, lineterminator="\n").writerow(header(axes, declared))
+    csv.writer(buffer, lineterminator="\n").writerow(header(axes, declared, targeted))
     return buffer.getvalue() + "".join(f"{row}\n" for row in lines)
 
 

@@ -73,7 +73,8 @@ class LadderFailed(RuntimeError):
 class Ladder:
     """The runs of ``scene`` at its targets (:attr:`Scene.targets`), made by :meth:`climb`."""
 
-    def __init__(self, scene: Scene, comm: MPI.Comm, say: Callable[[str], None] | None = None):
+    def __init__(self, scene: Scene, comm: MPI.Comm, say: Callable[[str], None] | None = None,
+                 setups=None):
         if not scene.targets:
             raise ValueError("the scene has no accuracy target")
         self.scene, self.comm, self.say = scene, comm, say
@@ -94,7 +95,7 @@ class Ladder:
         self.limit: str | None = None  # what stopped the refinement short of the targets
         from rodfem.run import SetUps
 
-        self.setups = SetUps()
+        self.setups = setups if setups is not None else SetUps()
 
     # -- the runs ------------------------------------------------------------------------------
 
@@ -171,17 +172,19 @@ class Ladder:
         before = self._difference(name, (((c, level - 2), (c, level - 1)) for c in meshes))
         return estimate([d for d in (before, last) if d is not None], self.ratio, self.order)
 
-    def companions(self, cells: int, level: int) -> list[tuple[int, int]]:
-        """The runs (cells, level) still needed beside (cells, level) for an estimate in each
-        direction made near it: half its cells at its time level, its cells at the level
-        before."""
-        name = next(iter(self.targets))
-        needed = []
-        if self._space(name, cells, level) is None:
-            needed.append((cells // 2, level))
-        if self._time(name, cells, level) is None:
-            needed.append((cells, level - 1))
-        return needed
+    def plan(self, cells: int, level: int) -> list[tuple[int, int]]:
+        """The runs still to make for (cells, level) and an estimate in each direction near it:
+        half its cells at its time level (unless a pair in h at a level next to it is made),
+        its cells at the level before (unless a pair in time on half its cells is made), then
+        (cells, level) itself."""
+        made = self.rungs
+        space = any((cells // 2, k) in made and ((cells, k) in made or k == level)
+                    for k in (level, level - 1, level + 1))
+        time_ = any((c, level - 1) in made and ((c, level) in made or c == cells)
+                    for c in (cells, cells // 2))
+        wanted = [*([] if space else [(cells // 2, level)]),
+                  *([] if time_ else [(cells, level - 1)]), (cells, level)]
+        return [key for key in wanted if key not in made]
 
     def errors(self, cells: int, level: int) -> dict[str, dict]:
         """Each targeted measure at (cells, level): its value, error in h and in time, their
@@ -213,15 +216,8 @@ class Ladder:
         level += 1
         self.run(cells, level)
         while True:
-            for companion in self.companions(cells, level):
-                if len(self.rungs) >= self.runs_max:
-                    break
-                self.run(*companion)
             errors = self.errors(cells, level)
             if all(e["met"] for e in errors.values()):
-                return cells, level, errors
-            if len(self.rungs) >= self.runs_max:
-                self.limit = "runs_max"
                 return cells, level, errors
             worst = max(errors.values(), key=_shortfall)
             space = worst["space"].error >= worst["time"].error
@@ -231,11 +227,14 @@ class Ladder:
             if not space and not self._time_room(level + 1):
                 self.limit = "time"
                 return cells, level, errors
-            if space:
-                cells *= 2
-            else:
-                level += 1
-            self.run(cells, level)
+            nxt = (2 * cells, level) if space else (cells, level + 1)
+            runs = self.plan(*nxt)
+            if len(self.rungs) + len(runs) > self.runs_max:
+                self.limit = "runs_max"
+                return cells, level, errors
+            for key in runs:
+                self.run(*key)
+            cells, level = nxt
 
     def _time_room(self, level: int) -> bool:
         """Whether a time level can be run: a tolerance above 0 (its bound's floor), a fixed

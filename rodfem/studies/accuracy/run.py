@@ -28,10 +28,11 @@ RECORD = "accuracy.json"
 
 def simulate_to_target(scene: Scene, out: Path | None, comm: MPI.Comm,
                        say: Callable[[str], None] | None = None, progress: bool = False,
-                       keep_fields: bool = False):
+                       keep_fields: bool = False, setups=None):
     """Run ``scene`` to its targets: (the reported run's scene, its
     :class:`rodfem.run.RunResult`, the record of summary.json's ``errors`` and ``accuracy``).
-    ``out``: the run directory, made already (None: in memory).
+    ``out``: the run directory, made already (None: in memory); ``setups``: the
+    discretisations to share (:class:`rodfem.run.SetUps`).
 
     Raises:
         LadderFailed: a run of the ladder failed or was stopped (nothing is written).
@@ -39,7 +40,7 @@ def simulate_to_target(scene: Scene, out: Path | None, comm: MPI.Comm,
     from rodfem.output.files import write_text
     from rodfem.run import simulate
 
-    ladder = Ladder(scene, comm, say)
+    ladder = Ladder(scene, comm, say, setups)
     cells, level, errors = ladder.climb()
     record = ladder.record(cells, level, errors)
     chosen = ladder.scene_at(cells, level)

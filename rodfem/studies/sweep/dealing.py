@@ -62,23 +62,43 @@ def run_scene(sweep: Sweep, index: int, setups, keep_history: bool) -> Outcome:
     from rodfem.run import simulate
     from rodfem.solver.errors import NotConverged
 
+    from rodfem.studies.accuracy.ladder import LadderFailed
+    from rodfem.studies.accuracy.run import simulate_to_target
+
     scene = sweep.scene(index)
     point = sweep.points[index]
+    targeted, accuracy = sweep.targeted, None
     try:
-        result = simulate(scene, None, MPI.COMM_SELF, progress=False, setups=setups)
+        if targeted:  # the mesh and step chosen for the targets; the finest run reported
+            scene, result, record = simulate_to_target(scene, None, MPI.COMM_SELF,
+                                                       setups=setups)
+            accuracy = accuracy_columns(record)
+        else:
+            result = simulate(scene, None, MPI.COMM_SELF, progress=False, setups=setups)
+    except LadderFailed as err:  # a run of the choice failed or was stopped: the scene's
+        scene, result = err.scene, err.result
     except (NotConverged, ArithmeticError, RuntimeError, ValueError,
             np.linalg.LinAlgError) as err:  # a set-up that fails: this scene's, not the sweep's
         message = " ".join(f"{type(err).__name__}: {err}".split())
         return Outcome(index, "failed", table.line(index, point, sweep.axes, "failed", {},
-                                                   message, sweep.declared), None)
+                                                   message, sweep.declared, targeted=targeted),
+                       None)
     rows = result.history
     summary = result.summary
     names = (column.name for column in for_scene(scene))  # an adaptive run's t, dt and event too
     values = measures({name: rows[:, j] for j, name in enumerate(names)}, scene, summary)
     error = " ".join(summary.get("error", "").split())
     line = table.line(index, point, sweep.axes, result.status, values, error, sweep.declared,
-                      run_columns(scene, {**summary, "status": result.status}))
+                      run_columns(scene, {**summary, "status": result.status}), targeted,
+                      accuracy)
     return Outcome(index, result.status, line, rows if keep_history else None)
+
+
+def accuracy_columns(record: dict) -> dict:
+    """results.csv's accuracy columns of a scene run to its targets
+    (:func:`rodfem.output.results.accuracy_names`)."""
+    columns = {f"{name}{table.ERROR_SUFFIX}": error for name, error in record["errors"].items()}
+    return {**columns, table.ACCURACY_MET: int(record["accuracy"]["met"])}
 
 
 def run_columns(scene, summary: dict) -> dict[str, int]:

@@ -37,6 +37,7 @@ a scene refuses: the scene's number and its swept values too).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
 import math
 from pathlib import Path
@@ -82,6 +83,12 @@ class Sweep:
     points: list[dict[str, Any]]
     measures: dict = dataclasses.field(default_factory=dict)
 
+    @functools.cached_property
+    def targeted(self) -> tuple[str, ...]:
+        """The declared measures the scenes hold to an accuracy target (the first scene's; every
+        scene's, checked as they are taken)."""
+        return tuple(self.scene(0).targets) if self.points else ()
+
     @property
     def declared(self) -> tuple[str, ...]:
         """The names of the measures every scene declares (results.csv's columns of them)."""
@@ -98,10 +105,10 @@ class Sweep:
             if self.measures:
                 data["measures"] = self.measures
             scene = validate(data, self.source)
-            if scene.targets:
-                raise SceneError("accuracy targets ([accuracy], a measure's target) are held by "
-                                 "rodfem run and rodfem.simulate, not by the scenes of a study: "
-                                 "remove them here, or run the scenes one by one")
+            if index and tuple(scene.targets) != self.targeted:
+                raise SceneError(f"it holds {_listed(scene.targets)} to accuracy targets, the "
+                                 f"first scene {_listed(self.targeted)}: every scene of a sweep "
+                                 "holds the same measures to targets (their results.csv columns)")
             return scene
         except SceneError as err:
             raise SceneError(f"{self.name}: scene {index + 1} of {len(self)} "
@@ -110,6 +117,10 @@ class Sweep:
     def scenes(self) -> list[Scene]:
         """Every scene, validated: the first refused raises (nothing has run)."""
         return [self.scene(i) for i in range(len(self))]
+
+
+def _listed(names) -> str:
+    return ", ".join(names) if names else "no measure"
 
 
 def describe(point: dict[str, Any]) -> str:

@@ -131,7 +131,9 @@ def result_from(lines: dict[int, str], axes, status, path=None, histories=None,
     """The result of a sweep's results lines by index (from journals, or in memory);
     ``declared``: the names of the measures its scenes declare; ``sweep``: the sweep, whose
     declared measures and figure format its figures use."""
-    _, columns = table.parse(table.text(axes, [lines[i] for i in sorted(lines)], declared))
+    targeted = sweep.targeted if sweep is not None else ()
+    _, columns = table.parse(table.text(axes, [lines[i] for i in sorted(lines)], declared,
+                                        targeted))
     return SweepResult(columns, tuple(axes), status, path, histories, **_drawing(sweep))
 
 
@@ -155,7 +157,7 @@ def write_table(out: Path, sweep: Sweep, histories: bool, ran: int, seconds: flo
     for record in records.values():
         counts[table.status(record.line, sweep.axes)] += 1
     complete = (len(records) == len(sweep) and counts["interrupted"] == 0 and not failed_write)
-    text = table.text(sweep.axes, lines, sweep.declared).encode("utf-8")
+    text = table.text(sweep.axes, lines, sweep.declared, sweep.targeted).encode("utf-8")
     with replacing(out / table.NAME, "wb") as file:
         file.write(text)
     if complete and histories:

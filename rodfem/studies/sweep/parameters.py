@@ -188,6 +188,11 @@ def parse(data: Any, name: str, directory: Path | None = None,
             where = "the middle of its ranges" if i == 0 else "an end of its ranges"
             shown = str(err).removeprefix(f"{name}: scene {i + 1} of {len(sweep)} ")
             raise SceneError(f"{name}: the scene at {where} {shown}") from None
+    if sweep.targeted:
+        raise SceneError(f"{name}: accuracy targets ([accuracy], a measure's target) are not held "
+                         "by a study's runs, whose measures must vary smoothly with its "
+                         "parameters on one mesh and step; remove them (rodfem run and rodfem "
+                         "sweep hold them)")
     return study
 
 
