@@ -5,7 +5,8 @@ user's.
 A scene file (its ``--set`` values applied) gets ladders of its own sizes, refined by 2 from them,
 with the scene's own method and time scheme:
 
-* in h: cells c, 2c, 4c (… with more rungs) at the scene's Δt (adaptive steps: its tolerance),
+* in h: cells c, 2c, 4c (… with more rungs) at the scene's Δt (adaptive steps: the tolerance
+  ladder's finest tolerance, whose time error that ladder measures, :func:`flag_time_errors`),
   against a run on :attr:`Ladders.h_reference` times the finest rung's cells;
 * in Δt: Δt, Δt/2, Δt/4 … on the scene's cells, against a run with the finest Δt over
   :attr:`Ladders.dt_reference`; with adaptive steps (``time.adaptive``) the tolerance is refined
@@ -17,6 +18,10 @@ Each rung's errors against the reference are those of the built-in scenes
 times), and every run's measures (:func:`rodfem.output.measures.measures`, but the wall time) are
 kept: the order of each measure from the last three rungs and its Richardson estimate
 (:func:`rodfem.studies.verification.convergence.richardson`) need no reference at all.
+
+Each order is checked against the expected one (:mod:`.asymptotic`). A sweep file in
+``--scenes`` gives a scene file of each of its scenes (or those ``--select`` names), named
+<file's name>-<index>.
 
 Each scene's ladders are tasks dealt with the built-in ones to the MPI ranks, the costliest first,
 each run on ``MPI.COMM_SELF``: the tables do not depend on the number of ranks, but the timings.
