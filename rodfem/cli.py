@@ -12,7 +12,7 @@
     rodfem stability [--out DIR] [--scene S] [--methods M,...] [--dt LIST] [--epsilon LIST]
                      [--zeta LIST] [--a LIST] [--end T] [--force] [--progress]
     rodfem verify [--out DIR] [--scenes S,FILE.toml,...] [--set section.key=value ...]
-                  [--force] [--quick] [--progress]
+                  [--select I,J,...] [--force] [--quick] [--progress]
     rodfem work-precision [--out DIR] [--force] [--quick] [--progress]
     rodfem steady SCENE [--out DIR] [--set section.key=value ...] [--continue KEY=a:b:n]
                   [--force] [--format png|pdf|svg]
@@ -316,10 +316,15 @@ def _verify(sub) -> None:
         add_format(command, "png")
     verify.add_argument("--scenes", help="scenes to verify (default: paper1, paper5, no-contact, "
                         "manufactured and manufactured-gap where rodfem.model.manufactured exists, "
-                        "and impact), and scene files (.toml): each refined from its own cells "
+                        "and impact), and scene or sweep files (.toml; a sweep: each of its "
+                        "scenes): each refined from its own cells "
                         "and Δt (or tolerance) by 2, 3 rungs with --quick and 4 without, "
                         "against a finer run, with the orders of its measures")
     add_overrides(verify, "override a value of the scene files in --scenes (repeatable)")
+    verify.add_argument("--select", metavar="I,J,...",
+                        help="verify only these scenes of the sweep files in --scenes: their "
+                        "indices in the sweep (results.csv's index, from 0), comma-separated "
+                        "(default: every scene)")
 
 
 def _steady(sub) -> None:

@@ -135,8 +135,9 @@ def test_error_orders(verified):
 
 
 def test_measure_orders(verified):
-    """Smooth measures converge at P1's order in h and the scheme's in Δt; the integer ones and
-    the time reached have no order, and say why."""
+    """Smooth measures converge at P1's order in h and the scheme's in Δt; the counts, the time
+    reached and (fixed steps) the contact's fraction of the steps and last change are set by
+    the steps: no order, no estimate, and the table says so."""
     for scheme, (_, _, _, measured, _) in verified.items():
         for m in SMOOTH:
             h, dt = _order(measured, "h", m), _order(measured, "dt", m)
@@ -144,18 +145,18 @@ def test_measure_orders(verified):
             assert float(dt["order"]) == pytest.approx(ORDER[scheme], abs=0.1), (scheme, m)
             assert h["note"] == dt["note"] == ""
         for refined in ("h", "dt"):
-            for m in ("contact_intervals", "iterations_max"):
-                assert _order(measured, refined, m)["note"] == "integer"
-                assert _order(measured, refined, m)["order"] == "nan"
-            note = _order(measured, refined, "t_final")["note"]  # T, to round-off
-            assert note == "the same in every run" or note.endswith("at round-off"), note
+            for m in ("contact_intervals", "iterations_max", "t_final", "contact_fraction",
+                      "last_contact_change"):
+                row = _order(measured, refined, m)
+                assert row["note"] == "set by the steps, no order", m
+                assert row["order"] == row["richardson"] == "nan"
         assert "loop_seconds" not in {r["measure"] for r in measured}  # a timing
 
 
 def test_richardson_estimates_the_finest_error(verified, scene_file):
     """The paper's scheme in Δt: the estimate of m_∞ − m_finest agrees with the reference run's
     value (Δt/16 of the finest) less the finest's, which is (1 − 16^−p) of it; to 10 %, the next
-    term of the expansion (the observed order 1.06 for the true 1)."""
+    term of the expansion. The estimate takes the expected order, 1."""
     _, _, _, measured, values = verified["paper"]
     user = refine.UserScene("soft", str(scene_file), ("time.scheme=paper",))
     *_, reference = refine.ladder(user, "dt", refine.QUICK)
@@ -164,7 +165,8 @@ def test_richardson_estimates_the_finest_error(verified, scene_file):
     for m in SMOOTH:
         row = _order(measured, "dt", m)
         finest = [float(r["value"]) for r in values if (r["refined"], r["measure"]) == ("dt", m)]
-        p, estimate = float(row["order"]), float(row["richardson"])
+        p, estimate = float(row["expected"]), float(row["richardson"])
+        assert p == ORDER["paper"]
         assert float(row["finest"]) == finest[-1]
         assert at_reference[m] - finest[-1] == pytest.approx(estimate * (1 - 16.0 ** -p),
                                                              rel=0.1), m

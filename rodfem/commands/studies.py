@@ -159,7 +159,7 @@ def verify(args: argparse.Namespace) -> int:
         plan = verify.QUICK if args.quick else verify.DEFAULT
         ladders = task.QUICK if args.quick else task.DEFAULT
         try:
-            scenes, users = task.parse_scenes(args.scenes, args.overrides, ladders)
+            scenes, users = task.parse_scenes(args.scenes, args.overrides, ladders, args.select)
         except verify.VerifyError as err:
             say(f"rodfem: error: {err}")
             return EXIT_INPUT

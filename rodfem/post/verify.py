@@ -52,6 +52,9 @@ LINE_STYLES = {"paper": "-", "crank-nicolson": "--"}
 # size (points), the largest below, so that all show.
 MARKERS = {"direct": ("o", 10), "newton": ("s", 7), "picard": ("d", 4.5)}
 PANEL = (6.4, 4.7)  # inches per panel
+# The notes of measures whose differences are not drawn: they do not change, or are set by the
+# steps (rodfem.studies.verification.asymptotic.STEPPED), so that no slope applies to them.
+NO_FIGURE = ("integer", "the same in every run", "set by the steps, no order")
 
 
 def read(path: Path) -> dict:
@@ -188,7 +191,8 @@ def _grid(rows: list[str], columns: list[str], path: Path, draw) -> Path:
 
 def _user_fixed(s: dict) -> dict[str, str]:
     """What a scene file's ladders keep fixed, for the panels' titles."""
-    return {"h": f"tolerance {s['tolerance']:g}" if s["adaptive"] else f"Δt = {s['dt']:g}",
+    h_tolerance = s.get("h_tolerance", s["tolerance"])  # older files: the scene's own
+    return {"h": f"tolerance {h_tolerance:g}" if s["adaptive"] else f"Δt = {s['dt']:g}",
             "dt": f"{s['cells']} cells", "tol": f"{s['cells']} cells"}
 
 
@@ -219,8 +223,9 @@ def _measure_panel(ax, rows: list[dict], order: dict, refined: str, title: str,
     if x.size == 0 or y_range is None:
         return False
     x_range = (float(x.min()) / 1.3, float(x.max()) * 1.3)
-    told = f"order {order['order']:.2f}" if math.isfinite(order["order"]) else \
-        f"no order\n({order['note']})"  # on a line of its own: a panel is too narrow for both
+    # the note on a line of its own: a panel is too narrow for both
+    told = f"no order\n({order['note']})" if not math.isfinite(order["order"]) else \
+        f"order {order['order']:.2f}" + (f"\n({order['note']})" if order["note"] else "")
     series(ax, x, d, 0, rows[0]["method"], rows[0]["scheme"],
            f"{rows[0]['method']}, {rows[0]['scheme']}")
     if np.isfinite(d[0]) and d[0] > 0:
@@ -242,8 +247,7 @@ def measures_figure(data: dict, scene: str, path: Path) -> Path | None:
     measured = [r for r in data.get("measures", []) if r["scene"] == scene]
     columns = [d for d in DIRECTIONS if any(r["refined"] == d for r in orders)]
     rows = [m for m in dict.fromkeys(r["measure"] for r in orders)
-            if any(r["measure"] == m and r["note"] not in ("integer", "the same in every run")
-                   for r in orders)]
+            if any(r["measure"] == m and r["note"] not in NO_FIGURE for r in orders)]
     if not rows or not columns:
         return None
     fixed = _user_fixed(data["scenes"][scene])

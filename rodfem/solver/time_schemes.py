@@ -29,6 +29,12 @@ class TimeScheme:
     gradient_contact: bool  # the contact force is the discrete gradient, else φ'(Uⁿ(1))
     starts_with_velocity: bool  # with inertia, step 1 is U¹ = U⁰ + Δt P u₁ (the paper's)
 
+    @property
+    def order(self) -> int:
+        """The order of accuracy in Δt: 1 taken at tⁿ (backward Euler), 2 at the midpoint
+        (what the adaptive steps' error estimate and ``rodfem verify`` expect)."""
+        return 1 if self.weight == 1.0 else 2
+
     def special_first_step(self, inertia: bool) -> bool:
         """Whether the step n = 0 → 1 is the paper's U¹ = U⁰ + Δt P u₁ (with inertia only)."""
         return self.starts_with_velocity and inertia

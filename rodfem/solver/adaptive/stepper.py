@@ -85,7 +85,7 @@ class AdaptiveStepper:
         self.dt0 = home.dt
         self.end = scene["time.end"]
         self.tolerance = scene["time.tolerance"] or TOLERANCES[scene["time.scheme"]]
-        self.order = 1 if home.time_scheme.weight == 1.0 else 2
+        self.order = home.time_scheme.order
         self.nodes = home.values.size // 3
         self.controller = Controller(self.dt0, self.order, scene["time.dt_min"],
                                      scene["time.dt_max"])

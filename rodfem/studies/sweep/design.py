@@ -97,11 +97,12 @@ class Sweep:
     def __len__(self) -> int:
         return len(self.points)
 
-    def scene(self, index: int) -> Scene:
-        """The validated scene of ``index`` (SceneError naming it if a value is refused)."""
+    def scene(self, index: int, extra: dict[str, Any] | None = None) -> Scene:
+        """The validated scene of ``index`` (SceneError naming it if a value is refused), with
+        ``extra`` values set over its own ({"section.key": value}: ``rodfem verify``'s)."""
         point = self.points[index]
         try:
-            data = with_values(self.base, {**self.fixed, **point}, self.name)
+            data = with_values(self.base, {**self.fixed, **point, **(extra or {})}, self.name)
             if self.measures:
                 data["measures"] = self.measures
             scene = validate(data, self.source)

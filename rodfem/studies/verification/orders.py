@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from rodfem.studies.verification import asymptotic
 from rodfem.studies.verification import convergence as cv
 
 DIRECTIONS = ("h", "dt", "h=dt", "tol")
@@ -67,18 +68,33 @@ def _user_plan(key: str, s: dict) -> str:
         tolerances = ", ".join(f"{s['tolerance'] / k:g}" for k in rungs)
         second = (f"tolerance ladder: {tolerances} on "
                   f"{s['cells']} cells, against {s['tolerance'] / rungs[-1] / s['dt_reference']:g}")
-        fixed = f"its tolerance {s['tolerance']:g}"
+        fixed = (f"the tolerance {s['h_tolerance']:g} (the tolerance ladder's finest, whose "
+                 "time error that ladder measures)")
     else:
         steps = ", ".join(f"{s['dt'] / k:g}" for k in rungs)
         second = (f"Δt ladder: Δt = {steps} on "
                   f"{s['cells']} cells, against Δt = {s['dt'] / rungs[-1] / s['dt_reference']:g}")
         fixed = f"Δt = {s['dt']:g}"
-    return (f"{key} ({s['scene']}{''.join(f' --set {o}' for o in s['overrides'])}; T = "
+    source = s["scene"] if "member" not in s else \
+        f"scene {s['member']} of the sweep {s['scene']}: {s['values']}"
+    return (f"{key} ({source}{''.join(f' --set {o}' for o in s['overrides'])}; T = "
             f"{s['end']:g}, {s['method']}, {s['scheme']}): h ladder: cells "
             f"{', '.join(str(s['cells'] * k) for k in rungs)} at {fixed}, against "
             f"{s['cells'] * rungs[-1] * s['h_reference']} cells; {second}. References: the "
             "scene's own method and scheme. Measures: the order p = log2(|m₁ − m₀| / |m₂ − m₁|) "
-            "of the last three runs and the Richardson estimate (m₂ − m₁)/(2^p − 1) of m_∞ − m₂.")
+            "of the last three runs and, where p is within ±"
+            f"{asymptotic.BAND:g} of the expected order q, the Richardson estimate "
+            "(m₂ − m₁)/(2^q − 1) of m_∞ − m₂.")
+
+
+def _told(r: dict) -> str:
+    """A measure's order as the tables give it: the order, or why there is none, or the order
+    and why it is not trusted."""
+    if r["note"] == asymptotic.STEPPED:
+        return f"— ({r['note']})"
+    if not math.isfinite(r["order"]):
+        return f"no order ({r['note']})"
+    return _g(r["order"]) + (f" ({r['note']})" if r["note"] else "")
 
 
 def _measure_lines(data: dict, scene: str) -> list[str]:
@@ -86,14 +102,40 @@ def _measure_lines(data: dict, scene: str) -> list[str]:
     rows = [r for r in data.get("measure_orders", []) if r["scene"] == scene]
     if not rows:
         return []
-    lines = ["", "Measures (finest run, order from the last three, Richardson estimate):", "",
-             "| ladder | measure | finest | order | m_∞ − finest |", "|---|---|---|---|---|"]
+    lines = ["", "Measures (finest run, order from the last three against the expected one, "
+             "Richardson estimate with the expected order):", "",
+             "| ladder | measure | finest | expected | order | m_∞ − finest |",
+             "|---|---|---|---|---|---|"]
     for r in rows:
-        order = _g(r["order"]) if math.isfinite(r["order"]) else f"no order ({r['note']})"
         finest = r["finest"] if isinstance(r["finest"], int) else _g(r["finest"], 6)
         lines.append(f"| {HEADINGS[r['refined']]} | {r['measure']} | {finest} | "
-                     f"{order} | {_g(r['richardson'])} |")
+                     f"{_g(r.get('expected', math.nan))} | {_told(r)} | "
+                     f"{_g(r['richardson'])} |")
     return lines
+
+
+def _rate(row: dict, m: str) -> str:
+    """An error's order in the orders table, with its check."""
+    check = row.get(f"check_{m}", "")
+    return _g(row[f"rate_{m}"], 3) + (f" ({check})" if check else "")
+
+
+def _checks(rows: list[dict]) -> list[str]:
+    """What the checks in an orders table mean, where it has any."""
+    told = {row.get(f"check_{m}", "") for row in rows for m in cv.MEASURES}
+    lines = []
+    if "pre-asymptotic" in told:
+        lines.append(f"- pre-asymptotic: more than {asymptotic.BAND:g} from the expected order "
+                     "(h: 2; Δt: the scheme's; a tolerance: q/(q + 1) for a scheme of order q): "
+                     "refine further before trusting it.")
+    if "time error" in told:
+        lines.append(f"- time error: the adaptive steps' time error at the h ladder's tolerance "
+                     f"is more than {asymptotic.POLLUTION:g} of its finest rung's error: the "
+                     "order in h may be the time error's; tighten time.tolerance.")
+    if any(r["refined"] == "h=dt" for r in rows):
+        lines.append("- h = Δt: the solution has kinks; no order is expected of it, and none "
+                     "is checked.")
+    return ["", *lines] if lines else []
 
 
 def markdown(data: dict) -> str:
@@ -113,10 +155,11 @@ def markdown(data: dict) -> str:
                   "|---|---|" + "---|" * (len(present) * len(cv.MEASURES) + 1)]
         for method, scheme in dict.fromkeys((r["method"], r["scheme"]) for r in rows):
             by = {r["refined"]: r for r in rows if (r["method"], r["scheme"]) == (method, scheme)}
-            cells = [_g(by[d][f"rate_{m}"], 3) if d in by else "" for d in present
+            cells = [_rate(by[d], m) if d in by else "" for d in present
                      for m in cv.MEASURES]
             runs = ", ".join(f"{by[d]['points']} ({HEADINGS[d]})" for d in present if d in by)
             lines.append(f"| {method} | {scheme} | " + " | ".join(cells) + f" | {runs} |")
+        lines += _checks(rows)
         for refined in present:
             points = [r for r in data["points"] if r["scene"] == scene and r["refined"] == refined]
             if not points:
@@ -158,7 +201,7 @@ def summary_lines(data: dict, out: Path) -> list[str]:
     exact = _exact(data)
     width = max([12, *(len(r["scene"]) for r in data["orders"])])
     for r in data["orders"]:
-        rates = ", ".join(f"{m} {_g(r[f'rate_{m}'], 3)}" for m in cv.MEASURES
+        rates = ", ".join(f"{m} {_rate(r, m)}" for m in cv.MEASURES
                           if math.isfinite(r[f"rate_{m}"]))
         against = " (exact solution)" if r["scene"] in exact else ""
         lines.append(f"{r['scene']:<{width}} {SHORT[r['refined']]:<4} {r['method']:<6} "
@@ -167,7 +210,6 @@ def summary_lines(data: dict, out: Path) -> list[str]:
     for scene, refined in ladders:
         rows = [r for r in data["measure_orders"] if (r["scene"], r["refined"]) == (scene, refined)]
         told = "; ".join(f"{r['measure']} {_g(r['order'])} (m_∞ − finest {_g(r['richardson'], 2)})"
-                         if math.isfinite(r["order"]) else f"{r['measure']} no order ({r['note']})"
-                         for r in rows)
+                         if r["note"] == "" else f"{r['measure']} {_told(r)}" for r in rows)
         lines.append(f"{scene:<{width}} {SHORT[refined]:<4} measures: {told}")
     return lines

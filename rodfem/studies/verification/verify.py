@@ -38,6 +38,7 @@ import numpy as np
 from rodfem.model import impact
 from rodfem.scene import METHODS, SCHEMA, Scene, SceneError, load
 from rodfem.studies.common import parse_choices
+from rodfem.studies.verification import asymptotic
 from rodfem.studies.verification import convergence as cv
 
 # Scene keys → (built-in scene, overrides). T is set by the plan.
@@ -57,8 +58,11 @@ TOGETHER = "h=dt"  # the impact's ladder: h and Δt refined together
 FILES = ("orders.csv", "orders.md", "orders.json", "errors.csv")
 ERROR_COLUMNS = ("scene", "refined", "method", "scheme", "cells", "dt", "status", *cv.MEASURES,
                  "seconds", "us_per_step", "iterations_mean", "message")
+# check_<measure>: "" (within the band of the expected order, or nothing to check),
+# "pre-asymptotic" or "time error" (rodfem.studies.verification.asymptotic)
 ORDER_COLUMNS = ("scene", "refined", "method", "scheme", "points",
-                 *(f"rate_{m}" for m in cv.MEASURES), *(f"finest_{m}" for m in cv.MEASURES))
+                 *(f"rate_{m}" for m in cv.MEASURES), *(f"finest_{m}" for m in cv.MEASURES),
+                 "expected", *(f"check_{m}" for m in cv.MEASURES))
 
 
 def schemes() -> tuple[str, ...]:
@@ -290,7 +294,8 @@ def impact_errors(scene: Scene) -> Callable:
 
 
 def orders(records: list[dict]) -> list[dict]:
-    """The observed orders of each (scene, direction, method, scheme), and its finest errors."""
+    """The observed orders of each (scene, direction, method, scheme), its finest errors, the
+    expected order and each order's check against it (:mod:`.asymptotic`)."""
     keys = list(dict.fromkeys((r["scene"], r["refined"], r["method"], r["scheme"])
                               for r in records))
     rows = []
@@ -304,6 +309,9 @@ def orders(records: list[dict]) -> list[dict]:
         for m in cv.MEASURES:
             row[f"rate_{m}"] = cv.rate(steps, [r[m] for r in done])
             row[f"finest_{m}"] = done[-1][m] if done else math.nan
+        row["expected"] = asymptotic.expected(refined, scheme)
+        for m in cv.MEASURES:
+            row[f"check_{m}"] = asymptotic.check(row[f"rate_{m}"], row["expected"])
         rows.append(row)
     return rows
 
