@@ -24,7 +24,7 @@ LAYERS = ["scene", "model", "forms", "discrete", "solver", "output", "run", "pos
           "api", "commands", "cli"]
 # Within the studies: a family (a subpackage) imports its own modules, the shared ones and the
 # sweep engine it runs on; the shared modules import no family.
-SHARED = {"common", "cost", "damage"}
+SHARED = {"common", "cost", "damage", "asymptotic", "accuracy"}
 ENGINE = "sweep"
 
 

@@ -24,7 +24,8 @@ from rodfem.cli import main
 from rodfem.output.measures import NAMES, TIMINGS
 from rodfem.scene import load
 from rodfem.scene.measures import REDUCTIONS
-from rodfem.studies.verification import asymptotic, refine, verify
+from rodfem.studies import asymptotic
+from rodfem.studies.verification import refine, verify
 from rodfem.studies.verification import convergence as cv
 from test_verify_scene import SCENE
 

@@ -53,7 +53,7 @@ LINE_STYLES = {"paper": "-", "crank-nicolson": "--"}
 MARKERS = {"direct": ("o", 10), "newton": ("s", 7), "picard": ("d", 4.5)}
 PANEL = (6.4, 4.7)  # inches per panel
 # The notes of measures whose differences are not drawn: they do not change, or are set by the
-# steps (rodfem.studies.verification.asymptotic.STEPPED), so that no slope applies to them.
+# steps (rodfem.studies.asymptotic.STEPPED), so that no slope applies to them.
 NO_FIGURE = ("integer", "the same in every run", "set by the steps, no order")
 
 

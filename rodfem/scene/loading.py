@@ -204,10 +204,19 @@ def _check_adaptive(scene: Scene) -> None:
 
 def _check_accuracy(scene: Scene) -> None:
     """An accuracy target needs measures to hold to it, and room to refine the mesh."""
-    if scene["accuracy.target"] > 0.0 and not scene.measures:
-        raise SceneError("accuracy.target: holds the measures a scene declares, and this one "
-                         'declares none; add them in a [measures] table, e.g. peak = { column = '
-                         '"sigma_1", reduce = "max_abs" } (docs/accuracy.md)')
+    if scene["accuracy.target"] > 0.0 and not scene.targets:
+        raise SceneError("accuracy.target: holds the measures a scene declares (but those set by "
+                         "the steps), and this one declares none; add them in a [measures] "
+                         'table, e.g. peak = { column = "sigma_1", reduce = "max_abs" } '
+                         "(docs/accuracy-targets.md)")
+    for m in scene.measures:
+        if m.target is not None and m.stepped:
+            raise SceneError(f"measures.{m.name}: {m.reduce} of {m.column} is set by the steps "
+                             "(its value moves by whole steps as a run is refined) and has no "
+                             "error to hold to a target; remove its target")
+        if m.name in scene.targets and f"{m.name}_error" in {d.name for d in scene.measures}:
+            raise SceneError(f"measures.{m.name}_error: the name of {m.name}'s estimated error "
+                             "(a sweep's results.csv column); choose another name")
     most, cells = scene["accuracy.cells_max"], scene["mesh.cells"]
     if most and most < cells:
         raise SceneError(f"accuracy.cells_max: must be 0 or at least mesh.cells = {cells}, "

@@ -50,6 +50,14 @@ BUILTIN_NAMES = ("t_final", "u_1_final", "sigma_1_final", "max_penetration", "co
 RESERVED = (*BUILTIN_NAMES, "index", "status", "error")
 NAME = re.compile(r"[a-z_][a-z0-9_]*")
 MAX_TARGET = 0.5  # the largest relative error a target may ask (accuracy.target's bound)
+# Reductions set by the steps: time_of_max_abs is the time of a row, in any run; the others are
+# values of the columns' piecewise-linear interpolant (its extremes at rows, its integral, its
+# time above zero with the crossing interpolated), which follow the solution. The columns t, dt,
+# iterations, contact and event are the steps' own: every reduction of them is set by the
+# steps. Such a measure has no order of convergence and no error to hold to a target.
+STEPPED_REDUCTIONS = ("time_of_max_abs",)
+SMOOTH_REDUCTIONS = ("max", "min", "max_abs", "mean", "integral", "final", "time_positive")
+STEPPED_COLUMNS = ("t", "dt", "iterations", "contact", "event")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,6 +70,12 @@ class Declared:
     reduce: str
     window: tuple[float, float] | None = None
     target: float | None = None  # the relative error wanted (None: accuracy.target's)
+
+    @property
+    def stepped(self) -> bool:
+        """Whether the measure is set by the steps (:data:`STEPPED_REDUCTIONS`,
+        :data:`STEPPED_COLUMNS`): its values move by whole steps as a run is refined."""
+        return self.reduce in STEPPED_REDUCTIONS or self.column in STEPPED_COLUMNS
 
     def data(self) -> dict[str, Any]:
         """As TOML data: what :func:`parse` reads back."""

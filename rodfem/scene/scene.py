@@ -64,9 +64,11 @@ class Scene(Mapping):
     @property
     def targets(self) -> dict[str, float]:
         """The relative error wanted of each declared measure ({name: target}; empty: none,
-        the scene's own mesh and steps): its own ``target``, else ``accuracy.target``."""
+        the scene's own mesh and steps): its own ``target``, else ``accuracy.target`` (but for
+        a measure set by the steps, which has no error to hold: :attr:`Declared.stepped`)."""
         common = self.sections["accuracy"]["target"]
-        wanted = {m.name: m.target if m.target is not None else common for m in self.measures}
+        wanted = {m.name: m.target if m.target is not None else 0.0 if m.stepped else common
+                  for m in self.measures}
         return {name: target for name, target in wanted.items() if target > 0.0}
 
     @property

@@ -7,14 +7,14 @@ d/(R − 1) ≤ d: the difference alone bounds it. The pair one refinement coars
 this measure, observed: R = d₀/d with d₀ that pair's difference. Then
 
 * the order is p = log(R)/log(ρ) (ρ: the refinement, 2 in h and in Δt, 10 in the tolerance);
-* in h and in Δt, where the scheme has an order q (P1: 2 in h; the paper's scheme 1 and
-  Crank–Nicolson 2 in Δt), the measure is *in its asymptotic range* where |p − q| ≤ :data:`BAND`,
-  and the finer run's error is d/(ρ^p' − 1) with p' = min(p, q) (Richardson with the smaller of
-  the two orders: never below the scheme's own estimate);
-* outside that band, or for the tolerance (which has no order of its own), the same with R
-  taken as at most 2: the error is at least the difference d itself, and where the differences
-  do not shrink, the larger of the two (the measure is not converging yet: its runs are refined
-  further).
+* the measure is *in its asymptotic range* where p is within the band of the expected order q
+  (:mod:`rodfem.studies.asymptotic`, as ``rodfem verify`` checks it: P1's 2 in h; the scheme's
+  own in Δt, 1 for the paper's and 2 for Crank–Nicolson; q/(q + 1) of that in the tolerance of
+  adaptive steps), and the finer run's error is d/(ρ^p' − 1) with p' = min(p, q) (Richardson
+  with the smaller of the two orders: never below the scheme's own estimate);
+* outside that band, or with one pair only, the same with R taken as at most 2: the error is at
+  least the difference d itself, and where the differences do not shrink, the larger of the two
+  (the measure is not converging yet: its runs are refined further).
 
 These are estimates, not bounds: ``tests/test_accuracy_targets.py`` measures how often they cover
 the true error (against runs converged in both h and Δt) and by how much they exceed it.
@@ -26,9 +26,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
-SPACE_ORDER = 2  # P1 elements, in h
-TIME_ORDERS = {"paper": 1, "crank-nicolson": 2}
-BAND = 0.5  # |observed order − the scheme's| within which a measure is in its asymptotic range
+from rodfem.studies.asymptotic import within
+
 TOLERANCE_RATIO = 10.0  # each adaptive run's tolerance over the next one's
 
 
@@ -61,6 +60,6 @@ def estimate(differences: list[float], ratio: float, order: float | None) -> Est
         return Estimate(d, d, None, False if order else None)
     rate = before / d
     observed = math.log(rate) / math.log(ratio)
-    asymptotic = None if order is None else abs(observed - order) <= BAND
+    asymptotic = None if order is None else within(observed, order)
     rate = min(rate, ratio ** order) if asymptotic else min(rate, 2.0)
     return Estimate(d / (rate - 1.0), d, observed, asymptotic)

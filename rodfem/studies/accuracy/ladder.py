@@ -33,8 +33,8 @@ from typing import TYPE_CHECKING
 from rodfem.scene import Scene
 from rodfem.scene.loading import validate
 from rodfem.scene.schema import MAX_STEPS, TOLERANCES
-from rodfem.studies.accuracy.estimates import (SPACE_ORDER, TIME_ORDERS, TOLERANCE_RATIO,
-                                               Estimate, estimate)
+from rodfem.studies.accuracy.estimates import TOLERANCE_RATIO, Estimate, estimate
+from rodfem.studies.asymptotic import SPACE_ORDER, expected
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -82,11 +82,12 @@ class Ladder:
         scheme = scene["time.scheme"]
         self.adaptive = scene.adaptive
         if self.adaptive:
-            self.time_key, self.ratio, self.order = "time.tolerance", TOLERANCE_RATIO, None
+            self.time_key, self.ratio = "time.tolerance", TOLERANCE_RATIO
             self.first = scene["time.tolerance"] or TOLERANCES[scheme]
         else:
-            self.time_key, self.ratio, self.order = "time.dt", 2.0, TIME_ORDERS[scheme]
+            self.time_key, self.ratio = "time.dt", 2.0
             self.first = scene["time.dt"]
+        self.order = expected("tol" if self.adaptive else "dt", scheme)
         self.cells0 = scene["mesh.cells"]
         self.cells_max = scene["accuracy.cells_max"] or max(
             self.cells0, min(CELLS_FACTOR * self.cells0, CELLS_CAP))

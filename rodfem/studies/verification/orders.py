@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from rodfem.studies.verification import asymptotic
+from rodfem.studies import asymptotic
 from rodfem.studies.verification import convergence as cv
 
 DIRECTIONS = ("h", "dt", "h=dt", "tol")

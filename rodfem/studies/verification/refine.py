@@ -43,7 +43,8 @@ from rodfem.scene.loading import _parse_override
 from rodfem.scene.schema import TOLERANCES
 from rodfem.studies.common import deal, machine, prepare, write_csv
 from rodfem.studies.sweep import design
-from rodfem.studies.verification import asymptotic, verify
+from rodfem.studies import asymptotic
+from rodfem.studies.verification import verify
 from rodfem.studies.verification import convergence as cv
 from rodfem.studies.verification.orders import markdown, summary_lines  # noqa: F401 (the command prints them)
 
@@ -321,7 +322,7 @@ def measure_orders(measured: list[dict], records: list[dict],
                    stepped: dict[str, tuple[str, ...]] | None = None) -> list[dict]:
     """Each ladder's measures: the order from the last three rungs, checked against the expected
     one, and the Richardson estimate with the expected order
-    (:mod:`rodfem.studies.verification.asymptotic`), or the note that says why there is none: a
+    (:mod:`rodfem.studies.asymptotic`), or the note that says why there is none: a
     measure set by the steps (``stepped``: by scene, :func:`asymptotic.stepped`), an order
     outside the band (pre-asymptotic; the order is kept), or
     :func:`rodfem.studies.verification.convergence.richardson`'s. A rung that did not complete

@@ -38,7 +38,7 @@ import numpy as np
 from rodfem.model import impact
 from rodfem.scene import METHODS, SCHEMA, Scene, SceneError, load
 from rodfem.studies.common import parse_choices
-from rodfem.studies.verification import asymptotic
+from rodfem.studies import asymptotic
 from rodfem.studies.verification import convergence as cv
 
 # Scene keys → (built-in scene, overrides). T is set by the plan.
@@ -59,7 +59,7 @@ FILES = ("orders.csv", "orders.md", "orders.json", "errors.csv")
 ERROR_COLUMNS = ("scene", "refined", "method", "scheme", "cells", "dt", "status", *cv.MEASURES,
                  "seconds", "us_per_step", "iterations_mean", "message")
 # check_<measure>: "" (within the band of the expected order, or nothing to check),
-# "pre-asymptotic" or "time error" (rodfem.studies.verification.asymptotic)
+# "pre-asymptotic" or "time error" (rodfem.studies.asymptotic)
 ORDER_COLUMNS = ("scene", "refined", "method", "scheme", "points",
                  *(f"rate_{m}" for m in cv.MEASURES), *(f"finest_{m}" for m in cv.MEASURES),
                  "expected", *(f"check_{m}" for m in cv.MEASURES))

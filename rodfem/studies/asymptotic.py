@@ -27,6 +27,9 @@ from __future__ import annotations
 
 import math
 
+from rodfem.scene.measures import (SMOOTH_REDUCTIONS, STEPPED_COLUMNS,  # noqa: F401
+                                   STEPPED_REDUCTIONS)
+
 # P1 elements: the order of u and θ in L² and of smooth functionals of them.
 SPACE_ORDER = 2
 # An observed order within this of the expected one is in the asymptotic range (the docstring).
@@ -42,14 +45,7 @@ STEPPED_MEASURES = ("t_final", "contact_intervals", "iterations_max")
 FIXED_STEP_MEASURES = ("contact_fraction", "last_contact_change")
 # The built-in measures that follow the solution: their order is checked.
 SMOOTH_MEASURES = ("u_1_final", "sigma_1_final", "max_penetration", "energy_final")
-# Declared measures (rodfem.scene.measures.REDUCTIONS): time_of_max_abs is the time of a row,
-# set by the steps in any run; the others are values of the columns' piecewise-linear
-# interpolant (its extremes at rows, its integral, its time above zero with the crossing
-# interpolated), which follow the solution. The columns t, dt, iterations, contact and event
-# are the steps' own: every reduction of them is set by the steps.
-STEPPED_REDUCTIONS = ("time_of_max_abs",)
-SMOOTH_REDUCTIONS = ("max", "min", "max_abs", "mean", "integral", "final", "time_positive")
-STEPPED_COLUMNS = ("t", "dt", "iterations", "contact", "event")
+# Declared measures: which are set by the steps is the scene layer's (Declared.stepped).
 # With adaptive steps the h ladder runs at the tolerance ladder's finest tolerance, whose time
 # error that ladder measures (against its reference): where it is more than this fraction of the
 # smallest difference an order in h rests on (the finest rung's error; a measure's last
@@ -85,8 +81,7 @@ def check(order: float, expect: float) -> str:
 def stepped(scene) -> tuple[str, ...]:
     """The measures of ``scene`` set by its steps (the module's docstring): no order for them."""
     names = STEPPED_MEASURES + (() if scene.adaptive else FIXED_STEP_MEASURES)
-    declared = tuple(m.name for m in getattr(scene, "measures", ())
-                     if m.reduce in STEPPED_REDUCTIONS or m.column in STEPPED_COLUMNS)
+    declared = tuple(m.name for m in getattr(scene, "measures", ()) if m.stepped)
     return names + declared
 
 
