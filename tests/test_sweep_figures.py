@@ -434,3 +434,24 @@ def test_coarse_scenes_and_missed_accuracy_are_marked_with_a_legend(tmp_path, dr
     assert len(outlined) == np.sum(columns["coarse"] == 1) + np.sum(columns["accuracy_met"] == 0)
     assert [t.get_text() for t in ax.get_legend().get_texts()] == \
         ["step coarse for the contact", "accuracy target not met"]
+
+
+def test_measures_held_to_a_target_are_drawn_with_their_error_bars(tmp_path, drawn):
+    from matplotlib.container import ErrorbarContainer
+
+    spec = tmp_path / "targets.toml"
+    spec.write_text('scene = "manufactured"\n[set]\n"mesh.cells" = 8\n"time.dt" = 0.05\n'
+                    '"time.scheme" = "crank-nicolson"\n"accuracy.target" = 0.001\n[grid]\n'
+                    '"model.zeta" = [0.1, 0.3]\n[measures]\n'
+                    'u_end = { column = "u_1", reduce = "final" }\n', encoding="utf-8")
+    out = tmp_path / "targets"
+    run_sweep(spec, out=out, comm=MPI.COMM_SELF)
+    plot_sweep(out, measures=["u_end"])
+    ax = drawn["sweep_u_end.png"].axes[0]
+    bars = [c for c in ax.containers if isinstance(c, ErrorbarContainer)]
+    assert len(bars) == 1 and ax.get_ylabel().endswith("bars: its estimated error")
+    with open(out / "results.csv", encoding="utf-8", newline="") as file:
+        rows = list(csv.DictReader(file))
+    half = [abs(s[1][1] - s[0][1]) / 2 for s in bars[0].lines[2][0].get_segments()]
+    np.testing.assert_allclose(half, [float(r["u_end_error"]) for r in rows], rtol=1e-12)
+    assert all(r["accuracy_met"] == "1" for r in rows)

@@ -17,7 +17,8 @@ A scene that failed or was interrupted, or whose measure is nan, is left out of 
 as a hatched grey cell in maps (a grey cross among points). Scenes whose fixed step was coarse
 for their contact (results.csv's ``coarse``) are ringed in red, with a legend entry "step coarse
 for the contact", and, where the table has an ``accuracy_met`` column, those with 0 there are
-boxed in black, "accuracy target not met" (:data:`MARKS`). The scenes' histories themselves, kept
+boxed in black, "accuracy target not met" (:data:`MARKS`), and a measure held to a target is drawn
+with its estimated error as error bars (``<measure>_error``). The scenes' histories themselves, kept
 with ``--histories``, are overlaid by :mod:`rodfem.post.scenes`. Reads the sweep's files only and
 draws with matplotlib, off-screen (its figures are not pyplot's: nothing to close, no backend).
 """
@@ -152,16 +153,22 @@ def _marks(columns) -> list[tuple[np.ndarray, str, dict]]:
             for name, value, words, style in MARKS if name in columns]
 
 
-def _lines(ax, x, labels, key, log, y, ok, groups, marks=()) -> None:
+def _lines(ax, x, labels, key, log, y, ok, groups, marks=(), errors=None) -> None:
     """The measure against x, one line per (label, rows) of ``groups``, valid rows only; y on a
     log scale where the drawn values span decades; the rows of ``marks`` (:func:`_marks`)
-    ringed."""
+    ringed; ``errors``: each row's estimated error, drawn as its error bar (an accuracy
+    target's)."""
     drawn = np.zeros(len(y), dtype=bool)
     for label, rows in groups:
         keep = rows & ok
         drawn |= keep
         order = np.argsort(x[keep], kind="stable") if labels is None else slice(None)
-        ax.plot(x[keep][order], y[keep][order], marker="o", label=label)
+        if errors is None:
+            ax.plot(x[keep][order], y[keep][order], marker="o", label=label)
+        else:
+            bars = np.where(np.isfinite(errors), errors, 0.0)[keep][order]
+            ax.errorbar(x[keep][order], y[keep][order], yerr=bars, marker="o", capsize=3,
+                        label=label)
     for rows, words, style in marks:
         if (rows & drawn).any():
             ax.plot(x[rows & drawn], y[rows & drawn], linestyle="none", marker=style["marker"],
@@ -316,10 +323,14 @@ def _measure(out: Path, sweep: Layout, columns, name: str, fmt: str = "png") -> 
     label = names.measure_label(name, sweep.declared)
     title = names.measure_title(name, sweep.declared)
     first, marks = axes[0], _marks(columns)
+    errors = columns.get(f"{name}{results.ERROR_SUFFIX}")  # an accuracy target's estimates
+    errors = None if errors is None else np.asarray(errors, dtype=float)
+    if errors is not None:
+        label += ", bars: its estimated error"
     if len(axes) == 1:
         fig, ax = _figure(f"{title} against {_symbol(first)}")
         _lines(ax, *_positions(columns[first]), first, first in sweep.logs, y, ok, [(None, at)],
-               marks)
+               marks, errors)
         ax.set_ylabel(label)
         if ax.get_legend_handles_labels()[0]:  # the marks'
             ax.legend(loc="best")
@@ -337,7 +348,7 @@ def _measure(out: Path, sweep: Layout, columns, name: str, fmt: str = "png") -> 
         groups = [(f"{_symbol(axes[1])} = {_shown(v)}", np.array([k == _key(v) for k in keys]))
                   for v in sweep.grid[axes[1]]]
         _lines(ax, *_positions(columns[first]), first, first in sweep.logs, y, ok, groups,
-               marks)
+               marks, errors)
         ax.set_ylabel(label)
         # beside the axes, not over them: "best" still covers lines where every corner has one
         ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
