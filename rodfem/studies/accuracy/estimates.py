@@ -12,9 +12,16 @@ this measure, observed: R = d₀/d with d₀ that pair's difference. Then
   own in Δt, 1 for the paper's and 2 for Crank–Nicolson; q/(q + 1) of that in the tolerance of
   adaptive steps), and the finer run's error is d/(ρ^p' − 1) with p' = min(p, q) (Richardson
   with the smaller of the two orders: never below the scheme's own estimate);
-* outside that band, or with one pair only, the same with R taken as at most 2: the error is at
-  least the difference d itself, and where the differences do not shrink, the larger of the two
-  (the measure is not converging yet: its runs are refined further).
+* faster than that band allows, the last two runs agree by chance (the error of adaptive steps
+  falls in plateaus as the tolerance is cut, a peak falls between two fixed steps): the error is
+  taken as the difference before over the expected rate, d₀/ρ^q, or d where larger;
+* slower than the band, or with one pair only, the same with R taken as at most 2: the error is
+  at least the difference d itself, and where the differences do not shrink, the larger of the
+  two (the measure is not converging yet: its runs are refined further).
+
+An estimate in time from one pair only is not enough for a target to be met (:mod:`.ladder`
+refines the step once more): the error of adaptive steps does not fall steadily with the
+tolerance, and two levels alone cannot tell a plateau from convergence.
 
 These are estimates, not bounds: ``tests/test_accuracy_targets.py`` measures how often they cover
 the true error (against runs converged in both h and Δt) and by how much they exceed it.
@@ -26,7 +33,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from rodfem.studies.asymptotic import within
+from rodfem.studies.asymptotic import BAND, within
 
 TOLERANCE_RATIO = 10.0  # each adaptive run's tolerance over the next one's
 
@@ -34,32 +41,42 @@ TOLERANCE_RATIO = 10.0  # each adaptive run's tolerance over the next one's
 @dataclasses.dataclass(frozen=True)
 class Estimate:
     """The estimated error of a measure in one direction: ``error`` (absolute), the difference
-    it came from, the observed order (None: two runs only) and whether that order is the
-    scheme's (None: no scheme order to check, or two runs only)."""
+    it came from, the observed order (None: two runs only, or differences that do not shrink)
+    and whether that order is the scheme's (None: two runs only); ``checked``: whether it rests
+    on two differences (an observed rate), not on one."""
 
     error: float
     difference: float
     order: float | None = None
     asymptotic: bool | None = None
+    checked: bool = False
 
 
-def estimate(differences: list[float], ratio: float, order: float | None) -> Estimate:
+def estimate(differences: list[float], ratio: float, order: float) -> Estimate:
     """The error of the finer run of the last pair of runs refined by ``ratio`` in one
     direction, from |m_fine − m_coarse| of that pair (``differences[-1]``) and, where known,
-    of the pair one refinement coarser (``differences[-2]``); the scheme's ``order`` in that
-    direction (None: none)."""
+    of the pair one refinement coarser (``differences[-2]``); ``order``: the expected order in
+    that direction (:func:`rodfem.studies.asymptotic.expected`)."""
     if not differences:
         raise ValueError("an estimate needs two runs at least")
     d = differences[-1]
     if len(differences) == 1:
         return Estimate(d, d)
-    before = differences[-2]
-    if d == 0.0:
-        return Estimate(0.0, 0.0, math.inf if before > 0.0 else None, None)
+    before, expected_rate = differences[-2], ratio ** order
+    if d == 0.0 or before / d > expected_rate * ratio ** BAND:
+        # faster than the scheme converges: the two last runs agree by chance (a plateau of
+        # the adaptive steps' error, a peak between two fixed steps), and the difference
+        # before, at the expected rate, says more of the error than their agreement
+        observed = math.log(before / d) / math.log(ratio) if d > 0.0 else math.inf
+        return Estimate(max(d, before / expected_rate), d, _finite(observed), False, True)
     if before <= d:  # not converging (yet): the larger difference, no order
-        return Estimate(d, d, None, False if order else None)
+        return Estimate(d, d, None, False, True)
     rate = before / d
     observed = math.log(rate) / math.log(ratio)
-    asymptotic = None if order is None else within(observed, order)
-    rate = min(rate, ratio ** order) if asymptotic else min(rate, 2.0)
-    return Estimate(d / (rate - 1.0), d, observed, asymptotic)
+    asymptotic = within(observed, order)
+    rate = min(rate, expected_rate) if asymptotic else min(rate, 2.0)
+    return Estimate(d / (rate - 1.0), d, observed, asymptotic, True)
+
+
+def _finite(value: float) -> float | None:
+    return value if math.isfinite(value) else None
