@@ -65,3 +65,27 @@ def test_refuses(text, fragment):
 def test_huge_powers_stay_floats():
     """10**10**10 would hang with Python integers; as floats it overflows to inf at once."""
     assert np.isinf(Expression("10**10**10", NAMES)(np.zeros(2), PARAMS)).all()
+
+
+def test_transcendental_functions_and_powers_are_the_c_librarys_bit_for_bit():
+    """The same bits on every machine: NumPy's own sin, exp, power… are SVML's on a processor
+    with AVX-512, rounded otherwise than the C library's (rodfem.scene.expressions._libm)."""
+    import math
+
+    rng = np.random.default_rng(7)
+    x = rng.uniform(-3.0, 3.0, 1001)
+    for name, function in (("sin", math.sin), ("cos", math.cos), ("tan", math.tan),
+                           ("exp", math.exp)):
+        got = Expression(f"{name}(x)", ())(x, {})
+        assert got.tobytes() == np.array([function(v) for v in x]).tobytes(), name
+    got = Expression("log(x)", ())(np.abs(x) + 0.1, {})
+    assert got.tobytes() == np.array([math.log(v) for v in np.abs(x) + 0.1]).tobytes()
+    got = Expression("(x - 1)**2 + abs(x)**k", ("k",))(x, {"k": 2.5})
+    want = [math.pow(v - 1.0, 2.0) + math.pow(abs(v), 2.5) for v in x]
+    assert got.tobytes() == np.array(want).tobytes()
+    # where the C library raises, NumPy's value: nan, ±inf, as before
+    points = np.array([-1.0, 0.0, 2.0])
+    logs, exps = Expression("log(x)", ())(points, {}), Expression("exp(1000*x)", ())(points, {})
+    roots = Expression("(-x)**0.5", ())(points, {})
+    assert np.isnan(logs[0]) and logs[1] == -np.inf and exps[2] == np.inf
+    assert roots[0] == 1.0 and roots[1] == 0.0 and np.isnan(roots[2])

@@ -2,25 +2,50 @@
 
 A scene is data: its expressions are parsed with :mod:`ast` into a tree that holds numbers, ``x``,
 parameter names, ``+ - * / **``, parentheses, the functions sin cos tan exp log sqrt abs and the
-constant pi, and nothing else. The tree is evaluated by walking it with NumPy; nothing a user
-wrote is ever passed to ``eval`` or ``exec``.
+constant pi, and nothing else. The tree is evaluated by walking it with NumPy, its transcendental
+functions and powers by the C library's (:func:`_libm`: the same bits on every machine); nothing
+a user wrote is ever passed to ``eval`` or ``exec``.
 """
 
 from __future__ import annotations
 
 import ast
 import difflib
+import math
 from collections.abc import Callable, Mapping
 
 import numpy as np
 
+def _libm(function: Callable[..., float], numpy_function) -> Callable[..., np.ndarray]:
+    """``function`` of :mod:`math` (the C library's) on every element of its arguments, which
+    broadcast as NumPy's do. NumPy's own transcendental functions are not one arithmetic: on a
+    processor with AVX-512 they are SVML's, rounded otherwise than the C library's (an ulp here
+    and there, which an ill-conditioned run carries to 1e-13 of its history), so a scene's data
+    would depend on the machine. Where ``function`` raises (a pole, a domain or an overflow),
+    the element is ``numpy_function``'s (nan or ±inf, the same on every machine)."""
+
+    def element(*args: float) -> float:
+        try:
+            return function(*args)
+        except (ValueError, OverflowError, ZeroDivisionError):
+            return float(numpy_function(*(np.float64(a) for a in args)))
+
+    def apply(*arrays):
+        shaped = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in arrays))
+        columns = [a.ravel().tolist() for a in shaped]
+        out = np.fromiter(map(element, *columns), np.float64, shaped[0].size)
+        return out.reshape(shaped[0].shape) if shaped[0].ndim else np.float64(out[0])
+
+    return apply
+
+
 FUNCTIONS: dict[str, Callable[[np.ndarray], np.ndarray]] = {
-    "sin": np.sin,
-    "cos": np.cos,
-    "tan": np.tan,
-    "exp": np.exp,
-    "log": np.log,
-    "sqrt": np.sqrt,
+    "sin": _libm(math.sin, np.sin),
+    "cos": _libm(math.cos, np.cos),
+    "tan": _libm(math.tan, np.tan),
+    "exp": _libm(math.exp, np.exp),
+    "log": _libm(math.log, np.log),
+    "sqrt": np.sqrt,  # correctly rounded (IEEE 754) on every machine, as are + - * /
     "abs": np.abs,
 }
 CONSTANTS = {"pi": np.pi}
@@ -32,7 +57,7 @@ _BINARY = {
     ast.Sub: np.subtract,
     ast.Mult: np.multiply,
     ast.Div: np.divide,
-    ast.Pow: np.power,
+    ast.Pow: _libm(math.pow, np.power),
 }
 _UNARY = {ast.USub: np.negative, ast.UAdd: np.positive}
 
