@@ -43,6 +43,17 @@ class _Parser(argparse.ArgumentParser):
                      "--help)\n")
 
 
+class Defaults(argparse.ArgumentDefaultsHelpFormatter):
+    """Each option's help with its default, but where there is none to say (a flag that is off,
+    no value, nothing repeated yet) or the help says it already."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        if action.default is None or action.default is False or action.default == [] \
+                or "(default" in (action.help or ""):
+            return action.help or ""
+        return super()._get_help_string(action)
+
+
 def parser(command: str | None = None) -> argparse.ArgumentParser:
     """The argument parser of every subcommand (the CLI reference is generated from it), or
     with ``command`` (a subcommand's name) of that one alone: the same parser for its
@@ -65,7 +76,7 @@ def _run(sub) -> None:
         help="simulate a scene",
         description="Simulate a scene and write history.h5, fields.xdmf, scene.toml and "
         "summary.json into the output directory.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=Defaults,
     )
     run.add_argument("scene",
                      help=f"a built-in scene ({', '.join(BUILTIN + EXTRA)}) or a TOML file")
@@ -239,7 +250,7 @@ def _paper(sub) -> None:
         description="Run the paper's five experiments, draw their figures and Figure 5 "
         "(experiments 1 and 2 overlaid: their energy and their curves), and write index.md, "
         "which sets each figure beside what the paper says about it.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=Defaults,
     )
     add_output(paper, "results/paper", "output directory", "replace an earlier reproduction")
     add_overrides(paper, "override a value in every experiment, e.g. --set time.end=2")
@@ -256,7 +267,7 @@ def _stability(sub) -> None:
         "the machine, and Picard's measured boundary against the paper's Δt < εζ and the "
         "compliance's w/ε < 1) and figures/stability_<method>.png. Lists are comma-separated. "
         "Points are shared round-robin among MPI ranks.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=Defaults,
     )
     add_output(stability, "results/stability", "output directory",
             "replace an earlier stability map in --out")
@@ -292,7 +303,7 @@ def _verify(sub) -> None:
         "file in --scenes gets ladders of its own, with its method and time scheme, and the "
         "orders and Richardson estimates of its measures: measures.csv, measure_orders.csv and "
         "figures/measures_<scene>.png. Ladders are dealt among MPI ranks, the costliest first.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=Defaults,
     )
     work = sub.add_parser(
         "work-precision",
@@ -303,7 +314,7 @@ def _verify(sub) -> None:
         "its L1 error of u(1, ·) against the exact solution; and write workprecision.csv, "
         "workprecision.json (with the time at which each choice reaches an error of 1e-3 on "
         "paper5, and the choices the impact rejects) and figures/workprecision_<scene>.png.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=Defaults,
     )
     for command, default, methods in (
             (verify, "results/verify", "the built-in scenes with the direct method only"),
