@@ -199,6 +199,12 @@ def test_the_run_directory_reruns_and_resumes_to_the_same_result(shared):
         assert done.returncode == 0 and "accuracy met: u_end = " in done.stdout
         summary = json.loads((shared / "cli" / "summary.json").read_text())
         assert summary["errors"] == result.errors
+        # extended to a later end, the run is no longer the one the estimates are of
+        done = subprocess.run([RODFEM, "resume", str(shared / "cli"), "--set", "time.end=1.2",
+                               "--quiet"], capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+        extended = rodfem.load(shared / "cli")
+        assert extended.errors == {} and extended.history["t"][-1] == pytest.approx(1.2)
 
 
 def test_a_run_stopped_while_choosing_resumes_to_the_same_result(shared):

@@ -229,6 +229,8 @@ def resume(args: argparse.Namespace) -> int:
         return run_to_target(scene, out, args.quiet)
     if checkpoint is None and not args.quiet:
         say(f"rodfem: {out} has no checkpoint yet; running it again from step 0")
+    # a run chosen for an accuracy target keeps its estimates, unless --set changes it (a later
+    # end): they are not the changed run's
     result = simulate(scene, out, comm, progress=not args.quiet, force_progress=args.progress,
-                      resume=checkpoint, annotate=recorded(out))
+                      resume=checkpoint, annotate=None if args.overrides else recorded(out))
     return report_run(scene, result, out, args.quiet)
