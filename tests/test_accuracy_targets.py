@@ -302,3 +302,80 @@ def test_the_scenes_of_a_sweep_hold_the_same_measures_to_targets(shared):
 
     with pytest.raises(SceneError, match="every scene of a sweep holds the same measures"):
         load_sweep(path).scenes()
+
+
+@pytest.mark.parametrize("name", ["cells", "seconds", "steps", "accuracy_met", "coarse"])
+def test_a_measure_may_not_take_the_name_of_a_tables_column(shared, name):
+    path = scene_file(shared, f'scene = "stiff"\n[measures]\n{name} = {{ column = "u_1", '
+                      'reduce = "final" }\n', "named.toml")
+    with pytest.raises(SceneError, match="choose another name"):
+        load(str(path))
+
+
+def test_a_sweep_names_its_scenes_whose_targets_were_not_met(shared):
+    base = manufactured(shared, 1e-3).read_text().replace("cells = 16", "cells = 8")
+    scene_file(shared, base, "base.toml")
+    path = scene_file(shared, 'scene = "base.toml"\n[grid]\n"accuracy.runs_max" = [3, 10]\n',
+                      "missing.toml")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        swept = rodfem.sweep(path)
+    assert list(swept.columns["accuracy_met"]) == [0, 1]
+    assert swept.accuracy_missed.startswith("accuracy target not met in scene 0 of 2")
+    said = [w for w in caught if issubclass(w.category, rodfem.AccuracyWarning)]
+    assert len(said) == (1 if COMM.rank == 0 else 0)
+
+
+def test_a_record_is_kept_only_for_the_run_it_is_of(shared):
+    """A resumed run writes its accuracy record into its summary only where the record names
+    its scene: not a run extended by resume --set and stopped, nor a plain run given another's
+    record; the words of a target missed say what stopped the choice."""
+    if COMM.size != 1:
+        pytest.skip("commands of one process")
+    path = manufactured(shared, 1e-3)
+    out = shared / "kept"
+    rodfem.simulate(path, {"accuracy.runs_max": 4}, out=out, force=True)
+    record = json.loads((out / "accuracy.json").read_text())
+    runs = record["accuracy"]["runs"]
+    assert record["accuracy"]["met"] is False and runs <= 4
+    assert runs == len((out / "accuracy.csv").read_text().splitlines()) - 1
+    from rodfem.studies.accuracy.ladder import not_met_line
+
+    assert f"next refinement would pass accuracy.runs_max = 4 runs ({runs} made)" in \
+        not_met_line(record)
+    from rodfem.studies.accuracy.run import recorded
+
+    assert recorded(out, rodfem.load(out).scene) == record
+    assert recorded(out, load(str(out / "scene.toml"), ["time.end=1.5"])) is None
+    plain = shared / "plain"
+    rodfem.simulate("manufactured", out=plain, force=True)
+    (plain / "accuracy.json").write_text(json.dumps(record))
+    assert recorded(plain, rodfem.load(plain).scene) is None
+
+
+def test_a_signal_as_the_chosen_run_is_written_resumes_with_its_estimates(shared):
+    """The record, the ladder's table and the chosen scene are written together: a stop taken
+    there resumes to the reported run with its estimates."""
+    if COMM.size != 1:
+        pytest.skip("signals to one process")
+    path = manufactured(shared, 1e-3)
+    out = shared / "between"
+    code = ("import os, signal, sys\n"
+            "from rodfem.output import files\n"
+            "write = files.write_text\n"
+            "def stop(path, text, comm):\n"
+            "    write(path, text, comm)\n"
+            "    if path.name == 'accuracy.json': os.kill(os.getpid(), signal.SIGTERM)\n"
+            "files.write_text = stop\n"
+            "from rodfem.__main__ import main\n"
+            "sys.exit(main())\n")
+    done = subprocess.run([sys.executable, "-c", code, "run", str(path), "--out", str(out),
+                           "--quiet"], capture_output=True, text=True)
+    assert done.returncode == 143, done.stderr
+    assert {"accuracy.json", "accuracy.csv"} <= {p.name for p in out.iterdir()}
+    done = subprocess.run([RODFEM, "resume", str(out)], capture_output=True, text=True)
+    assert done.returncode == 0 and "accuracy met: u_end" in done.stdout, done.stderr
+    whole = rodfem.simulate(path, out=shared / "whole2", force=True)
+    resumed = rodfem.load(out)
+    assert resumed.errors == whole.errors
+    assert resumed.history.tobytes() == whole.history.tobytes()

@@ -92,7 +92,7 @@ def run_to_target(scene, out: Path, quiet: bool) -> int:
     from mpi4py import MPI
 
     from rodfem.output.directories import finish
-    from rodfem.studies.accuracy.ladder import LadderFailed, not_met_line
+    from rodfem.studies.accuracy.ladder import LadderFailed
     from rodfem.studies.accuracy.run import simulate_to_target
 
     talk = None if quiet else (lambda line: say(f"rodfem: {line}"))
@@ -116,19 +116,27 @@ def run_to_target(scene, out: Path, quiet: bool) -> int:
         return EXIT_DIVERGED
     code = report_run(chosen, result, out, quiet)
     if code == 0:
-        missed = not_met_line(record)
-        if missed is not None:
-            say(f"rodfem: warning: {missed}")
-        elif not quiet:
-            say(f"rodfem: {accuracy_line(record)}", sys.stdout)
+        said_accuracy(record, quiet)
     return code
+
+
+def said_accuracy(record: dict, quiet: bool) -> None:
+    """The estimates of a run chosen for its accuracy target: a warning for a target not met
+    (said even when quiet), else the line of the estimates."""
+    from rodfem.studies.accuracy.ladder import not_met_line
+
+    missed = not_met_line(record)
+    if missed is not None:
+        say(f"rodfem: warning: {missed}")
+    elif not quiet:
+        say(f"rodfem: {accuracy_line(record)}", sys.stdout)
 
 
 def accuracy_line(record: dict) -> str:
     """The estimates of a run whose targets are met, in one line."""
     accuracy = record["accuracy"]
     step = next(f"{key} = {accuracy[key]:g}" for key in ("tolerance", "dt") if key in accuracy)
-    parts = [f"{name} = {e['value']:.6g} ± {e['error']:.2g} (target {e['target']:g})"
+    parts = [f"{name} = {e['value']:.6g} ± {e['error'] or 0.0:.2g} (target {e['target']:g})"
              for name, e in accuracy["measures"].items()]
     return (f"accuracy met: {'; '.join(parts)}; {accuracy['cells']} cells, time.{step}, "
             f"{accuracy['runs']} runs")
@@ -229,8 +237,12 @@ def resume(args: argparse.Namespace) -> int:
         return run_to_target(scene, out, args.quiet)
     if checkpoint is None and not args.quiet:
         say(f"rodfem: {out} has no checkpoint yet; running it again from step 0")
-    # a run chosen for an accuracy target keeps its estimates, unless --set changes it (a later
-    # end): they are not the changed run's
+    # a run chosen for an accuracy target keeps its estimates, not one changed by --set (a
+    # later end): its record names the scene it is of
+    record = recorded(out, scene)
     result = simulate(scene, out, comm, progress=not args.quiet, force_progress=args.progress,
-                      resume=checkpoint, annotate=None if args.overrides else recorded(out))
-    return report_run(scene, result, out, args.quiet)
+                      resume=checkpoint, annotate=record)
+    code = report_run(scene, result, out, args.quiet)
+    if code == 0 and record is not None:
+        said_accuracy(record, args.quiet)
+    return code

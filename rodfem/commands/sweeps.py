@@ -54,6 +54,8 @@ def _sweep_report(result, out: Path, quiet: bool) -> int:
     failed, total = summary.get("scenes_failed", 0), summary.get("scenes", len(result))
     for line in result.coarse_steps:  # once for each kind, not for each scene
         say(f"rodfem: warning: {line}")
+    if result.accuracy_missed:
+        say(f"rodfem: warning: {result.accuracy_missed}")
     if result.error is not None:
         say(f"rodfem: error: {result.error}. The scenes finished before are kept in {out}; once "
             f"its files can be written again, 'rodfem resume {out}' runs the rest.")

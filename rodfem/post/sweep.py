@@ -325,13 +325,12 @@ def _measure(out: Path, sweep: Layout, columns, name: str, fmt: str = "png") -> 
     first, marks = axes[0], _marks(columns)
     errors = columns.get(f"{name}{results.ERROR_SUFFIX}")  # an accuracy target's estimates
     errors = None if errors is None else np.asarray(errors, dtype=float)
-    if errors is not None:
-        label += ", bars: its estimated error"
+    barred = label if errors is None else f"{label}, bars: its estimated error"
     if len(axes) == 1:
         fig, ax = _figure(f"{title} against {_symbol(first)}")
         _lines(ax, *_positions(columns[first]), first, first in sweep.logs, y, ok, [(None, at)],
                marks, errors)
-        ax.set_ylabel(label)
+        ax.set_ylabel(barred)
         if ax.get_legend_handles_labels()[0]:  # the marks'
             ax.legend(loc="best")
     elif len(grid_axes) >= 2:
@@ -349,7 +348,7 @@ def _measure(out: Path, sweep: Layout, columns, name: str, fmt: str = "png") -> 
                   for v in sweep.grid[axes[1]]]
         _lines(ax, *_positions(columns[first]), first, first in sweep.logs, y, ok, groups,
                marks, errors)
-        ax.set_ylabel(label)
+        ax.set_ylabel(barred)
         # beside the axes, not over them: "best" still covers lines where every corner has one
         ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
                   fontsize="small")

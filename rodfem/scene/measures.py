@@ -47,7 +47,11 @@ ENTRY_KEYS = tuple(ENTRIES)
 BUILTIN_NAMES = ("t_final", "u_1_final", "sigma_1_final", "max_penetration", "contact_fraction",
                  "contact_intervals", "last_contact_change", "energy_final", "iterations_max",
                  "loop_seconds")
-RESERVED = (*BUILTIN_NAMES, "index", "status", "error")
+# The other columns of a sweep's results.csv (rodfem.output.results: RUN, ACCURACY_MET) and of a
+# run's accuracy.csv (rodfem.studies.accuracy.ladder.COLUMNS), which a measure's would overwrite.
+TABLE_COLUMNS = ("index", "status", "error", "steps", "rejected_steps", "coarse", "accuracy_met",
+                 "run", "cells", "time_step", "seconds")
+RESERVED = (*BUILTIN_NAMES, *TABLE_COLUMNS)
 NAME = re.compile(r"[a-z_][a-z0-9_]*")
 MAX_TARGET = 0.5  # the largest relative error a target may ask (accuracy.target's bound)
 # Reductions set by the steps: time_of_max_abs is the time of a row, in any run; the others are

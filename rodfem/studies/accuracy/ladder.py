@@ -267,8 +267,8 @@ class Ladder:
         """summary.json's ``errors`` and ``accuracy``."""
         measures = {}
         for name, e in errors.items():
-            entry = {"value": e["value"], "error": e["error"], "target": e["target"],
-                     "met": e["met"]}
+            entry = {"value": _finite(e["value"]), "error": _finite(e["error"]),
+                     "target": e["target"], "met": e["met"]}
             for direction in ("space", "time"):
                 part: Estimate | None = e[direction]
                 entry[direction] = None if part is None else {
@@ -277,7 +277,7 @@ class Ladder:
                     "checked": part.checked}
             measures[name] = entry
         met = all(e["met"] for e in errors.values())
-        return {"errors": {name: e["error"] for name, e in errors.items()},
+        return {"errors": {name: _finite(e["error"]) for name, e in errors.items()},
                 "accuracy": {"target": self.scene["accuracy.target"] or None,
                              "cells": cells, self.time_key.split(".")[1]: self.step(level),
                              "runs": len(self.rungs), "met": met,
@@ -292,25 +292,31 @@ def not_met_line(record: dict) -> str | None:
     accuracy = record["accuracy"]
     if accuracy["met"]:
         return None
-    missed = [f"{name} ± {e['error']:.3g} ({_percent(e)} of {abs(e['value']):.6g}, target "
+    missed = [f"{name} ± {_shown(e['error'])} ({_percent(e)} of {_shown(e['value'])}, target "
               f"{e['target']:g}{_unchecked(e)})" for name, e in accuracy["measures"].items()
               if not e["met"]]
     why = {"cells_max": f"more than accuracy.cells_max = {accuracy['cells_max']} cells "
                         "would be needed",
-           "runs_max": f"accuracy.runs_max = {accuracy['runs_max']} runs were made",
+           "runs_max": f"its next refinement would pass accuracy.runs_max = "
+                       f"{accuracy['runs_max']} runs ({accuracy['runs']} made)",
            "time": "the time step can be refined no further"}[accuracy["limit"]]
     return (f"accuracy target not met for {'; '.join(missed)}: {why}; the run reported has "
             f"{accuracy['cells']} cells")
 
 
+def _shown(value: float | None) -> str:
+    return "unknown" if value is None else f"{abs(value):.3g}"
+
+
 def _unchecked(e: dict) -> str:
     """What a measure within its target lacks: its error in time from a second pair."""
-    within = math.isfinite(e["error"]) and e["error"] <= e["target"] * abs(e["value"])
+    within = e["error"] is not None and e["value"] is not None \
+        and e["error"] <= e["target"] * abs(e["value"])
     return "; within it, but its error in time rests on one pair of runs" if within else ""
 
 
 def _percent(e: dict) -> str:
-    if not math.isfinite(e["error"]) or e["value"] == 0.0:
+    if e["error"] is None or not e["value"]:
         return "an unknown share"
     return f"{100.0 * e['error'] / abs(e['value']):.3g} %"
 
@@ -324,6 +330,7 @@ def _shortfall(e: dict) -> tuple[bool, float]:
 
 
 def _finite(value: float | None) -> float | None:
+    """``value``, None where it is not a finite number (strict JSON writes null there)."""
     return value if value is None or math.isfinite(value) else None
 
 

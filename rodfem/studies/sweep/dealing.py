@@ -6,6 +6,7 @@ and a progress line on rank 0.
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 import time
 
@@ -97,7 +98,8 @@ def run_scene(sweep: Sweep, index: int, setups, keep_history: bool) -> Outcome:
 def accuracy_columns(record: dict) -> dict:
     """results.csv's accuracy columns of a scene run to its targets
     (:func:`rodfem.output.results.accuracy_names`)."""
-    columns = {f"{name}{table.ERROR_SUFFIX}": error for name, error in record["errors"].items()}
+    columns = {f"{name}{table.ERROR_SUFFIX}": math.nan if error is None else error
+               for name, error in record["errors"].items()}
     return {**columns, table.ACCURACY_MET: int(record["accuracy"]["met"])}
 
 

@@ -44,6 +44,8 @@ class SweepResult:
         path: the sweep directory, or None for a sweep run in memory.
         coarse_steps: the warnings of its scenes that touched the obstacle with a fixed step
             coarse for it (:mod:`rodfem.model.timescales`), one line for each kind.
+        accuracy_missed: the warning naming its scenes whose accuracy targets were not met
+            (None: every one was, or none has a target).
     """
 
     columns: dict[str, np.ndarray]
@@ -53,6 +55,7 @@ class SweepResult:
     _histories: dict[int, tuple] | None = None  # in memory: the rows and their columns
     error: str | None = None  # a file that could not be written, which stopped the sweep
     coarse_steps: tuple[str, ...] = ()
+    accuracy_missed: str | None = None  # the line naming the scenes whose targets were not met
     # the declared measures (name → column, reduce, window), for the axes' words and units
     measure_specs: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
     figure_format: str | None = None  # the base scene's output.figure_format

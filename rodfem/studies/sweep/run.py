@@ -171,6 +171,23 @@ def coarse_steps(sweep: Sweep, result: SweepResult) -> tuple[str, ...]:
                  + f": {judged.line}" for indices, worst, judged in found.values())
 
 
+def accuracy_missed(result: SweepResult) -> str | None:
+    """The warning of the scenes whose accuracy targets were not met (results.csv's
+    ``accuracy_met`` = 0, complete scenes), naming every one; None: all were met, or the sweep
+    holds no measure to a target."""
+    met = result.columns.get(table.ACCURACY_MET)
+    if met is None:
+        return None
+    missed = [int(i) for i, m, status in zip(result.columns["index"], met,
+                                             result.columns["status"], strict=True)
+              if m == 0 and status == "complete"]
+    if not missed:
+        return None
+    return (f"accuracy target not met in {scene_list(missed, len(result))} (results.csv: "
+            "accuracy_met = 0; each scene's <measure>_error is its estimate): raise "
+            "accuracy.cells_max or accuracy.runs_max, or lower the target")
+
+
 def coarse_study_line(sweep: Sweep, result: SweepResult, where: str) -> str | None:
     """The one line of a study whose runs are ``sweep`` (``rodfem sensitivity``): how many of
     them were coarse (results.csv's ``coarse``), flagged ``where``, and the fix
@@ -184,9 +201,11 @@ def coarse_study_line(sweep: Sweep, result: SweepResult, where: str) -> str | No
 
 
 def _warned(sweep: Sweep, result: SweepResult, comm: MPI.Comm) -> SweepResult:
-    """``result`` with its :func:`coarse_steps` (judged on rank 0)."""
+    """``result`` with its :func:`coarse_steps` (judged on rank 0) and
+    :func:`accuracy_missed`."""
     lines = comm.bcast(coarse_steps(sweep, result) if comm.rank == 0 else None, root=0)
-    return dataclasses.replace(result, coarse_steps=lines)
+    return dataclasses.replace(result, coarse_steps=lines,
+                               accuracy_missed=accuracy_missed(result))
 
 
 def sweep(spec, out: str | Path | None = None, comm=None, *, histories: bool = False,
@@ -207,12 +226,15 @@ def sweep(spec, out: str | Path | None = None, comm=None, *, histories: bool = F
     import warnings
 
     from rodfem.model.timescales import CoarseStepWarning
+    from rodfem.studies.accuracy.ladder import AccuracyWarning
 
     with interrupts.call():
         result = run_sweep(spec, out, comm, histories=histories, force=force, progress=progress)
     if (comm or MPI.COMM_WORLD).rank == 0:
         for line in result.coarse_steps:
             warnings.warn(line, CoarseStepWarning, stacklevel=2)
+        if result.accuracy_missed:
+            warnings.warn(result.accuracy_missed, AccuracyWarning, stacklevel=2)
     return result
 
 
