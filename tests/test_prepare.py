@@ -10,6 +10,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import pytest
 from conftest import serial_only
 
 from rodfem.scene import BUILTIN, EXTRA
@@ -80,6 +81,7 @@ def test_prepare_takes_a_users_scene_and_refuses_a_wrong_name_before_running(tmp
     assert not (tmp_path / "other").exists()  # refused before anything was run
 
 
+@pytest.mark.slow  # the operator cache's own tests compare histories with and without it
 def test_a_prepared_scene_runs_to_the_same_history_as_an_unprepared_one(tmp_path):
     """The operators prepare cached are the ones a run would assemble: the same history."""
     cells = 40

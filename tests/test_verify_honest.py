@@ -321,6 +321,7 @@ def test_a_sweep_s_scene_is_verified_as_its_scene_file(swept):
 
 
 @serial_only
+@pytest.mark.slow  # two mpirun processes; each scene's ladders are dealt as the built-in ones
 def test_a_sweep_verified_under_mpirun_gives_the_serial_tables(swept):
     root, out, _ = swept
     parallel = root / "parallel"
