@@ -125,6 +125,9 @@ def plot(args: argparse.Namespace) -> int:
                 sweep = path.is_dir() and (read_marker(path) or {}).get("command") == "sweep"
                 notes = SWEEP_INCOMPLETE if sweep else INCOMPLETE
                 note = notes.get(state(path) if path.is_dir() else None)
+                if note and not sweep and not (path / "history.h5").exists():
+                    raise PlotError(f"{path} holds a run that stopped before its first step "
+                                    "(only its scene.toml): nothing to draw")
                 if note:
                     say(f"rodfem: note: {path} {note.format(path=path)}")
             written = drawing()

@@ -103,7 +103,9 @@ def run_to_target(scene, out: Path, quiet: bool) -> int:
         failed = err.result
         finish(out, "interrupted" if failed.status == "interrupted" else "failed",
                MPI.COMM_WORLD)
-        where = f"{err.scene['mesh.cells']} cells"
+        step = ("time.tolerance", err.scene["time.tolerance"]) if err.scene.adaptive \
+            else ("time.dt", err.scene["time.dt"])
+        where = f"{err.scene['mesh.cells']} cells, {step[0]} = {step[1]:g}"
         if failed.status == "interrupted":
             import signal
 
@@ -111,8 +113,8 @@ def run_to_target(scene, out: Path, quiet: bool) -> int:
             say(f"rodfem: interrupted by {name} while choosing the mesh and steps (a run on "
                 f"{where}); 'rodfem resume {out}' starts the choice again")
             return 128 + (failed.signal or signal.SIGINT)
-        say(f"rodfem: a run on {where} chosen for the accuracy target failed: "
-            f"{_advice(err.scene, failed.error)} Nothing but the scene is in {out}.")
+        say(f"rodfem: a run made to choose the mesh and steps for the accuracy target ({where}) "
+            f"failed: {_advice(err.scene, failed.error)} Nothing but the scene is in {out}.")
         return EXIT_DIVERGED
     code = report_run(chosen, result, out, quiet)
     if code == 0:
