@@ -81,7 +81,7 @@ def test_the_fix_keeps_its_promise_where_the_calibration_is_tightest(scheme):
                      "time.tolerance=1e-7")
     exact = found.scale / STEPS_NEEDED[scheme]
     for overrides in (fixed, [*chosen, f"time.dt={exact!r}",
-                              f"time.end={exact * np.ceil(0.5 / exact - 1e-9)!r}"]):
+                              f"time.end={float(exact * np.ceil(0.5 / exact - 1e-9))!r}"]):
         error = peak("stiff", *overrides) / reference - 1.0
         assert abs(error) <= bound, (overrides, error)
     # and the step it offered before (50 steps per √(b ε): Δt = 2e-4) broke the promise
