@@ -95,8 +95,9 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     ``resume``: the checkpoint (arrays, metadata) of ``out`` to continue from
     (:mod:`rodfem.output.checkpoint`). ``setups``: where to find (and keep) a discretisation
     this scene can share with others (:class:`SetUps`). ``annotate``: entries added to the
-    summary (an accuracy target's estimates: :mod:`rodfem.studies.accuracy`). The progress bar is drawn on a terminal
-    (``progress``), or always with ``force_progress``: under mpirun, output is not a terminal.
+    summary (an accuracy target's estimates: :mod:`rodfem.studies.accuracy`). The progress bar
+    is drawn on a terminal (``progress``), or always with ``force_progress``: under mpirun,
+    output is not a terminal.
 
     Signals (Ctrl-C, SIGTERM, SIGHUP, SIGUSR1) stop the run at the end of a step, with its files
     whole and a checkpoint to resume from (:mod:`rodfem.output.interrupts`)."""
