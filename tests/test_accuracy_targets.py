@@ -207,22 +207,25 @@ def test_the_run_directory_reruns_and_resumes_to_the_same_result(shared):
         assert extended.errors == {} and extended.history["t"][-1] == pytest.approx(1.2)
 
 
+def stopped_run(path: Path, out: Path, patch: str) -> subprocess.CompletedProcess:
+    """``rodfem run path --out out --quiet`` in a process that ``patch`` (Python) makes send
+    itself SIGTERM at some moment."""
+    code = f"import os, signal, sys\n{patch}from rodfem.__main__ import main\nsys.exit(main())\n"
+    return subprocess.run([sys.executable, "-c", code, "run", str(path), "--out", str(out),
+                           "--quiet"], capture_output=True, text=True)
+
+
 def test_a_run_stopped_while_choosing_resumes_to_the_same_result(shared):
     if COMM.size != 1:
         pytest.skip("signals to one process")
     path = manufactured(shared, 1e-3)
     out = shared / "stopped"
-    code = ("import os, signal, sys\n"
-            "from rodfem.studies.accuracy import ladder\n"
-            "run = ladder.Ladder.run\n"
-            "def stop(self, cells, level):\n"
-            "    if len(self.rungs) == 2: os.kill(os.getpid(), signal.SIGTERM)\n"
-            "    return run(self, cells, level)\n"
-            "ladder.Ladder.run = stop\n"
-            "from rodfem.__main__ import main\n"
-            "sys.exit(main())\n")
-    done = subprocess.run([sys.executable, "-c", code, "run", str(path), "--out", str(out),
-                           "--quiet"], capture_output=True, text=True)
+    done = stopped_run(path, out, "from rodfem.studies.accuracy import ladder\n"
+                       "run = ladder.Ladder.run\n"
+                       "def stop(self, cells, level):\n"
+                       "    if len(self.rungs) == 2: os.kill(os.getpid(), signal.SIGTERM)\n"
+                       "    return run(self, cells, level)\n"
+                       "ladder.Ladder.run = stop\n")
     assert done.returncode == 143, done.stderr
     assert "rodfem resume" in done.stderr and not (out / "history.h5").exists()
     done = subprocess.run([RODFEM, "resume", str(out), "--quiet"], capture_output=True,
@@ -360,17 +363,12 @@ def test_a_signal_as_the_chosen_run_is_written_resumes_with_its_estimates(shared
         pytest.skip("signals to one process")
     path = manufactured(shared, 1e-3)
     out = shared / "between"
-    code = ("import os, signal, sys\n"
-            "from rodfem.output import files\n"
-            "write = files.write_text\n"
-            "def stop(path, text, comm):\n"
-            "    write(path, text, comm)\n"
-            "    if path.name == 'accuracy.json': os.kill(os.getpid(), signal.SIGTERM)\n"
-            "files.write_text = stop\n"
-            "from rodfem.__main__ import main\n"
-            "sys.exit(main())\n")
-    done = subprocess.run([sys.executable, "-c", code, "run", str(path), "--out", str(out),
-                           "--quiet"], capture_output=True, text=True)
+    done = stopped_run(path, out, "from rodfem.output import files\n"
+                       "write = files.write_text\n"
+                       "def stop(path, text, comm):\n"
+                       "    write(path, text, comm)\n"
+                       "    if path.name == 'accuracy.json': os.kill(os.getpid(), signal.SIGTERM)\n"
+                       "files.write_text = stop\n")
     assert done.returncode == 143, done.stderr
     assert {"accuracy.json", "accuracy.csv"} <= {p.name for p in out.iterdir()}
     done = subprocess.run([RODFEM, "resume", str(out)], capture_output=True, text=True)
