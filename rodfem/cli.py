@@ -14,7 +14,7 @@
     rodfem verify [--out DIR] [--scenes S,FILE.toml,...] [--set section.key=value ...]
                   [--select I,J,...] [--force] [--quick] [--progress]
     rodfem work-precision [--out DIR] [--force] [--quick] [--progress]
-    rodfem steady SCENE [--out DIR] [--set section.key=value ...] [--continue KEY=a:b:n]
+    rodfem steady SCENE [--out DIR] [--set section.key=value ...] [--continue KEY=a:b[:n]]
                   [--force] [--format png|pdf|svg]
 
 Exit codes (:mod:`rodfem.commands`): 0 complete, 2 bad input, 3 a step could not be taken, 4 a
@@ -356,11 +356,17 @@ def _steady(sub) -> None:
     add_output(steady, None, "output directory (default: results/<scene name>-steady)",
             "replace an earlier result of this command in --out")
     add_overrides(steady, "override a scene value, e.g. --set heat_exchange.k1=500 (repeatable)")
-    steady.add_argument("--continue", dest="continuation", metavar="KEY=a:b:n",
+    steady.add_argument("--continue", dest="continuation", metavar="KEY=a:b[:n]",
                         action="append",
-                        help="the branches over n values of the real scene value KEY from a to "
-                        "b, e.g. obstacle.temperature=0:20:81 (once; not a time, output, "
-                        "solver or initial value, which change no steady state)")
+                        help="the branches over the real scene value KEY from a to b, e.g. "
+                        "obstacle.temperature=0:30, followed by continuation through their folds "
+                        "with their folds, grazing and Hopf points located (points.csv); with "
+                        ":n, the states at n values from a to b instead (once; not a time, "
+                        "output, solver or initial value, which change no steady state)")
+    steady.add_argument("--extrapolate", action="store_true",
+                        help="the continuum's growth rates and Hopf points: computed again on "
+                        "2 and 4 times the cells and extrapolated in h², each with an error "
+                        "estimate")
     add_format(steady, "the scene's output.figure_format, else png")
 
 

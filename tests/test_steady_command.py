@@ -39,7 +39,7 @@ def test_states_table(shared_dir, capsys):
     assert [r["stable"] for r in rows] == ["true", "false", "true"]
     assert all((float(r["growth_rate"]) < 0) == (r["stable"] == "true") for r in rows)
     if COMM.rank == 0:
-        assert printed.count("\n") == 1 + 3 + 1 and "growth rate" in printed
+        assert printed.count("\n") == 1 + 3 + 2 and "growth rate" in printed
         assert str(out / "steady.csv") in printed
 
 
@@ -69,9 +69,10 @@ def test_branches(shared_dir, capsys):
 
 
 BAD = [
-    (["--continue", "model.zeta"], "is not KEY=a:b:n"),
-    (["--continue", "model.zeta=1:2"], "is not KEY=a:b:n"),
-    (["--continue", "model.zeta=a:2:3"], "is not KEY=a:b:n"),
+    (["--continue", "model.zeta"], "is not KEY=a:b or KEY=a:b:n"),
+    (["--continue", "model.zeta=1:2:3:4"], "is not KEY=a:b or KEY=a:b:n"),
+    (["--continue", "model.zeta=a:2:3"], "is not KEY=a:b or KEY=a:b:n"),
+    (["--continue", "model.zeta=a:2"], "is not KEY=a:b or KEY=a:b:n"),
     (["--continue", "model.zeta=1:2:1"], "2 <= n"),
     (["--continue", "model.zeta=1:1:3"], "differ"),
     (["--continue", "model.zeta=1:inf:3"], "finite"),

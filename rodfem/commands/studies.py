@@ -94,9 +94,9 @@ def steady(args: argparse.Namespace) -> int:
     comm = MPI.COMM_WORLD
     scene = load(args.scene, args.overrides)
     try:
-        key, values = st.parse_continuation(args.continuation, scene) if args.continuation \
-            else (None, None)
-        st.check_mesh(scene)
+        key, lo, hi, n = st.parse_continuation(args.continuation, scene) if args.continuation \
+            else (None, None, None, None)
+        st.check_mesh(scene, 4 if args.extrapolate else 1)
     except st.SteadyError as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
@@ -104,10 +104,26 @@ def steady(args: argparse.Namespace) -> int:
         Path("results") / f"{Path(args.scene).stem}-steady"
     spectra = Spectra(comm)
     rows = st.analyse(scene, spectra)
-    branch_rows = None if key is None else st.continuation(
-        st.scenes_over(args.scene, args.overrides, key, values), values, spectra, key)
+    if args.extrapolate:
+        st.continuum(scene, rows, spectra)
+    branch_rows = point_rows = None
+    if key is not None and n is not None:
+        import numpy as np
+
+        values = np.linspace(lo, hi, n)
+        branch_rows = st.continuation(st.scenes_over(args.scene, args.overrides, key, values),
+                                      values, spectra, key)
+    elif key is not None:
+        from rodfem.studies.steady import diagram
+
+        st.scenes_over(args.scene, args.overrides, key, [lo, hi])  # both ends valid
+        found = diagram.compute(scene, key, min(lo, hi), max(lo, hi), spectra,
+                                args.extrapolate,
+                                lambda at, problem, state: st.state_row(at, problem, state,
+                                                                        spectra))
+        branch_rows, point_rows = found.branch_rows, found.point_rows
     try:
-        st.write(out, args.force, comm, rows, branch_rows)
+        st.write(out, args.force, comm, rows, branch_rows, point_rows)
     except OutputError as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
@@ -125,9 +141,19 @@ def steady(args: argparse.Namespace) -> int:
     if key is not None:
         for line in st.branch_lines(branch_rows, key):
             say(line, sys.stdout)
+        if point_rows is not None:
+            from rodfem.studies.steady.diagram import point_lines
+
+            for line in point_lines(point_rows, key):
+                say(line, sys.stdout)
         for line in st.warning_lines(branch_rows):
             say(line)
-    for path in (out / st.STATES, *([out / st.BRANCHES] if key else []), *written):
+    if not args.extrapolate:
+        say(f"(rates on the mesh of {scene['mesh.cells']} cells, off the rod's by O(h²): "
+            "--extrapolate gives the continuum's, with error estimates)", sys.stdout)
+    files = [st.STATES, *([st.BRANCHES] if key else []), *(["points.csv"] if point_rows
+                                                           is not None else [])]
+    for path in (*(out / f for f in files), *written):
         say(str(path), sys.stdout)
     comm.barrier()
     return 0

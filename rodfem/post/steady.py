@@ -23,6 +23,11 @@ from rodfem.post.runs import PlotError
 FLAGS = ("contact", "stable", "tangential")
 WORDS = ("trust", "key")  # read as they are written
 FIGURE = "branches.png"
+POINTS = "points.csv"
+POINT_WORDS = ("kind", "before", "after", "asymptotic", "key")
+# The located points' marks: (marker, colour, legend).
+MARKS = {"fold": ("o", "k", "fold"), "grazing": ("^", "tab:green", "grazing (touches the obstacle)"),
+         "hopf": ("*", "tab:purple", "Hopf point")}
 # The symbols of the keys a continuation runs over (rodfem.output.names).
 # stable, unstable, not decided (neutral, unresolved, or not a state to round-off: markers)
 STYLES = {True: "-", False: "--", None: "none"}
@@ -46,6 +51,25 @@ def read_branches(path: Path) -> list[dict]:
     return rows
 
 
+def read_points(path: Path) -> list[dict]:
+    """The rows of points.csv (none where the diagram was sampled: no such file)."""
+    if not path.exists():
+        return []
+    try:
+        with open(path, encoding="utf-8", newline="") as f:
+            return [{k: (v if k in POINT_WORDS else v == "true" if k == "turns" else
+                         int(v) if k == "branch" else float(v)) for k, v in raw.items()}
+                    for raw in csv.DictReader(f)]
+    except (OSError, ValueError, UnicodeDecodeError) as err:
+        raise PlotError(f"cannot read {path}: {err}") from None
+
+
+def _order(row: dict):
+    """A row's place along its branch: its ``point`` (its parameter in older files)."""
+    point = row.get("point")
+    return row["parameter"] if point is None else point
+
+
 def _typed(name: str, value: str):
     """A cell of branches.csv: flags true or false (``stable`` empty, None, where its trust is
     not ok), the branch a whole number, ``trust`` and ``key`` words, the rest reals."""
@@ -53,7 +77,7 @@ def _typed(name: str, value: str):
         return value
     if name in FLAGS:
         return None if value == "" else value == "true"
-    return int(value) if name == "branch" else float(value)
+    return int(value) if name in ("branch", "point") else float(value)
 
 
 def _runs(rows: list[dict]) -> list[tuple[bool, list[dict]]]:
@@ -116,7 +140,8 @@ def panels(rows: list[dict], gap: float | None) -> list[str]:
     return [*([] if flat else ["u_1"]), *(["pressure"] if touching else []), "theta_1"]
 
 
-def _legend(ax, rows: list[dict], gap: float | None, shown: list[str]) -> None:
+def _legend(ax, rows: list[dict], gap: float | None, shown: list[str],
+            kinds: set[str] = frozenset()) -> None:
     """What the colours, lines and marks stand for, beside the panels."""
     trusts = {r["trust"] for r in rows if r["stable"] is None}
     entries = [(Line2D([], [], color=CONTACT, lw=style.MPL_LINE_WIDTH), "in contact"),
@@ -127,8 +152,12 @@ def _legend(ax, rows: list[dict], gap: float | None, shown: list[str]) -> None:
         entries.append((Line2D([], [], color="k", ls="none", marker="o", mfc="none"), "neutral"))
     if trusts - {"neutral"}:
         entries.append((Line2D([], [], color="k", ls="none", marker="x"), "unresolved"))
-    if any(r["tangential"] for r in rows):
+    if any(r["tangential"] for r in rows) and "fold" not in kinds:
         entries.append((Line2D([], [], color="k", ls="none", marker="o"), "fold"))
+    for kind, (marker, colour, label) in MARKS.items():
+        if kind in kinds:
+            entries.append((Line2D([], [], color=colour, ls="none", marker=marker,
+                                   markersize=8), label))
     if _folds(rows):
         entries.append((Line2D([], [], color="0.4", linestyle=":"), "across a fold"))
     if gap is not None and "u_1" in shown:
@@ -149,8 +178,7 @@ def plot_branches(out: Path, key: str, gap: float | None = None,
         axes = dict(zip(shown, fig.subplots(len(shown), 1, sharex=True, squeeze=False)[:, 0],
                         strict=True))
         for label in sorted({row["branch"] for row in rows}):
-            branch = sorted((r for r in rows if r["branch"] == label),
-                            key=lambda r: r["parameter"])
+            branch = sorted((r for r in rows if r["branch"] == label), key=_order)
             for stable, contact, part in _segments(branch):
                 x = [r["parameter"] for r in part]
                 for name, ax in axes.items():
@@ -168,6 +196,12 @@ def plot_branches(out: Path, key: str, gap: float | None = None,
             folds = [r for r in branch if r["tangential"]]
             for name, ax in axes.items():
                 ax.plot([r["parameter"] for r in folds], [_value(r, name) for r in folds], "ko")
+        located = read_points(out / POINTS)
+        for kind, (marker, colour, _) in MARKS.items():
+            here = [r for r in located if r["kind"] == kind]
+            for name, ax in axes.items():
+                ax.plot([r["parameter"] for r in here], [_value(r, name) for r in here],
+                        linestyle="none", marker=marker, color=colour, markersize=8, zorder=5)
         for pair in _folds(rows):
             for name, ax in axes.items():
                 ax.plot([r["parameter"] for r in pair], [_value(r, name) for r in pair],
@@ -182,7 +216,7 @@ def plot_branches(out: Path, key: str, gap: float | None = None,
         first = axes[shown[0]]
         first.set_title(f"Steady states over ${KEYS[key][0]}$" if key in KEYS else
                         f"Steady states over {key}")
-        _legend(first, rows, gap, shown)
+        _legend(first, rows, gap, shown, {r["kind"] for r in located})
         path = out / "figures" / Path(FIGURE).with_suffix(f".{format}").name
         path.parent.mkdir(exist_ok=True)
         return [figures.save(fig, path, dpi=style.MPL_DPI)]

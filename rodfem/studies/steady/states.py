@@ -25,9 +25,10 @@ from rodfem.studies.common import deal, prepare, write_csv
 STATES = "steady.csv"
 BRANCHES = "branches.csv"
 COLUMNS = ("u_1", "sigma_1", "theta_1", "contact", "stable", "growth_rate", "h", "tangential",
-           "residual", "growth_error", "trust")
+           "residual", "growth_error", "trust", "continuum_rate", "continuum_error")
 BRANCH_COLUMNS = ("parameter", "u_1", "sigma_1", "theta_1", "contact", "stable", "growth_rate",
-                  "branch", "h", "tangential", "residual", "growth_error", "trust", "key")
+                  "branch", "h", "tangential", "residual", "growth_error", "trust", "key",
+                  "point")
 # The scene sections whose values change neither a steady state nor its spectrum: --continue
 # over them would repeat one table (time.dt does change the dispersion-free mass).
 INERT = {"time": "the time stepping", "output": "what a run writes",
@@ -43,9 +44,10 @@ class SteadyError(ValueError):
     """A ``--continue`` that cannot be read (exit code 2, nothing written)."""
 
 
-def parse_continuation(texts: list[str] | str, scene=None) -> tuple[str, np.ndarray]:
-    """``KEY=a:b:n`` (given once) → the key and its n values from a to b (a real scene key
-    that can change a steady state or its spectrum, n ≥ 2)."""
+def parse_continuation(texts: list[str] | str, scene=None) -> tuple[str, float, float, int | None]:
+    """``KEY=a:b`` or ``KEY=a:b:n`` (given once) → the key, a, b and n (None without it: the
+    branches followed by continuation; with it, the states at n values from a to b). KEY is a
+    real scene key that can change a steady state or its spectrum, n ≥ 2."""
     if not isinstance(texts, str):
         if len(texts) != 1:
             raise SteadyError(f"--continue is given {len(texts)} times; give it once: the "
@@ -65,16 +67,18 @@ def parse_continuation(texts: list[str] | str, scene=None) -> tuple[str, np.ndar
                           "a real one")
     parts = span.split(":")
     try:
-        if not sep or len(parts) != 3:
+        if not sep or len(parts) not in (2, 3):
             raise ValueError
-        a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
+        a, b = float(parts[0]), float(parts[1])
+        n = int(parts[2]) if len(parts) == 3 else None
     except ValueError:
-        raise SteadyError(f"--continue: {text!r} is not KEY=a:b:n (reals a, b, a whole number "
-                          "n of values)") from None
-    if not (math.isfinite(a) and math.isfinite(b)) or a == b or not 2 <= n <= MAX_POINTS:
+        raise SteadyError(f"--continue: {text!r} is not KEY=a:b or KEY=a:b:n (reals a, b, a "
+                          "whole number n of values)") from None
+    if not (math.isfinite(a) and math.isfinite(b)) or a == b or \
+            n is not None and not 2 <= n <= MAX_POINTS:
         raise SteadyError(f"--continue {text!r}: a and b must be finite and differ, and 2 <= n <= "
                           f"{MAX_POINTS}")
-    return key, np.linspace(a, b, n)
+    return key, a, b, n
 
 
 def check_key(key: str, scene=None) -> None:
@@ -95,32 +99,38 @@ def scenes_over(scene_name: str, overrides: list[str], key: str, values: np.ndar
     return [load(scene_name, [*overrides, f"{key}={float(value)!r}"]) for value in values]
 
 
-def check_mesh(scene) -> None:
-    """SteadyError for a mesh finer than the dense eigenproblem takes."""
-    if scene["mesh.cells"] > MAX_CELLS:
-        raise SteadyError(f"mesh.cells = {scene['mesh.cells']}: the stability of steady states "
-                          f"is computed on at most {MAX_CELLS} cells (a dense eigenproblem); "
-                          f"--set mesh.cells={MAX_CELLS} or fewer")
+def check_mesh(scene, factor: int = 1) -> None:
+    """SteadyError for a mesh finer than the dense eigenproblem takes (``factor`` times the
+    scene's cells: an extrapolation's finest mesh)."""
+    if factor * scene["mesh.cells"] > MAX_CELLS:
+        finest = "" if factor == 1 else f" (with --extrapolate, {factor} times that)"
+        raise SteadyError(f"mesh.cells = {scene['mesh.cells']}{finest}: the stability of steady "
+                          f"states is computed on at most {MAX_CELLS} cells (a dense "
+                          f"eigenproblem); --set mesh.cells={MAX_CELLS // factor} or fewer")
 
 
 def analyse(scene, spectra: Spectra) -> list[dict]:
     """One row per steady state of ``scene``, in increasing u(1), with its stability and
     ``trust`` (the module's doc)."""
     problem = steady.of_scene(scene)
-    rows = []
-    for state in problem.states():
-        row = {"u_1": state.u_1, "sigma_1": state.sigma_1, "theta_1": state.theta_1,
-               "contact": state.contact, "stable": None, "growth_rate": math.nan,
-               "h": state.h, "tangential": state.tangential, "residual": state.residual,
-               "growth_error": math.nan, "trust": "residual"}
-        if state.resolved:
-            found = spectra.verdict(scene, problem.linearise(state))
-            earned = found.verdict in ("stable", "unstable")
-            row.update(stable=found.verdict == "stable" if earned else None,
-                       growth_rate=found.growth_rate, growth_error=found.error,
-                       trust="ok" if earned else found.verdict)
-        rows.append(row)
-    return rows
+    return [state_row(scene, problem, state, spectra) for state in problem.states()]
+
+
+def state_row(scene, problem, state, spectra: Spectra) -> dict:
+    """A steady state's row: its values, and its stability where it satisfies its equation to
+    round-off, with ``trust`` (the module's doc)."""
+    row = {"u_1": state.u_1, "sigma_1": state.sigma_1, "theta_1": state.theta_1,
+           "contact": state.contact, "stable": None, "growth_rate": math.nan,
+           "h": state.h, "tangential": state.tangential, "residual": state.residual,
+           "growth_error": math.nan, "trust": "residual", "continuum_rate": math.nan,
+           "continuum_error": math.nan}
+    if state.resolved:
+        found = spectra.verdict(scene, problem.linearise(state))
+        earned = found.verdict in ("stable", "unstable")
+        row.update(stable=found.verdict == "stable" if earned else None,
+                   growth_rate=found.growth_rate, growth_error=found.error,
+                   trust="ok" if earned else found.verdict)
+    return row
 
 
 def continuation(scenes: list, values: np.ndarray, spectra: Spectra,
@@ -137,10 +147,12 @@ def continuation(scenes: list, values: np.ndarray, spectra: Spectra,
     for part in comm.allgather(solved):
         solved.update(part)
     table = [solved[i] for i in range(len(scenes))]
-    rows = []
+    rows, along = [], {}
     for value, states, labels in zip(values, table, branches(table), strict=True):
-        rows.extend({"parameter": float(value), **row, "branch": label, "key": key}
-                    for row, label in zip(states, labels, strict=True))
+        for row, label in zip(states, labels, strict=True):
+            along[label] = along.get(label, -1) + 1
+            rows.append({"parameter": float(value), **row, "branch": label, "key": key,
+                         "point": along[label]})
     return rows
 
 
@@ -181,15 +193,45 @@ def _unpaired(values: list[float], excess: int) -> list[int]:
 
 
 def write(out: Path, force: bool, comm, rows: list[dict],
-          branch_rows: list[dict] | None = None) -> None:
-    """steady.csv (and branches.csv) into ``out``, prepared first (OutputError: nothing
-    written); rank 0 writes."""
-    files = (STATES,) if branch_rows is None else (STATES, BRANCHES)
+          branch_rows: list[dict] | None = None, point_rows: list[dict] | None = None) -> None:
+    """steady.csv (and branches.csv, and points.csv of a diagram) into ``out``, prepared first
+    (OutputError: nothing written); rank 0 writes."""
+    from rodfem.studies.steady.diagram import POINT_COLUMNS, POINTS
+
+    files = (STATES, *(() if branch_rows is None else (BRANCHES,)),
+             *(() if point_rows is None else (POINTS,)))
     prepare(out, force, comm, files, "steady")
     if comm.rank == 0:
         write_csv(out / STATES, COLUMNS, rows)
         if branch_rows is not None:
             write_csv(out / BRANCHES, BRANCH_COLUMNS, branch_rows)
+        if point_rows is not None:
+            write_csv(out / POINTS, POINT_COLUMNS, point_rows)
+
+
+def continuum(scene, rows: list[dict], spectra: Spectra) -> None:
+    """Each row's growth rate extrapolated in h from the scene's mesh and 2 and 4 times its
+    cells (:func:`.points.extrapolated`): ``continuum_rate`` (nan where pre-asymptotic) and
+    ``continuum_error``. The states are exact on every mesh (P1 at the nodes): only their
+    spectra change. The rate followed is the eigenvalue nearest the scene mesh's rightmost."""
+    from rodfem.studies.steady import continuation as ct
+    from rodfem.studies.steady import points as pt
+
+    problem = steady.of_scene(scene)
+    states = problem.states()
+    for row, state in zip(rows, states, strict=True):
+        if not math.isfinite(row["growth_rate"]):
+            continue
+        lin = problem.linearise(state)
+        top = spectra.eigenvalues(scene, lin)[0]
+        rates = [top.real]
+        for factor in pt.REFINED:
+            finer = spectra.eigenvalues(ct.at(scene, "mesh.cells", factor * scene["mesh.cells"]),
+                                        lin)
+            top = finer[int(np.argmin(np.abs(finer - top)))]
+            rates.append(top.real)
+        found = pt.extrapolated(rates)
+        row.update(continuum_rate=found.value, continuum_error=found.error)
 
 
 VERDICTS = {"neutral": "neutral", "unresolved": "?", "residual": "?"}
