@@ -363,6 +363,13 @@ def _steady(sub) -> None:
                         "with their folds, grazing and Hopf points located (points.csv); with "
                         ":n, the states at n values from a to b instead (once; not a time, "
                         "output, solver or initial value, which change no steady state)")
+    steady.add_argument("--follow", choices=("fold", "grazing", "hopf"),
+                        help="with --continue KEY=a:b and --along: trace the located points of "
+                        "this kind over a second scene value (curves.csv, counts.csv, "
+                        "figures/curves.png)")
+    steady.add_argument("--along", metavar="KEY2=c:d[:n]",
+                        help="the second scene value of --follow, at n values from c to d "
+                        "(default 41)")
     steady.add_argument("--extrapolate", action="store_true",
                         help="the continuum's growth rates and Hopf points: computed again on "
                         "2 and 4 times the cells and extrapolated in h², each with an error "

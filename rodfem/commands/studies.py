@@ -97,6 +97,7 @@ def steady(args: argparse.Namespace) -> int:
         key, lo, hi, n = st.parse_continuation(args.continuation, scene) if args.continuation \
             else (None, None, None, None)
         st.check_mesh(scene, 4 if args.extrapolate else 1)
+        follow = _follow(args, key, n)
     except st.SteadyError as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
@@ -107,9 +108,9 @@ def steady(args: argparse.Namespace) -> int:
     if args.extrapolate:
         st.continuum(scene, rows, spectra)
     branch_rows = point_rows = None
-    if key is not None and n is not None:
-        import numpy as np
+    import numpy as np
 
+    if key is not None and n is not None:
         values = np.linspace(lo, hi, n)
         branch_rows = st.continuation(st.scenes_over(args.scene, args.overrides, key, values),
                                       values, spectra, key)
@@ -122,8 +123,17 @@ def steady(args: argparse.Namespace) -> int:
                                 lambda at, problem, state: st.state_row(at, problem, state,
                                                                         spectra))
         branch_rows, point_rows = found.branch_rows, found.point_rows
+    curve_rows = grid = None
+    if follow is not None:
+        from rodfem.studies.steady import curves
+
+        key2, c, d, count = follow
+        st.scenes_over(args.scene, args.overrides, key2, [c, d])  # both ends valid
+        curve_rows = curves.follow(scene, key, min(lo, hi), max(lo, hi), key2,
+                                   np.linspace(c, d, count), args.follow, spectra, point_rows)
+        grid = curves.counts(scene, key, min(lo, hi), max(lo, hi), key2, c, d)
     try:
-        st.write(out, args.force, comm, rows, branch_rows, point_rows)
+        st.write(out, args.force, comm, rows, branch_rows, point_rows, curve_rows, grid)
     except OutputError as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
@@ -133,6 +143,10 @@ def steady(args: argparse.Namespace) -> int:
         from rodfem.post.steady import plot_branches
 
         written = plot_branches(out, key, scene["obstacle.gap"], chosen(args.format, scene))
+        if curve_rows is not None:
+            from rodfem.post.bifurcation import plot_curves
+
+            written += plot_curves(out, chosen(args.format, scene))
     finish(out, "complete", comm)
     for line in st.table_lines(rows):
         say(line, sys.stdout)
@@ -151,12 +165,33 @@ def steady(args: argparse.Namespace) -> int:
     if not args.extrapolate:
         say(f"(rates on the mesh of {scene['mesh.cells']} cells, off the rod's by O(h²): "
             "--extrapolate gives the continuum's, with error estimates)", sys.stdout)
-    files = [st.STATES, *([st.BRANCHES] if key else []), *(["points.csv"] if point_rows
-                                                           is not None else [])]
+    if curve_rows is not None:
+        say(f"{len({(r['kind'], r['curve']) for r in curve_rows})} curve(s) of {args.follow} "
+            f"points over {follow[0]}, {len(curve_rows)} points", sys.stdout)
+    files = [st.STATES, *([st.BRANCHES] if key else []),
+             *(["points.csv"] if point_rows is not None else []),
+             *(["curves.csv", "counts.csv"] if curve_rows is not None else [])]
     for path in (*(out / f for f in files), *written):
         say(str(path), sys.stdout)
     comm.barrier()
     return 0
+
+
+def _follow(args, key, n):
+    """--follow KIND --along KEY2=c:d[:n] → (KEY2, c, d, n), or None without them (SteadyError:
+    one without the other, or without --continue KEY=a:b)."""
+    from rodfem.studies.steady import curves
+    from rodfem.studies.steady import states as st
+
+    if args.follow is None and args.along is None:
+        return None
+    if args.follow is None or args.along is None:
+        raise st.SteadyError("--follow and --along go together: --follow fold|grazing|hopf "
+                             "--along KEY2=c:d")
+    if key is None or n is not None:
+        raise st.SteadyError("--follow needs --continue KEY=a:b (the branches followed, not "
+                             "sampled at n values)")
+    return curves.parse_along(args.along, None, key, st.SteadyError)
 
 
 def _stopped(out: Path) -> int:

@@ -80,7 +80,7 @@ def compute(scene, key: str, lo: float, hi: float, spectra, extrapolate: bool = 
         for n, item in enumerate(along):
             point, row = item[0], item[1]
             branch_rows.append({"parameter": point.value, **row, "branch": b, "point": n,
-                                "key": key})
+                                "key": key, "located": point.kind})
             if point.kind in ("fold", "grazing", "hopf"):
                 before = along[n - 1][1] if n > 0 else None
                 after = along[n + 1][1] if n + 1 < len(along) else None

@@ -193,13 +193,17 @@ def _unpaired(values: list[float], excess: int) -> list[int]:
 
 
 def write(out: Path, force: bool, comm, rows: list[dict],
-          branch_rows: list[dict] | None = None, point_rows: list[dict] | None = None) -> None:
-    """steady.csv (and branches.csv, and points.csv of a diagram) into ``out``, prepared first
-    (OutputError: nothing written); rank 0 writes."""
+          branch_rows: list[dict] | None = None, point_rows: list[dict] | None = None,
+          curve_rows: list[dict] | None = None, grid: dict | None = None) -> None:
+    """steady.csv (and branches.csv; points.csv of a diagram; curves.csv and counts.csv of
+    points followed over a second value) into ``out``, prepared first (OutputError: nothing
+    written); rank 0 writes."""
+    from rodfem.studies.steady import curves
     from rodfem.studies.steady.diagram import POINT_COLUMNS, POINTS
 
     files = (STATES, *(() if branch_rows is None else (BRANCHES,)),
-             *(() if point_rows is None else (POINTS,)))
+             *(() if point_rows is None else (POINTS,)),
+             *(() if curve_rows is None else (curves.CURVES, curves.COUNTS)))
     prepare(out, force, comm, files, "steady")
     if comm.rank == 0:
         write_csv(out / STATES, COLUMNS, rows)
@@ -207,6 +211,13 @@ def write(out: Path, force: bool, comm, rows: list[dict],
             write_csv(out / BRANCHES, BRANCH_COLUMNS, branch_rows)
         if point_rows is not None:
             write_csv(out / POINTS, POINT_COLUMNS, point_rows)
+        if curve_rows is not None:
+            write_csv(out / curves.CURVES, curves.COLUMNS, curve_rows)
+            write_csv(out / curves.COUNTS, ("parameter", "parameter2", "count", "key", "key2"),
+                      [{"parameter": x, "parameter2": y, "count": int(n),
+                        "key": grid["key"], "key2": grid["key2"]}
+                       for j, y in enumerate(grid["y"]) for i, x in enumerate(grid["x"])
+                       for n in [grid["count"][j, i]]])
 
 
 def continuum(scene, rows: list[dict], spectra: Spectra) -> None:
@@ -259,6 +270,8 @@ def warning_lines(rows: list[dict]) -> list[str]:
     """One line for each row whose ``trust`` is not ok (a continuation's: with its value)."""
     lines = []
     for row in rows:
+        if row.get("located") == "hopf":  # neutral by what it is
+            continue
         where = f"the state at u(1) = {row['u_1']:.6g}, sigma(1) = {row['sigma_1']:.6g}" + (
             f" ({row['key']} = {row['parameter']:g})" if "parameter" in row else "")
         if row["trust"] == "residual":
