@@ -6,7 +6,8 @@ contact with an elastic obstacle at x = 1, P1 elements and a Picard loop per tim
 From Python: :func:`simulate` runs a scene, :func:`load` reads a run directory, both give a
 :class:`Result`; :func:`sweep` runs a sweep file (:mod:`rodfem.studies.sweep.run`);
 :func:`read_fields` reads any run's ``fields.xdmf`` into NumPy (:class:`Fields`); :func:`steady`
-gives a scene's steady states and their stability. The errors they raise are here too
+gives a scene's steady states and their stability, :func:`bifurcation` their branches over a
+scene value with the folds, grazing and Hopf points on them. The errors they raise are here too
 (:class:`SceneError`, :class:`OutputError`, :class:`RunDirectoryError`, :class:`ResultsError`,
 :class:`FieldsError`, :class:`FitError`, and :class:`Interrupted` for a stop signal). Every
 name of :data:`__all__` is imported on first use, so that ``import rodfem`` stays light, and
@@ -20,6 +21,7 @@ _API = {"simulate": "rodfem.api", "load": "rodfem.api", "Result": "rodfem.api",
         "sweep": "rodfem.studies.sweep.run", "load_sweep": "rodfem.studies.sweep.run",
         "read_fields": "rodfem.output.readers", "Fields": "rodfem.output.readers",
         "CoarseStepWarning": "rodfem.model.timescales", "steady": "rodfem.api",
+        "bifurcation": "rodfem.api",
         "AccuracyWarning": "rodfem.studies.accuracy.ladder",
         "Scene": "rodfem.scene", "SweepResult": "rodfem.studies.sweep.files",
         "sensitivity": "rodfem.studies.sensitivity.run",

@@ -205,3 +205,38 @@ def steady(scene: str | Path | Mapping | Scene, overrides=None, over=None) -> li
     values = np.asarray(values, dtype=float)
     return st.continuation([scene_of(base, {key: float(v)}) for v in values], values, spectra,
                            key)
+
+
+def bifurcation(scene: str | Path | Mapping | Scene, key: str, lo: float, hi: float,
+                overrides=None, extrapolate: bool = False) -> dict[str, list[dict]]:
+    """The branches of steady states of a scene over the real scene value ``key`` from ``lo``
+    to ``hi``, followed by continuation, and the points located on them, as ``rodfem steady
+    --continue KEY=lo:hi`` writes them.
+
+    Returns:
+        {"branches": rows of branches.csv (each state with its stability, ``branch`` and its
+        ``point`` along it), "points": rows of points.csv (``kind`` fold, grazing or hopf, the
+        ``parameter``, the state there, and for a Hopf point ``omega`` and ``period``; with
+        ``extrapolate`` the continuum's parameter and period with their error estimates)}.
+
+    Raises:
+        SceneError: a mistake in the scene, the overrides or the range, or a key that changes
+            no steady state.
+    """
+    from rodfem.solver.spectrum import Spectra
+    from rodfem.studies.steady import diagram
+    from rodfem.studies.steady import states as st
+
+    base = scene_of(scene, overrides)
+    try:
+        st.check_key(key, base)
+        st.parse_continuation(f"{key}={float(lo)!r}:{float(hi)!r}", base)
+        st.check_mesh(base, 4 if extrapolate else 1)
+    except st.SteadyError as err:
+        raise SceneError(str(err).removeprefix("--continue: ")) from None
+    for value in (lo, hi):
+        scene_of(base, {key: float(value)})
+    spectra = Spectra()
+    found = diagram.compute(base, key, min(lo, hi), max(lo, hi), spectra, extrapolate,
+                            lambda at, problem, state: st.state_row(at, problem, state, spectra))
+    return {"branches": found.branch_rows, "points": found.point_rows}

@@ -1,0 +1,121 @@
+"""``rodfem steady --continue KEY=a:b``: the bifurcation diagram's files, its Hopf points, the
+two-parameter curves of ``--follow``, serial and under MPI, and bad input."""
+
+import csv
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+import rodfem
+import rodfem.scene
+from rodfem.cli import main
+from rodfem.solver.spectrum import Spectra
+from rodfem.studies.steady import continuation as ct
+from rodfem.studies.steady import points as pt
+
+MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1", "PATH": "/usr/bin:/bin"}
+HOT = ["model.theta_A=10", "initial.theta0=10", "obstacle.temperature=0",
+       "heat_exchange.k1=1000", "heat_exchange.exponent=2", "obstacle.gap=0.11",
+       "obstacle.epsilon=0.1"]
+
+
+def rows(path: Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def sets(items):
+    return [x for item in items for x in ("--set", item)]
+
+
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="runs the command itself")
+def test_the_diagram_writes_its_points_and_ordered_branches(tmp_path, capsys):
+    out = tmp_path / "d"
+    assert main(["steady", "barber", "--set", "mesh.cells=10", "--out", str(out),
+                 "--continue", "obstacle.temperature=0:30"]) == 0
+    printed = capsys.readouterr().out
+    points = rows(out / "points.csv")
+    kinds = sorted(p["kind"] for p in points)
+    assert kinds == ["fold", "grazing", "hopf", "hopf"]
+    assert "grazing at obstacle.temperature = 25.8823529412" in printed
+    branch = rows(out / "branches.csv")
+    assert [int(r["point"]) for r in branch] == list(range(len(branch)))  # one branch, in order
+    grazing = next(p for p in points if p["kind"] == "grazing")
+    assert (grazing["before"], grazing["after"], grazing["turns"]) == ("stable", "unstable",
+                                                                       "true")
+    assert (out / "figures" / "branches.png").stat().st_size > 10_000
+
+
+def test_a_hopf_point_is_a_crossing_located_to_round_off():
+    """The located point's pair lies on the imaginary axis to round-off of its eigenvalue, the
+    branch's points either side have ψ of opposite signs, and its period is 2π/ω."""
+    scene = rodfem.scene.load("barber", [*HOT, "mesh.cells=20"])
+    found = rodfem.bifurcation(scene, "model.zeta", 0.005, 0.04)
+    (hopf,) = [p for p in found["points"] if p["kind"] == "hopf"]
+    assert (hopf["before"], hopf["after"]) == ("unstable", "stable")
+    assert hopf["period"] == pytest.approx(2 * math.pi / hopf["omega"], rel=1e-15)
+    curve = ct.Curve(scene, "model.zeta", 0.005, 0.04)
+    spectral = pt.Spectral(curve, Spectra())
+    point = ct.Point(curve.problem(hopf["parameter"]).roots()[0][0], hopf["parameter"])
+    rate, pair = pt.psi(spectral.eigenvalues(point))
+    assert abs(rate) <= 1e-10 * abs(pair) and pair.imag == pytest.approx(hopf["omega"])
+    step = 1e-9 * hopf["parameter"]
+    for sign in (-1, 1):
+        moved = ct.Point(point.t, hopf["parameter"] + sign * step)
+        assert np.sign(spectral.test(moved)) == -sign  # unstable below, stable above
+
+
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="runs mpirun itself")
+def test_the_diagram_and_curves_under_mpirun_are_the_serial_files(tmp_path):
+    def cli(out: Path, ranks: int) -> None:
+        command = [str(Path(sys.executable).with_name("rodfem")), "steady", "barber",
+                   "--set", "mesh.cells=8", "--out", str(out), "--continue",
+                   "obstacle.temperature=0:30", "--follow", "fold", "--along",
+                   "heat_exchange.k1=500:1500:5"]
+        if ranks > 1:
+            command = ["mpirun", "-n", str(ranks), *command]
+        subprocess.run(command, env=MPI_ENV, capture_output=True, text=True, timeout=300,
+                       check=True)
+
+    cli(tmp_path / "n1", 1)
+    cli(tmp_path / "n2", 2)
+    for name in ("steady.csv", "branches.csv", "points.csv", "curves.csv", "counts.csv"):
+        assert (tmp_path / "n1" / name).read_bytes() == (tmp_path / "n2" / name).read_bytes()
+    curves = rows(tmp_path / "n1" / "curves.csv")
+    assert {r["kind"] for r in curves} == {"fold", "grazing"}
+    assert len({r["parameter2"] for r in curves}) == 5
+    assert (tmp_path / "n1" / "figures" / "curves.png").is_file()
+
+
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="runs the command itself")
+@pytest.mark.parametrize("extra, message", [
+    (["--follow", "fold"], "--follow and --along go together"),
+    (["--along", "heat_exchange.k1=1:2"], "--follow and --along go together"),
+    (["--follow", "fold", "--along", "obstacle.temperature=1:2"], "is the key of --continue"),
+    (["--follow", "fold", "--along", "heat_exchange.k1=1"], "is not KEY2=c:d"),
+    (["--follow", "fold", "--along", "mesh.cells=1:2"], "is not a real scene key"),
+    (["--follow", "fold", "--along", "heat_exchange.k1=-1:2"], "heat_exchange.k1"),
+])
+def test_bad_follow_input(tmp_path, capsys, extra, message):
+    out = tmp_path / "bad"
+    code = main(["steady", "barber", "--set", "mesh.cells=8", "--out", str(out),
+                 "--continue", "obstacle.temperature=0:30", *extra])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="runs the command itself")
+def test_follow_needs_a_followed_continuation(tmp_path, capsys):
+    out = tmp_path / "bad"
+    code = main(["steady", "barber", "--out", str(out), "--continue",
+                 "obstacle.temperature=0:30:4", "--follow", "fold", "--along",
+                 "heat_exchange.k1=1:2"])
+    assert code == 2 and "needs --continue KEY=a:b" in capsys.readouterr().err
+    assert not out.exists()
