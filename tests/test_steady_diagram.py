@@ -119,3 +119,16 @@ def test_follow_needs_a_followed_continuation(tmp_path, capsys):
                  "heat_exchange.k1=1:2"])
     assert code == 2 and "needs --continue KEY=a:b" in capsys.readouterr().err
     assert not out.exists()
+
+
+@pytest.mark.slow
+def test_the_barber_points_quoted_in_the_docs_are_the_diagrams():
+    """docs/thermal-contact.md quotes barber's points over θ_O as one diagram gives them."""
+    text = (Path(__file__).resolve().parent.parent / "docs" / "thermal-contact.md").read_text()
+    points = rodfem.bifurcation("barber", "obstacle.temperature", 0, 30)["points"]
+    grazing = next(p for p in points if p["kind"] == "grazing")
+    fold = next(p for p in points if p["kind"] == "fold")
+    hopf = sorted((p for p in points if p["kind"] == "hopf"), key=lambda p: p["parameter"])
+    assert f"{grazing['parameter']:.11g}" in text and f"{fold['parameter']:.11g}" in text
+    assert f"{hopf[0]['parameter']:.8g}" in text and f"{hopf[0]['period']:.4g}" in text
+    assert f"{hopf[1]['parameter']:.8g}" in text and f"{hopf[1]['period']:.3g}" in text
