@@ -50,13 +50,12 @@ class Flow:
         self.free = np.setdiff1d(np.arange(3 * n), fixed)
         self.u_1 = 3 * n - 1  # U(1) in x
         self.theta_1 = n - 1  # Θ(1) in x
+        self._initial = method.values.copy()  # the scene's initial state, before any shot
+        self._initial[n:2 * n] /= self.dt
 
     def initial(self) -> np.ndarray:
         """The method's initial state x = [Θ⁰; V⁰; U⁰] (the scene's initial values)."""
-        x = self.method.values.copy()
-        n = self.nodes
-        x[n:2 * n] /= self.dt
-        return x
+        return self._initial.copy()
 
     def loop(self, h: float):
         """The compiled loop of a step h (kept: a Newton solve shoots many times at a few h)."""

@@ -8,8 +8,10 @@ lost stability at a Hopf bifurcation, found by shooting with the scene's own sch
 
 the second equation (the phase condition) fixing where on the orbit x lies: where u(1) passes
 the steady state's u* (the orbit winds about it). N is chosen from the scene's step as the
-fewest steps with h ≤ time.dt at the first guess of T, and held fixed, so that P_T is smooth in
-T. The unknowns are the 3(n − 1) values of [Θ; V; U] off the clamped node and T.
+fewest steps with h ≤ time.dt at the guess of T, and held fixed, so that P_T is smooth in
+T; where the period found asks for another N, Newton goes on with that one, so that h is
+the largest step ≤ time.dt that divides the period. The unknowns are the 3(n − 1) values of
+[Θ; V; U] off the clamped node and T.
 
 **Newton's method.** The Jacobian [[M − I, ∂P/∂T], [e_u(1)ᵀ, 0]] is formed by forward
 differences: M = ∂P/∂x, the monodromy matrix, a column per unknown, each column one shot (its
@@ -352,9 +354,16 @@ def find(flow, scene, u_star: float, x: np.ndarray, period: float, comm,
          tol: float = TOLERANCE) -> Orbit:
     """The orbit from the guess (x, period): Newton, then the orbit over one period and its
     multipliers. NoOrbit where Newton fails or reaches the steady state."""
-    N = max(int(np.ceil(period / scene["time.dt"] * (1.0 - 1e-12))), 1)
-    shooting = Shooting(flow, N, u_star, comm)
-    x, T, residual, iterations = shooting.solve(x, period, tol)
+    T, iterations = period, 0
+    for _ in range(4):  # N from the period found: the fewest steps of h ≤ time.dt
+        N = steps_of(T, scene["time.dt"])
+        shooting = Shooting(flow, N, u_star, comm)
+        x, T, residual, more = shooting.solve(x, T, tol)
+        iterations += more
+        if steps_of(T, scene["time.dt"]) == N:
+            break
+    else:
+        raise NoOrbit(f"the period {T:.6g} keeps changing its number of steps")
     orbit = Orbit(period=T, steps=N, state=x, u_star=u_star, residual=residual,
                   iterations=iterations)
     record = trace(flow, scene, orbit)
@@ -370,6 +379,12 @@ def find(flow, scene, u_star: float, x: np.ndarray, period: float, comm,
     error = orbit.multiplier_error
     orbit.stable = True if largest < 1.0 - error else False if largest > 1.0 + error else None
     return orbit
+
+
+def steps_of(period: float, dt: float) -> int:
+    """The fewest steps N of h = period/N ≤ dt."""
+    N = max(int(np.ceil(period / dt)), 1)
+    return N + 1 if period / N > dt else N
 
 
 def trace(flow, scene, orbit: Orbit) -> dict[str, np.ndarray]:
