@@ -39,7 +39,7 @@ def cheap():
 def test_period_is_the_long_runs(cheap):
     """The orbit's period is the one a long run of the same scene and scheme settles on
     (measured from t = 250 to 300, the docs' window): to 1e-4, though the orbit's step is
-    T/N ≤ time.dt and the run's time.dt itself (the period moves by 9 Δt per unit of Δt)."""
+    T/N ≤ time.dt and the run's time.dt itself (the period moves by about 9 per unit of Δt)."""
     orbit = cheap.orbit
     state, _ = pe.steady_state(rodfem.scene.load("barber", CHEAP))
     run = barber.run("barber", [*CHEAP, "time.end=300", *barber.at_rest(state, pe.KICK)])
