@@ -16,6 +16,8 @@
     rodfem work-precision [--out DIR] [--force] [--quick] [--progress]
     rodfem steady SCENE [--out DIR] [--set section.key=value ...] [--continue KEY=a:b[:n]]
                   [--force] [--format png|pdf|svg]
+    rodfem periodic SCENE [--out DIR] [--set section.key=value ...] [--continue KEY=a:b:n]
+                    [--force] [--format png|pdf|svg]
 
 Exit codes (:mod:`rodfem.commands`): 0 complete, 2 bad input, 3 a step could not be taken, 4 a
 file could not be written, 128 + the signal's number when stopped by a signal.
@@ -377,11 +379,39 @@ def _steady(sub) -> None:
     add_format(steady, "the scene's output.figure_format, else png")
 
 
+def _periodic(sub) -> None:
+    """``rodfem periodic``: the periodic orbit born where the steady state lost stability."""
+    periodic = sub.add_parser(
+        "periodic",
+        help="the periodic orbit of a scene whose steady state is unstable",
+        description="Find the periodic orbit a scene's runs settle on where its steady state "
+        "has lost stability at a Hopf bifurcation: a fixed point of N steps of the scene's own "
+        "scheme (step T/N, at most time.dt), with u(1) = u* at its start, solved by Newton's "
+        "method from a time run settled near it. Writes periodic.csv (the period, the range of "
+        "u(1), the fraction of the period in contact, the Floquet multipliers and the orbit's "
+        "stability), orbit.csv (one period: t, u(1), theta(1), p, sigma(1)), settled.csv (the "
+        "time run's last period) and figures/orbit.png. With --continue, the orbits at n "
+        "values of a scene value from a to b, each started from the one before, and "
+        "figures/periodic.png (stable solid, unstable dashed).",
+    )
+    periodic.add_argument("scene",
+                          help=f"a built-in scene ({', '.join(BUILTIN + EXTRA)}) or a TOML file")
+    add_output(periodic, None, "output directory (default: results/<scene name>-periodic)",
+               "replace an earlier result of this command in --out")
+    add_overrides(periodic, "override a scene value, e.g. --set model.zeta=0.01 (repeatable)")
+    periodic.add_argument("--continue", dest="continuation", metavar="KEY=a:b:n",
+                          action="append",
+                          help="the orbits over n values of the real scene value KEY from a to "
+                          "b, e.g. model.zeta=0.01:0.016:7 (once)")
+    add_format(periodic, "the scene's output.figure_format, else png")
+
+
 # Each subcommand's parser's maker, in the order of the help (``verify`` makes
 # ``work-precision`` too).
 ADDERS = {"run": _run, "sweep": _sweep, "fit": _fit, "sensitivity": _sensitivity,
           "resume": _resume, "plot": _plot, "paper": _paper, "stability": _stability,
-          "verify": _verify, "work-precision": _verify, "steady": _steady, "prepare": _prepare}
+          "verify": _verify, "work-precision": _verify, "steady": _steady, "periodic": _periodic,
+          "prepare": _prepare}
 
 COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.resume,
             "fit": commands.fit, "sensitivity": commands.sensitivity,
@@ -389,7 +419,7 @@ COMMANDS = {"run": commands.run, "sweep": commands.sweep, "resume": commands.res
             "paper": commands.paper,
             "stability": commands.stability, "verify": commands.verify,
             "work-precision": commands.verify, "steady": commands.steady,
-            "prepare": commands.prepare}
+            "periodic": commands.periodic, "prepare": commands.prepare}
 
 
 def _release(status: str) -> str:

@@ -49,7 +49,7 @@ FIGURE_NAMES = re.compile(r"^((contact|energy)(_.+)?\.(png|pdf|svg)"
                           r"|spacetime_(u|theta|sigma|velocity|heat_flux)(_.+)?\.(png|pdf|svg)"
                           r"|rod(_.+)?\.gif|stability_\w+\.(png|pdf|svg)"
                           r"|(orders|workprecision|measures)_.+\.(png|pdf|svg)"
-                          r"|sweep_\w+\.(png|pdf|svg)|branches\.(png|pdf|svg))$")
+                          r"|sweep_\w+\.(png|pdf|svg)|(branches|orbit|periodic)\.(png|pdf|svg))$")
 # A run's subdirectories of data, and the names of the files rodfem writes there.
 DATA_DIRS = {"fields": re.compile(r"^(mesh|steps-\d{6,})\.h5$"),
              "journal": re.compile(r"^part-\d{4,}-\d{5,}\.bin$")}

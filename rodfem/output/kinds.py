@@ -13,7 +13,8 @@ LOADERS = {"run": "rodfem.load", "sweep": "rodfem.load_sweep", "fit": "rodfem.lo
 # What a directory of each command is called in a message.
 NAMES = {"run": "a run", "sweep": "a sweep", "fit": "a fit", "sensitivity": "a sensitivity",
          "steady": "a steady-state", "verify": "a verify", "stability": "a stability",
-         "work-precision": "a work-precision", "paper": "a paper"}
+         "work-precision": "a work-precision", "paper": "a paper",
+         "periodic": "a periodic-orbit"}
 
 
 def kind(path: Path) -> str | None:
