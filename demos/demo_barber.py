@@ -40,9 +40,11 @@ from mpi4py import MPI
 import rodfem
 import rodfem.scene
 from rodfem.post import style
+from rodfem.post.bifurcation import plot_curves
 from rodfem.post.steady import plot_branches
-from rodfem.studies.steady import barber
+from rodfem.studies.steady import barber, curves, periodic
 from rodfem.studies.steady import states as analysis
+from rodfem.studies.steady.diagram import point_lines
 
 COMM = MPI.COMM_WORLD
 SHORT = bool(os.environ.get("CI"))
@@ -98,19 +100,42 @@ table(found)
 #
 # ## The branches over the obstacle's temperature
 #
-# `rodfem steady barber --continue obstacle.temperature=0:40:n` follows the states as
-# $\theta_O$ rises: the separated branch ends where the warm end reaches the gap, the pressed
-# branch begins at a fold with the unstable branch; between the folds both are stable.
+# `rodfem steady barber --continue obstacle.temperature=0:40` follows the states as $\theta_O$
+# rises, by continuation along the curve of the scalar equation's roots, and locates the points
+# on it: the separated branch ends at a grazing point, where the warm end reaches the gap and
+# the branch turns back pressed and unstable, down to a fold, where it turns again, pressed and
+# stable. Between them the rod has three states. The folds and grazing points are exact on any
+# mesh (the states are); the Hopf points near the fold, where a complex pair crosses, are the
+# mesh's.
 
 # +
-values = np.linspace(0.0, 40.0, 41 if SHORT else 161)
-rows = rodfem.steady("barber", BASE, over=("obstacle.temperature", values))
+diagram = rodfem.bifurcation("barber", "obstacle.temperature", 0.0, 40.0, BASE)
 states = rodfem.steady("barber", BASE)
-analysis.write(STEADY, True, COMM, states, rows)
+analysis.write(STEADY, True, COMM, states, diagram["branches"], diagram["points"])
 if COMM.rank == 0:
     plot_branches(STEADY, "obstacle.temperature", gap=0.02)
-for line in analysis.branch_lines(rows, "obstacle.temperature"):
+for line in point_lines(diagram["points"], "obstacle.temperature"):
     say(line)
+# -
+
+# Over a second value the folds (and the grazing point, a fold at a corner) trace the region
+# where the rod can rest in two stable states: `--follow fold --along heat_exchange.k1=c:d`.
+# The grazing point does not move with $k_1$ ($\theta_O = 2g(1 + k)/(ak)$ holds no $k_1$); the
+# fold moves to cooler obstacles as the contact conducts better.
+
+# +
+scene = rodfem.scene.load("barber", BASE)
+along = np.linspace(200.0, 2000.0, 10 if SHORT else 37)
+followed = curves.follow(scene, "obstacle.temperature", 0.0, 40.0, "heat_exchange.k1", along,
+                         "fold", None)
+grid = curves.counts(scene, "obstacle.temperature", 0.0, 40.0, "heat_exchange.k1", 200.0,
+                     2000.0)
+analysis.write(OUT / "two-values", True, COMM, states, None, None, followed, grid)
+if COMM.rank == 0:
+    plot_curves(OUT / "two-values")
+for k1 in (along[0], along[-1]):
+    here = sorted(r["parameter"] for r in followed if r["parameter2"] == k1)
+    say(f"k1 = {k1:g}: three states for {here[0]:.6f} < theta_O < {here[-1]:.6f}")
 # -
 
 # ## Two starts, two stable states
@@ -201,15 +226,17 @@ BANDS = {"first vibration": (1.0, 4.0), "second vibration": (4.0, 8.0)}
 zetas = np.linspace(0.005, 0.04, 15 if SHORT else 36)
 spectra = [rightmost(z)[1] for z in zetas]
 second = np.array([vibration(e, *BANDS["second vibration"]) for e in spectra])
-# the second vibration's growth rate crosses 0 between two values: bisect there
-crossing = np.flatnonzero(np.diff(np.sign(second.real)) != 0)[-1]
-lo, hi = zetas[crossing], zetas[crossing + 1]
-for _ in range(40):
-    mid = 0.5 * (lo + hi)
-    lo, hi = (mid, hi) if vibration(rightmost(mid)[1], 4.0, 8.0).real > 0 else (lo, mid)
-onset = vibration(rightmost(lo)[1], 4.0, 8.0)
-say(f"Hopf bifurcation at zeta = {lo:.5f}: eigenvalues +-{onset.imag:.4f} i "
-    f"(period {2 * math.pi / onset.imag:.4f})")
+# the Hopf point, located on the state's (vertical) branch over ζ, and with the full demo the
+# rod's own, extrapolated in h² from 80, 160 and 320 cells
+hopf_points = rodfem.bifurcation("barber", "model.zeta", 0.005, 0.04, HOPF,
+                                 extrapolate=not SHORT)["points"]
+(hopf,) = [p for p in hopf_points if p["kind"] == "hopf"]
+lo, onset = hopf["parameter"], complex(0.0, hopf["omega"])
+say(f"Hopf bifurcation at zeta = {lo:.8f} ({40 if SHORT else 80} cells): eigenvalues "
+    f"+-{onset.imag:.6f} i (period {hopf['period']:.6f})")
+if not SHORT:
+    say(f"the rod's: zeta = {hopf['parameter_continuum']:.7f} +- {hopf['parameter_error']:.1e}, "
+        f"period {hopf['period_continuum']:.6f} +- {hopf['period_error']:.1e}")
 alone = all(np.count_nonzero(e.real > 0) == (z < lo) and (z >= lo or e[0] == v)
             for z, e, v in zip(zetas, spectra, second, strict=True))
 say(f"below it the second vibration is the one unstable pair, above it none is: {alone}")
@@ -361,3 +388,45 @@ for start in (0, 250):
 # Here it comes from the rod's second vibration made unstable by the exchange (without inertia
 # the state is stable): its period near onset is $2\pi/\operatorname{Im}\lambda \approx 1.06$,
 # and the finite cycle's, far below onset, about 5 % longer.
+
+# ## The cycle found directly, and its stability
+#
+# `rodfem periodic` finds the cycle as what it is: a fixed point of the scheme's map over one
+# period, $P_T(x) = x$ with the phase fixed by $u(1) = u^*$, solved by Newton's method on the
+# state and the period, each shot $N$ steps of $\Delta t = T/N$ of the scene's own scheme. Its
+# Floquet multipliers (the eigenvalues of the map's Jacobian) say whether it attracts: it does
+# where every one but the trivial one (≈ 1, along the orbit) lies inside the unit circle. Beside
+# it, the long run's last period, which settled on the same cycle from the hot rod.
+
+# +
+found = periodic.analyse("barber", [*HOPF, "model.zeta=0.01"], COMM)
+orbit = found.orbit
+late = far.t >= far.t[-1] - 50
+measured = barber.period(far.t[late], far.u_1[late] - found.u_star, far.t[late][0],
+                         far.t[-1])
+say(f"shooting: period {orbit.period:.6f} (the long run's {measured:.6f}), "
+    f"u(1) from {orbit.u_min:.5f} to {orbit.u_max:.5f}, in contact "
+    f"{100 * orbit.contact_fraction:.1f}% of it; Newton's residual {orbit.residual:.1e}")
+say(f"multipliers: the largest non-trivial |mu| = {abs(orbit.multipliers[0]):.4f} "
+    f"(+- {orbit.multiplier_error:.1e}): {'stable' if orbit.stable else 'not stable'}")
+
+with style.mpl_fonts():
+    fig = Figure(figsize=style.MPL_SIZE)
+    top, bottom = fig.subplots(2, 1, sharex=True)
+    cycle = found.trace
+    last = far.t >= far.t[-1] - orbit.period
+    crossings = barber.upward_crossings(far.t[last], far.u_1[last] - found.u_star)
+    shift = crossings[0] if crossings.size else far.t[last][0]
+    top.plot(cycle["t"], cycle["u_1"], color=style.colour(0), linewidth=3, label="orbit found")
+    top.plot(far.t[last] - shift, far.u_1[last], "k--", label="long run's last period")
+    top.axhline(0.11, color="0.6", linestyle=":", label="gap g")
+    bottom.plot(cycle["t"], cycle["p"], color=style.colour(1), linewidth=3)
+    bottom.plot(far.t[last] - shift, far.p[last], "k--")
+    top.set_ylabel("u(1)")
+    bottom.set_ylabel("contact force p")
+    bottom.set_xlabel("t (from the crossing of u*)")
+    top.set_xlim(0, orbit.period)
+    top.legend(fontsize=style.MPL_LEGEND_SIZE)
+    top.set_title(f"The cycle at ζ = 0.01: period {orbit.period:.4f}")
+    save(fig, "periodic_orbit.png")
+# -
