@@ -35,9 +35,9 @@ Kelvin–Voigt accumulation point λ = −1/ζ).
 
 **Without overflow or cancellation.** Φ(1) grows as e^{max Re r}, and its two columns that meet
 the conditions at x = 0 both lean towards the fastest mode: det R Φ(1)[:, (2, 4)] cancels
-e^{|Re(r₁ − r₂)|} (e^{164} for the rigid obstacle's 5713 below). In the eigenbasis v_k, ν_k of
-A, each mode is written from the end where it is largest, w_k(x) = v_k e^{ν_k(x − x_k)}, x_k = 1
-if Re ν_k > 0 else 0; every entry of the boundary matrix N of these w_k is O(1), and since
+e^{|Re(r₁ − r₂)|} (e^{31} for the rigid obstacle's 5713 below, e^{444} for ζ = 0's 466). In
+the eigenbasis v_k, ν_k of A, each mode is written from the end where it is largest,
+w_k(x) = v_k e^{ν_k(x − x_k)}, x_k = 1 if Re ν_k > 0 else 0; every entry of the boundary matrix N of these w_k is O(1), and since
 w = Φ V diag(e^{−ν_k x_k}),
 
     D(λ) = det N / det V · exp(Σ_{Re ν_k > 0} ν_k),
@@ -50,23 +50,36 @@ conditioned and the modes mix little: there D = e^{2ρ} det[[e₁ᵀ], [e₃ᵀ]
 mpmath's expm at 250 digits with no scaling at all.
 
 Roots: Newton on D e^{−(r₁ + r₂)} (its exponential growth taken out), the derivative from
-central differences of ratios (never overflowing), to |Δλ| ≤ 1e-13 |λ|. A Hopf point: the ζ where Re λ(ζ) = 0 for the pair
+central differences of ratios (never overflowing), to |Δλ| ≤ 1e-13 |λ|; :func:`count` counts
+them in a box by the argument principle. A Hopf point: the ζ where Re λ(ζ) = 0 for the pair
 followed from a guess, by Brent's method in ζ (each evaluation a Newton solve from the last λ).
 
-**Values found** (each reproduced by tests/test_characteristic.py; the scenes are `barber` with
-the overrides shown, the states rodfem.model.steady's):
+**Values found** (tests/test_characteristic.py checks each; `barber` with the overrides shown,
+the states rodfem.model.steady's; FOUND below holds them to the last digit):
 
-* The hot rod of docs/barber.md (θ_A = 10, θ_O = 0, h = 0.1 + 1000 p², g = 0.11, ε = 0.1; one
-  steady state, u(1) = 0.112373, p = 0.023732): its second vibration's pair crosses the imaginary
-  axis at ζ = 0.0183713216…, ω = 5.916769…, period 2π/ω = 1.061925…. At ζ = 0.01 the rightmost
-  pair is 0.12878… ± 5.9031…i.
-* `barber` with `obstacle.kind=rigid` (k₁ = 1000, ζ = 0.5), the middle (unstable) state:
-  λ = 5713.07… (rodfem's 4876 at 100 cells; the eigenfunction's boundary layer at x = 1,
-  elastic root r ≈ √(bλ/ζ) ≈ 107, needs h r ≪ 1 for the asymptotic h² error).
-* `barber` with `model.zeta=0`, the middle state: λ = 465.67… (rodfem's 305 / 375 / 428 at
-  100 / 200 / 400 cells: r ≈ λ√b ≈ 466, and the mesh resolves it only beyond 400 cells).
-
-The precise digits are in FOUND below (the tests check them to 1e-12 relative).
+* The hot rod of docs/barber.md (`model.theta_A=10 initial.theta0=10 obstacle.temperature=0
+  heat_exchange.k1=1000 heat_exchange.exponent=2 obstacle.gap=0.11 obstacle.epsilon=0.1`: one
+  steady state, u(1) = 0.112373, p = 0.023732, h = 0.66322, κ = 10, c_u = 2853.78). Its second
+  vibration's pair crosses the imaginary axis at **ζ = 0.01837100717558, ω = 5.916770544714,
+  period 2π/ω = 1.061928168364** (an earlier independent check: 0.018371, 5.91677, 1.06193). At
+  ζ = 0.01 the rightmost pair is 0.1290554923 ± 5.9024430216i, then the first vibration
+  −0.0456131216 ± 2.5096780794i; the argument principle counts 10 roots in
+  [−1, 10] × [−16i, 16i], the 10 Newton finds from rodfem's eigenvalues.
+* `obstacle.kind=rigid` (k₁ = 1000, ζ = 0.5), the middle (unstable) state: **λ = 5713.307515129**
+  (rodfem: 4875.58 / 5450.75 / 5642.89 at 100 / 200 / 400 cells; the eigenfunction's boundary
+  layer at x = 1, elastic root r ≈ √(bλ/ζ) ≈ 107, is resolved only where h r ≪ 1).
+* `model.zeta=0`, the middle state: **λ = 465.6666376115** (rodfem: 305.37 / 375.10 / 427.68 at
+  100 / 200 / 400 cells; r ≈ λ√b ≈ 466). A P1 pencil on 4000 / 8000 / 16000 cells, extrapolated,
+  gives both to 1e-6. The same scene's separated state: the fundamental −4.7768e-5 ± 1.5708210i
+  is the exact rightmost root; the discrete growth rate (−1.44e-5 at 100 cells, −1.02e-5 at
+  200) is the mesh's shortest wave, which the continuous problem damps more (−1.7e-4 near
+  ω = 58).
+* `barber` itself: separated −0.6169198856 ± 1.4446204414i, unstable 94.27451220, pressed: the
+  Kelvin–Voigt roots −2.2585345046, −2.5412104621 ± 1.9857374297i, … accumulate at −1/ζ = −2
+  from below; the discrete growth rate (−2.0002 at 100 cells) is the mesh's shortest such wave,
+  tending to −2 as h².
+* `obstacle.kind=rigid heat_exchange.k1=60`: 13.10504763336 (docs/thermal-contact.md's
+  13.105047633).
 """
 
 from __future__ import annotations
