@@ -132,3 +132,31 @@ def test_the_barber_points_quoted_in_the_docs_are_the_diagrams():
     assert f"{grazing['parameter']:.11g}" in text and f"{fold['parameter']:.11g}" in text
     assert f"{hopf[0]['parameter']:.8g}" in text and f"{hopf[0]['period']:.4g}" in text
     assert f"{hopf[1]['parameter']:.8g}" in text and f"{hopf[1]['period']:.3g}" in text
+
+
+def _hopf_continuum(cells: int) -> dict:
+    scene = rodfem.scene.load("barber", [*HOT, f"mesh.cells={cells}"])
+    found = rodfem.bifurcation(scene, "model.zeta", 0.005, 0.04, extrapolate=True)
+    (hopf,) = [p for p in found["points"] if p["kind"] == "hopf"]
+    return hopf
+
+
+@pytest.mark.parametrize("cells, within", [
+    (20, 1e-4),  # 20, 40, 80 cells
+    pytest.param(100, 1e-6, marks=pytest.mark.slow),  # 100, 200, 400 cells
+])
+def test_the_hopf_point_extrapolated_is_the_rods(cells, within):
+    """The Hopf point located on three meshes and extrapolated in h² is the continuous
+    problem's (the exact characteristic equation, tests/characteristic.py), and the error
+    estimate beside it covers its error."""
+    from characteristic import FOUND
+
+    hopf = _hopf_continuum(cells)
+    exact_zeta, exact_period = FOUND["hot rod Hopf ζ"], 2 * math.pi / FOUND["hot rod Hopf ω"]
+    assert hopf["asymptotic"] is True
+    assert hopf["parameter_continuum"] == pytest.approx(exact_zeta, rel=within)
+    assert hopf["period_continuum"] == pytest.approx(exact_period, rel=within)
+    assert abs(hopf["parameter_continuum"] - exact_zeta) <= hopf["parameter_error"]
+    assert abs(hopf["period_continuum"] - exact_period) <= hopf["period_error"]
+    # the mesh's own point is further off: the extrapolation earns its digits
+    assert abs(hopf["parameter"] - exact_zeta) > abs(hopf["parameter_continuum"] - exact_zeta)
