@@ -87,9 +87,9 @@ def steady(args: argparse.Namespace) -> int:
     directory; the states as a table."""
     from mpi4py import MPI
 
-    from rodfem.output.directories import OutputError, finish
     from rodfem.solver.spectrum import Spectra
     from rodfem.studies.steady import states as st
+    from rodfem.studies.steady.continuation import ContinuationError
 
     comm = MPI.COMM_WORLD
     scene = load(args.scene, args.overrides)
@@ -107,9 +107,21 @@ def steady(args: argparse.Namespace) -> int:
     rows = st.analyse(scene, spectra)
     if args.extrapolate:
         st.continuum(scene, rows, spectra)
-    branch_rows = point_rows = None
+    try:
+        return _steady_files(args, scene, comm, spectra, rows, key, lo, hi, n, follow, out)
+    except ContinuationError as err:
+        say(f"rodfem: error: {err}; nothing written")
+        return EXIT_DIVERGED
+
+
+def _steady_files(args, scene, comm, spectra, rows, key, lo, hi, n, follow, out) -> int:
+    """The branches, points and curves of ``rodfem steady``, its files and lines."""
     import numpy as np
 
+    from rodfem.output.directories import OutputError, finish
+    from rodfem.studies.steady import states as st
+
+    branch_rows = point_rows = None
     if key is not None and n is not None:
         values = np.linspace(lo, hi, n)
         branch_rows = st.continuation(st.scenes_over(args.scene, args.overrides, key, values),
