@@ -160,3 +160,15 @@ def test_the_hopf_point_extrapolated_is_the_rods(cells, within):
     assert abs(hopf["period_continuum"] - exact_period) <= hopf["period_error"]
     # the mesh's own point is further off: the extrapolation earns its digits
     assert abs(hopf["parameter"] - exact_zeta) > abs(hopf["parameter_continuum"] - exact_zeta)
+
+
+@pytest.mark.slow
+def test_the_hopf_point_quoted_in_the_docs_is_one_runs():
+    """docs/barber.md's table of the hot rod's onset is what one extrapolated diagram gives."""
+    text = (Path(__file__).resolve().parent.parent / "docs" / "barber.md").read_text()
+    hopf = _hopf_continuum(80)
+    row = (f"| 80 cells | {hopf['parameter']:.6g} | {hopf['period']:.7g} |")
+    rod = (f"| the rod (extrapolated in $h^2$) | {hopf['parameter_continuum']:.7g} ± "
+           f"{hopf['parameter_error']:.1e} | {hopf['period_continuum']:.9g} ± "
+           f"{hopf['period_error']:.1e} |")
+    assert row in text and rod in text, (row, rod)
