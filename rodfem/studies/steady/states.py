@@ -33,10 +33,10 @@ BRANCH_COLUMNS = ("parameter", "u_1", "sigma_1", "theta_1", "contact", "stable",
 INERT = {"time": "the time stepping", "output": "what a run writes",
          "solver": "how a run solves its steps", "initial": "a run's initial state"}
 MAX_POINTS = 10_000  # values of a continuation
-# The spectrum is a dense eigenproblem in 3 × cells unknowns, solved with both eigenvectors for
-# their error bounds: at 1000 cells about 11 minutes a state (impact, measured on 2 shared
-# cores; it grows as cells³).
-MAX_CELLS = 1000
+# Above DENSE_CELLS the spectrum is taken on the sparse path (rodfem.solver.rightmost), in time
+# and memory linear in the cells: at 100,000 cells about 12 s and 0.3 GB a state
+# (benchmarks/bench_spectrum.py); the mesh itself is assembled by dolfinx.
+MAX_CELLS = 100_000
 
 
 class SteadyError(ValueError):
@@ -99,7 +99,7 @@ def check_mesh(scene) -> None:
     """SteadyError for a mesh finer than the dense eigenproblem takes."""
     if scene["mesh.cells"] > MAX_CELLS:
         raise SteadyError(f"mesh.cells = {scene['mesh.cells']}: the stability of steady states "
-                          f"is computed on at most {MAX_CELLS} cells (a dense eigenproblem); "
+                          f"is computed on at most {MAX_CELLS} cells; "
                           f"--set mesh.cells={MAX_CELLS} or fewer")
 
 
