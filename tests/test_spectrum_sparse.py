@@ -47,7 +47,8 @@ def agree(name, cells):
         assert sparse.verdict == dense.verdict != "unresolved"
         bound = dense.error + sparse.error
         assert abs(sparse.growth_rate - dense.growth_rate) <= bound
-        assert abs(sparse.growth_rate - dense.growth_rate) <= 1e-10 * max(1.0, abs(dense.growth_rate))
+        scale = max(1.0, abs(dense.growth_rate))
+        assert abs(sparse.growth_rate - dense.growth_rate) <= 1e-10 * scale
         found = SPARSE.rightmost(scene, lin, 6)
         every = eigenvalues(*balanced(*DENSE.pencil(scene, lin)))
         right = every[every.real >= 0]
