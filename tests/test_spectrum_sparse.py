@@ -47,8 +47,10 @@ def agree(name, cells):
         assert sparse.verdict == dense.verdict != "unresolved"
         bound = dense.error + sparse.error
         assert abs(sparse.growth_rate - dense.growth_rate) <= bound
+        # to 1e-10 where both bounds say round-off allows it (a real eigenvalue's condition
+        # number grows with the mesh: 94.27 carries 9e-5 at 500 cells)
         scale = max(1.0, abs(dense.growth_rate))
-        assert abs(sparse.growth_rate - dense.growth_rate) <= 1e-10 * scale
+        assert abs(sparse.growth_rate - dense.growth_rate) <= max(1e-10 * scale, bound)
         found = SPARSE.rightmost(scene, lin, 6)
         every = eigenvalues(*balanced(*DENSE.pencil(scene, lin)))
         right = every[every.real >= 0]
