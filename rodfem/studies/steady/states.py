@@ -33,10 +33,10 @@ BRANCH_COLUMNS = ("parameter", "u_1", "sigma_1", "theta_1", "contact", "stable",
 INERT = {"time": "the time stepping", "output": "what a run writes",
          "solver": "how a run solves its steps", "initial": "a run's initial state"}
 MAX_POINTS = 10_000  # values of a continuation
-# Above DENSE_CELLS the spectrum is taken on the sparse path (rodfem.solver.rightmost), in time
-# and memory linear in the cells: at 100,000 cells about 12 s and 0.3 GB a state
-# (benchmarks/bench_spectrum.py); the mesh itself is assembled by dolfinx.
-MAX_CELLS = 100_000
+# Above DENSE_CELLS the spectrum is taken on the sparse path (rodfem.solver.rightmost), its
+# memory linear in the cells: at 10,000 cells 23 to 61 s and 0.2 GB a state on 2 shared cores
+# (benchmarks/bench_spectrum.py), so about two minutes a state here.
+MAX_CELLS = 20_000
 
 
 class SteadyError(ValueError):
