@@ -16,6 +16,7 @@ cd "$(dirname "$0")/.."
 # Every name must exist in both releases (libgl1, say, not bookworm's libgl1-mesa-glx).
 APT_PACKAGES=(
   python3-dolfinx python3-petsc4py python3-mpi4py python3-ufl python3-basix python3-ffcx
+  python3-slepc4py  # rodfem steady on fine meshes: the rightmost eigenvalues (Debian 12, 13, sid)
   python3-meshio python3-h5py python3-scipy python3-numpy python3-venv python3-pip python3-cffi
   python3-packaging  # reads Debian's packages' requirements into pip's constraints (below)
   openmpi-bin libopenmpi-dev build-essential

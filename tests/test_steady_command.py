@@ -82,8 +82,8 @@ BAD = [
     (["--continue", "model.zeta=-1:1:3"], "model.zeta: must be >= 0"),
     (["--set", "heat_exchange.length=1"], "heat_exchange.length: applies only with"),
     (["--set", "model.k=-1"], "model.k: must be >= 0"),
-    (["--set", "mesh.cells=1001"], "mesh.cells = 1001: the stability of steady states is "
-     "computed on at most 1000 cells"),
+    (["--set", "mesh.cells=20001"], "mesh.cells = 20001: the stability of steady states is "
+     "computed on at most 20000 cells"),
 ]
 
 

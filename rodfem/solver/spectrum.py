@@ -23,6 +23,10 @@ A massless end (the mass redistributed) or b = 0 makes B singular: those eigenva
 infinite and left out. The largest real part of the rest is the state's growth rate, and
 :func:`judged` says whether round-off leaves its sign, hence the state's stability, earned:
 stable, unstable, neutral (on the imaginary axis to round-off) or unresolved.
+
+This module solves the pencil dense (QZ: every eigenvalue, O(N³)); above :data:`DENSE_CELLS`
+cells :class:`Spectra` takes the sparse path of :mod:`rodfem.solver.rightmost` (the rightmost
+few by shift-and-invert, in O(N)), whose verdicts this one checks where both apply.
 """
 
 from __future__ import annotations
@@ -36,6 +40,9 @@ INFINITE = 1e3
 # An eigenvalue not resolved from the imaginary axis, its error below this × the largest |λ|
 # (√eps): a neutral one, on the axis to round-off (an undamped bar's).
 NEUTRAL = float(np.sqrt(np.finfo(float).eps))
+# Above this many cells :class:`Spectra` judges a state on the sparse path (QZ with both
+# eigenvectors takes about 1 s a state at 400 cells and grows as cells³).
+DENSE_CELLS = 400
 
 
 @dataclasses.dataclass(frozen=True)
@@ -133,6 +140,26 @@ def eigenvalues(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     finite = _finite(alpha, beta, B)
     found = alpha[finite] / beta[finite]
     return found[np.argsort(-found.real, kind="stable")]
+
+
+def rightmost(A: np.ndarray, B: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``count`` finite eigenvalues of largest real part by QZ (of the balanced pencil),
+    largest real part first (of a pair, the member above the axis first), and each one's
+    first-order error bound eps (‖A‖ + |λ| ‖B‖) ‖x‖ ‖y‖/|yᴴ B x| (:func:`verdict`)."""
+    import scipy.linalg
+
+    A, B = balanced(A, B)
+    (alpha, beta), left, right = scipy.linalg.eig(A, B, left=True, right=True,
+                                                  homogeneous_eigvals=True)
+    finite = _finite(alpha, beta, B)
+    found, x, y = alpha[finite] / beta[finite], right[:, finite], left[:, finite]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        angle = np.abs(np.einsum("ij,ij->j", y.conj(), B @ x))
+        cond = np.linalg.norm(x, axis=0) * np.linalg.norm(y, axis=0) / angle
+        error = np.finfo(float).eps * (np.linalg.norm(A, "fro") + np.abs(found)
+                                       * np.linalg.norm(B, "fro")) * cond
+    order = np.lexsort((-found.imag, -found.real))[:count]
+    return found[order], np.where(np.isfinite(error[order]), error[order], np.inf)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -277,13 +304,17 @@ def judged(A: np.ndarray, B: np.ndarray, regular: bool) -> Verdict:
 
 class Spectra:
     """The spectra of a scene's steady states, its operators assembled once per mesh, mass and
-    time step (what they depend on): a continuation over a model value reuses them."""
+    time step (what they depend on): a continuation over a model value reuses them. Meshes of
+    more than ``dense_cells`` cells are judged on the sparse path (:mod:`rodfem.solver.rightmost`);
+    ``dense_cells=None`` keeps every mesh dense, 0 none."""
 
-    def __init__(self, comm=None):
+    def __init__(self, comm=None, dense_cells: int | None = DENSE_CELLS):
         from mpi4py import MPI
 
         self.comm = comm if comm is not None else MPI.COMM_WORLD
+        self.dense_cells = dense_cells
         self._operators: dict[tuple, Operators] = {}
+        self._sparse: dict[tuple, object] = {}
 
     def operators(self, scene) -> Operators:
         from rodfem.discrete.discretisation import Discretisation
@@ -292,6 +323,28 @@ class Spectra:
         if key not in self._operators:
             self._operators[key] = operators(Discretisation(scene, self.comm))
         return self._operators[key]
+
+    def sparse_operators(self, scene):
+        """The operators as sparse matrices (:mod:`rodfem.solver.banded`), never dense."""
+        from rodfem.discrete.discretisation import Discretisation
+        from rodfem.solver import banded
+
+        key = (*Discretisation.key(scene), scene["time.dt"])
+        if key not in self._sparse:
+            self._sparse[key] = banded.operators(Discretisation(scene, self.comm))
+        return self._sparse[key]
+
+    def assemble(self, scene) -> None:
+        """The operators of ``scene``'s mesh, dense or sparse as its spectra are taken
+        (collective: every rank calls it before any rank's share of a study)."""
+        if self.dense(scene):
+            self.operators(scene)
+        else:
+            self.sparse_operators(scene)
+
+    def dense(self, scene) -> bool:
+        """Whether ``scene``'s mesh is judged on the dense path."""
+        return self.dense_cells is None or scene["mesh.cells"] <= self.dense_cells
 
     def pencil(self, scene, lin) -> tuple[np.ndarray, np.ndarray]:
         """(A, B) about the state linearised as ``lin`` (infinite or NaN entries where a law's
@@ -302,17 +355,56 @@ class Spectra:
 
     def eigenvalues(self, scene, lin) -> np.ndarray:
         """The finite eigenvalues about the state linearised as ``lin``, largest real first
-        (of the balanced pencil)."""
+        (of the balanced pencil; dense at any mesh size)."""
         return eigenvalues(*balanced(*self.pencil(scene, lin)))
+
+    def _sparse_spectrum(self, scene, lin, count: int):
+        from rodfem.solver import banded, rightmost
+
+        ops = self.sparse_operators(scene)
+        a, b, zeta = scene["model.a"], scene["model.b"], scene["model.zeta"]
+        with np.errstate(invalid="ignore", over="ignore"):
+            A, B = banded.pencil(ops, a, b, zeta, lin)
+            A0, B0 = banded.pencil(ops, a, b, zeta, lin, exchange=False)
+        if not all(np.all(np.isfinite(M.data)) for M in (A, B)):
+            return None
+        return rightmost.spectrum(A, B, A0, B0, count, rightmost.dissipative(lin, zeta, b))
+
+    def rightmost(self, scene, lin, count: int = 6):
+        """The ``count`` eigenvalues of largest real part about the state linearised as ``lin``
+        and their error bounds, largest real part first: a
+        :class:`~rodfem.solver.rightmost.Rightmost` (its ``right``, the count of eigenvalues
+        with Re λ ≥ 0, None on the dense path, where every eigenvalue is found). Dense QZ up to
+        ``dense_cells`` cells, else the sparse path (what it guarantees:
+        :mod:`rodfem.solver.rightmost`)."""
+        from rodfem.solver.rightmost import Rightmost
+
+        if self.dense(scene):
+            A, B = self.pencil(scene, lin)
+            if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+                return Rightmost(np.zeros(0, complex), np.zeros(0), None)
+            return Rightmost(*rightmost(A, B, count), None)
+        found = self._sparse_spectrum(scene, lin, count)
+        return found if found is not None else Rightmost(np.zeros(0, complex), np.zeros(0), None)
 
     def verdict(self, scene, lin) -> Verdict:
         """The stability of the state linearised as ``lin``, as its spectrum earns it
-        (:func:`judged`)."""
-        return judged(*self.pencil(scene, lin),
-                      regular(self.operators(scene), scene["model.b"], lin.held))
+        (:func:`judged` dense, :func:`rodfem.solver.rightmost.judged` above ``dense_cells``)."""
+        if self.dense(scene):
+            return judged(*self.pencil(scene, lin),
+                          regular(self.operators(scene), scene["model.b"], lin.held))
+        from rodfem.solver import rightmost
+
+        found = self._sparse_spectrum(scene, lin, 6)
+        if found is None:
+            return Verdict("unresolved", float("nan"), float("nan"))
+        return Verdict(*rightmost.judged(found))
 
     def growth_rate(self, scene, lin) -> float:
         """The largest real part of the spectrum: the state is stable where it is < 0 (NaN if
         every eigenvalue is infinite, which no scene with a heat equation gives)."""
+        if not self.dense(scene):
+            found = self.rightmost(scene, lin, 1).values
+            return float(found[0].real) if found.size else float("nan")
         found = self.eigenvalues(scene, lin)
         return float(found[0].real) if found.size else float("nan")

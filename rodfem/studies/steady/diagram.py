@@ -45,7 +45,7 @@ def compute(scene, key: str, lo: float, hi: float, spectra, extrapolate: bool = 
     gives a state's row with its stability (:func:`.states.state_row`)."""
     comm = spectra.comm
     curve = ct.Curve(scene, key, lo, hi)
-    spectra.operators(scene)  # collective: the mesh's operators, once
+    spectra.assemble(scene)  # collective: the mesh's operators, once
     found = ct.branches(scene, key, lo, hi)
     spectral = pt.Spectral(curve, spectra)
     tasks = [(b, i) for b, branch in enumerate(found) for i in range(len(branch))]

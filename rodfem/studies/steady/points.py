@@ -37,6 +37,7 @@ COMPLEX = 1e-6
 # ψ at a located Hopf point must vanish to this × |λ|: a change of sign by a jump is no crossing.
 CROSSING = 1e-6
 REFINED = (2, 4)  # the meshes of an extrapolation: these times the scene's cells
+COUNT = 12  # eigenvalues taken on the sparse path
 
 
 def psi(eigenvalues: np.ndarray) -> tuple[float, complex | None]:
@@ -48,6 +49,15 @@ def psi(eigenvalues: np.ndarray) -> tuple[float, complex | None]:
         return -math.inf, None
     top = off[int(np.argmax(off.real))]
     return float(top.real), complex(top)
+
+
+def eigenvalues(spectra, scene, lin) -> np.ndarray:
+    """A state's eigenvalues, largest real part first: every finite one by QZ on a mesh the
+    spectra take dense, the rightmost :data:`COUNT` on the sparse path (every one right of the
+    imaginary axis among them, which is what ψ's sign needs)."""
+    if spectra.dense(scene):
+        return spectra.eigenvalues(scene, lin)
+    return spectra.rightmost(scene, lin, COUNT).values
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,7 +87,7 @@ class Spectral:
 
     def eigenvalues(self, point: ct.Point) -> np.ndarray:
         problem, state = self.state(point)
-        return self.spectra.eigenvalues(self.scene_at(point.value), problem.linearise(state))
+        return eigenvalues(self.spectra, self.scene_at(point.value), problem.linearise(state))
 
     def test(self, point: ct.Point) -> float:
         return psi(self.eigenvalues(point))[0]

@@ -34,10 +34,10 @@ BRANCH_COLUMNS = ("parameter", "u_1", "sigma_1", "theta_1", "contact", "stable",
 INERT = {"time": "the time stepping", "output": "what a run writes",
          "solver": "how a run solves its steps", "initial": "a run's initial state"}
 MAX_POINTS = 10_000  # values of a continuation
-# The spectrum is a dense eigenproblem in 3 × cells unknowns, solved with both eigenvectors for
-# their error bounds: at 1000 cells about 11 minutes a state (impact, measured on 2 shared
-# cores; it grows as cells³).
-MAX_CELLS = 1000
+# Above DENSE_CELLS the spectrum is taken on the sparse path (rodfem.solver.rightmost), its
+# memory linear in the cells: at 10,000 cells 23 to 61 s and 0.2 GB a state on 2 shared cores
+# (benchmarks/bench_spectrum.py), so about two minutes a state here.
+MAX_CELLS = 20_000
 
 
 class SteadyError(ValueError):
@@ -100,13 +100,13 @@ def scenes_over(scene_name: str, overrides: list[str], key: str, values: np.ndar
 
 
 def check_mesh(scene, factor: int = 1) -> None:
-    """SteadyError for a mesh finer than the dense eigenproblem takes (``factor`` times the
-    scene's cells: an extrapolation's finest mesh)."""
+    """SteadyError for a mesh finer than the spectra take (``factor`` times the scene's cells:
+    an extrapolation's finest mesh)."""
     if factor * scene["mesh.cells"] > MAX_CELLS:
         finest = "" if factor == 1 else f" (with --extrapolate, {factor} times that)"
         raise SteadyError(f"mesh.cells = {scene['mesh.cells']}{finest}: the stability of steady "
-                          f"states is computed on at most {MAX_CELLS} cells (a dense "
-                          f"eigenproblem); --set mesh.cells={MAX_CELLS // factor} or fewer")
+                          f"states is computed on at most {MAX_CELLS} cells; "
+                          f"--set mesh.cells={MAX_CELLS // factor} or fewer")
 
 
 def analyse(scene, spectra: Spectra) -> list[dict]:
@@ -141,7 +141,7 @@ def continuation(scenes: list, values: np.ndarray, spectra: Spectra,
     every rank: the serial table."""
     comm = spectra.comm
     for scene in scenes:
-        spectra.operators(scene)  # collective: once per mesh, mass and step
+        spectra.assemble(scene)  # collective: once per mesh, mass and step
     mine = deal([1.0] * len(scenes), comm.size)[comm.rank]
     solved = {i: analyse(scenes[i], spectra) for i in mine}
     for part in comm.allgather(solved):
@@ -234,11 +234,11 @@ def continuum(scene, rows: list[dict], spectra: Spectra) -> None:
         if not math.isfinite(row["growth_rate"]):
             continue
         lin = problem.linearise(state)
-        top = spectra.eigenvalues(scene, lin)[0]
+        top = pt.eigenvalues(spectra, scene, lin)[0]
         rates = [top.real]
         for factor in pt.REFINED:
-            finer = spectra.eigenvalues(ct.at(scene, "mesh.cells", factor * scene["mesh.cells"]),
-                                        lin)
+            finer = pt.eigenvalues(spectra, ct.at(scene, "mesh.cells",
+                                                  factor * scene["mesh.cells"]), lin)
             top = finer[int(np.argmin(np.abs(finer - top)))]
             rates.append(top.real)
         found = pt.extrapolated(rates)
