@@ -140,6 +140,7 @@ def _cli(out: Path, ranks: int) -> str:
 
 @serial_only
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+@pytest.mark.slow  # tests/test_steady_diagram.py runs the diagram's command under mpirun
 def test_command_under_mpirun_writes_the_serial_tables(tmp_path):
     assert _cli(tmp_path / "n2", 2) == _cli(tmp_path / "n1", 1)
 

@@ -172,3 +172,23 @@ def test_the_hopf_point_quoted_in_the_docs_is_one_runs():
            f"{hopf['parameter_error']:.1e} | {hopf['period_continuum']:.9g} ± "
            f"{hopf['period_error']:.1e} |")
     assert row in text and rod in text, (row, rod)
+
+
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="runs the command itself")
+def test_a_hopf_point_followed_is_located_again_at_each_value(tmp_path):
+    """--follow hopf: each point of the curve is the Hopf point a diagram at that value of the
+    second key locates, to the doubles' resolution."""
+    out = tmp_path / "hopf"
+    assert main(["steady", "barber", *sets([*HOT, "mesh.cells=12"]), "--out", str(out),
+                 "--continue", "model.zeta=0.005:0.04", "--follow", "hopf", "--along",
+                 "heat_exchange.k1=500:2000:4"]) == 0
+    curve = rows(out / "curves.csv")
+    assert [float(r["parameter2"]) for r in curve] == [500.0, 1000.0, 1500.0, 2000.0]
+    for r in curve:
+        again = rodfem.bifurcation("barber", "model.zeta", 0.005, 0.04,
+                                   [*HOT, "mesh.cells=12", f"heat_exchange.k1={r['parameter2']}"])
+        (hopf,) = [p for p in again["points"] if p["kind"] == "hopf"]
+        assert float(r["parameter"]) == pytest.approx(hopf["parameter"], rel=1e-12)
+        assert float(r["period"]) == pytest.approx(hopf["period"], rel=1e-12)
+    zetas = [float(r["parameter"]) for r in curve]
+    assert zetas == sorted(zetas)  # the onset rises with the exchange
