@@ -214,10 +214,10 @@ def bifurcation(scene: str | Path | Mapping | Scene, key: str, lo: float, hi: fl
     --continue KEY=lo:hi`` writes them.
 
     Returns:
-        {"branches": rows of branches.csv (each state with its stability, ``branch`` and its
-        ``point`` along it), "points": rows of points.csv (``kind`` fold, grazing or hopf, the
-        ``parameter``, the state there, and for a Hopf point ``omega`` and ``period``; with
-        ``extrapolate`` the continuum's parameter and period with their error estimates)}.
+        ``branches``, the rows of branches.csv (each state with its stability, ``branch`` and
+        its ``point`` along it), and ``points``, the rows of points.csv (``kind`` fold, grazing or hopf, the ``parameter``, the state there, and for a
+        Hopf point ``omega`` and ``period``; with ``extrapolate`` the continuum's parameter and
+        period with their error estimates).
 
     Raises:
         SceneError: a mistake in the scene, the overrides or the range, or a key that changes

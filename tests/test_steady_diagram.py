@@ -98,8 +98,9 @@ def test_the_diagram_and_curves_under_mpirun_are_the_serial_files(tmp_path):
     (["--follow", "fold"], "--follow and --along go together"),
     (["--along", "heat_exchange.k1=1:2"], "--follow and --along go together"),
     (["--follow", "fold", "--along", "obstacle.temperature=1:2"], "is the key of --continue"),
-    (["--follow", "fold", "--along", "heat_exchange.k1=1"], "is not KEY2=c:d"),
+    (["--follow", "fold", "--along", "heat_exchange.k1=1"], "is not KEY2=a:b"),
     (["--follow", "fold", "--along", "mesh.cells=1:2"], "is not a real scene key"),
+    (["--follow", "fold", "--along", "model.nothing=1:2"], "unknown scene key"),
     (["--follow", "fold", "--along", "heat_exchange.k1=-1:2"], "heat_exchange.k1"),
 ])
 def test_bad_follow_input(tmp_path, capsys, extra, message):

@@ -37,29 +37,16 @@ REACH = 12  # a Hopf point is searched this many branch points either way of whe
 def parse_along(text: str, scene, key: str, error) -> tuple[str, float, float, int]:
     """``KEY2=c:d`` or ``KEY2=c:d:n`` → (KEY2, c, d, n): a real scene key other than ``key``
     (``error``: the exception raised, with its one line)."""
-    from rodfem.scene import SCHEMA
+    from rodfem.studies.steady.ranges import parse_range
 
-    key2, sep, span = text.partition("=")
-    key2 = key2.strip()
-    section, _, name = key2.partition(".")
-    found = SCHEMA.get(section, {}).get(name)
-    if found is None or found.kind != "real":
-        raise error(f"--along: {key2!r} is not a real scene key; give section.key=c:d, e.g. "
-                    "heat_exchange.k1=500:2000")
+    key2, found, c, d, n = parse_range(text, "--along", error, name="KEY2",
+                                       example="heat_exchange.k1=500:2000", maximum=1000)
+    if found.kind != "real":
+        raise error(f"--along: {key2!r} is not a real scene key ({found.kind}); give a real "
+                    "one, e.g. heat_exchange.k1=500:2000")
     if key2 == key:
         raise error(f"--along: {key2} is the key of --continue; give a second one")
-    parts = span.split(":")
-    try:
-        if not sep or len(parts) not in (2, 3):
-            raise ValueError
-        c, d = float(parts[0]), float(parts[1])
-        n = int(parts[2]) if len(parts) == 3 else DEFAULT_VALUES
-    except ValueError:
-        raise error(f"--along: {text!r} is not KEY2=c:d or KEY2=c:d:n (reals c, d, a whole "
-                    "number n of values)") from None
-    if not (math.isfinite(c) and math.isfinite(d)) or c == d or not 2 <= n <= 1000:
-        raise error(f"--along {text!r}: c and d must be finite and differ, and 2 <= n <= 1000")
-    return key2, c, d, n
+    return key2, c, d, DEFAULT_VALUES if n is None else n
 
 
 def follow(scene, key: str, lo: float, hi: float, key2: str, values: np.ndarray, kind: str,

@@ -45,8 +45,9 @@ import math
 
 import numpy as np
 
-from rodfem.scene import SCHEMA, load
+from rodfem.scene import load
 from rodfem.solver.errors import NotConverged
+from rodfem.studies.steady.ranges import parse_range
 
 PERIODIC = "periodic.csv"
 ORBIT = "orbit.csv"
@@ -472,30 +473,14 @@ def parse_continuation(texts: list[str] | None) -> tuple[str, np.ndarray] | tupl
         return None, None
     if len(texts) != 1:
         raise PeriodicError(f"--continue is given {len(texts)} times; give it once")
-    text = texts[0]
-    key, sep, span = text.partition("=")
-    key = key.strip()
-    section, _, name = key.partition(".")
-    found = SCHEMA.get(section, {}).get(name)
-    if found is None:
-        raise PeriodicError(f"--continue: unknown scene key {key!r}; give section.key, e.g. "
-                            "model.zeta")
+    key, found, a, b, n = parse_range(texts[0], "--continue", PeriodicError, counted=True,
+                                      example="model.zeta", maximum=MAX_POINTS)
+    section = key.partition(".")[0]
     if section in INERT or key in ("time.end", "mesh.cells"):
         raise PeriodicError(f"--continue: {key} does not change the orbit (or its unknowns); "
                             "continue over a model, obstacle or heat_exchange value")
     if found.kind != "real":
         raise PeriodicError(f"--continue: {key} is not a real value ({found.kind})")
-    parts = span.split(":")
-    try:
-        if not sep or len(parts) != 3:
-            raise ValueError
-        a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
-    except ValueError:
-        raise PeriodicError(f"--continue: {text!r} is not KEY=a:b:n (reals a, b, a whole number "
-                            "n of values)") from None
-    if not (math.isfinite(a) and math.isfinite(b)) or a == b or not 2 <= n <= MAX_POINTS:
-        raise PeriodicError(f"--continue {text!r}: a and b must be finite and differ, and "
-                            f"2 <= n <= {MAX_POINTS}")
     return key, np.linspace(a, b, n)
 
 

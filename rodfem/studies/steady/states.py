@@ -18,9 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from rodfem.model import steady
-from rodfem.scene import SCHEMA, load
+from rodfem.scene import load
 from rodfem.solver.spectrum import Spectra
 from rodfem.studies.common import deal, prepare, write_csv
+from rodfem.studies.steady.ranges import parse_range
 
 STATES = "steady.csv"
 BRANCHES = "branches.csv"
@@ -33,7 +34,6 @@ BRANCH_COLUMNS = ("parameter", "u_1", "sigma_1", "theta_1", "contact", "stable",
 # over them would repeat one table (time.dt does change the dispersion-free mass).
 INERT = {"time": "the time stepping", "output": "what a run writes",
          "solver": "how a run solves its steps", "initial": "a run's initial state"}
-MAX_POINTS = 10_000  # values of a continuation
 # Above DENSE_CELLS the spectrum is taken on the sparse path (rodfem.solver.rightmost), its
 # memory linear in the cells: at 10,000 cells 23 to 61 s and 0.2 GB a state on 2 shared cores
 # (benchmarks/bench_spectrum.py), so about two minutes a state here.
@@ -53,31 +53,11 @@ def parse_continuation(texts: list[str] | str, scene=None) -> tuple[str, float, 
             raise SteadyError(f"--continue is given {len(texts)} times; give it once: the "
                               "branches over one scene value")
         texts = texts[0]
-    text = texts
-    key, sep, span = text.partition("=")
-    key = key.strip()
-    section, _, name = key.partition(".")
-    found = SCHEMA.get(section, {}).get(name)
-    if found is None:
-        raise SteadyError(f"--continue: unknown scene key {key!r}; give section.key, e.g. "
-                          "heat_exchange.k1")
+    key, found, a, b, n = parse_range(texts, "--continue", SteadyError)
     check_key(key, scene)
     if found.kind != "real":
         raise SteadyError(f"--continue: {key} is not a real value ({found.kind}); continue over "
                           "a real one")
-    parts = span.split(":")
-    try:
-        if not sep or len(parts) not in (2, 3):
-            raise ValueError
-        a, b = float(parts[0]), float(parts[1])
-        n = int(parts[2]) if len(parts) == 3 else None
-    except ValueError:
-        raise SteadyError(f"--continue: {text!r} is not KEY=a:b or KEY=a:b:n (reals a, b, a "
-                          "whole number n of values)") from None
-    if not (math.isfinite(a) and math.isfinite(b)) or a == b or \
-            n is not None and not 2 <= n <= MAX_POINTS:
-        raise SteadyError(f"--continue {text!r}: a and b must be finite and differ, and 2 <= n <= "
-                          f"{MAX_POINTS}")
     return key, a, b, n
 
 
