@@ -193,3 +193,22 @@ def test_a_hopf_point_followed_is_located_again_at_each_value(tmp_path):
         assert float(r["period"]) == pytest.approx(hopf["period"], rel=1e-12)
     zetas = [float(r["parameter"]) for r in curve]
     assert zetas == sorted(zetas)  # the onset rises with the exchange
+
+
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="runs the command itself")
+def test_extrapolated_rates_are_the_rods_within_their_estimates(tmp_path, capsys):
+    """--extrapolate: the separated and the unstable state's rates against the exact equation,
+    each within its error estimate; the pressed state's rate, the mesh's shortest waves
+    crowding at −1/ζ, is said to be pre-asymptotic, not extrapolated."""
+    from characteristic import FOUND
+
+    out = tmp_path / "x"
+    assert main(["steady", "barber", "--set", "mesh.cells=25", "--extrapolate",
+                 "--out", str(out)]) == 0
+    assert "pre-asymptotic" in capsys.readouterr().out
+    separated, unstable, pressed = rows(out / "steady.csv")
+    for row, exact in ((separated, FOUND["barber separated"].real),
+                       (unstable, FOUND["barber unstable"].real)):
+        assert abs(float(row["continuum_rate"]) - exact) <= float(row["continuum_error"])
+        assert abs(float(row["continuum_rate"]) - exact) < abs(float(row["growth_rate"]) - exact)
+    assert pressed["continuum_rate"] == "nan"

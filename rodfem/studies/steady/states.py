@@ -230,14 +230,26 @@ VERDICTS = {"neutral": "neutral", "unresolved": "?", "residual": "?"}
 
 def table_lines(rows: list[dict]) -> list[str]:
     """The states as a short table: stable yes or NO only where the row's ``trust`` is ok."""
+    extrapolated = any(math.isfinite(row.get("continuum_error", math.nan)) for row in rows)
     lines = [f"{'u(1)':>12} {'sigma(1)':>12} {'theta(1)':>10} {'contact':>8} {'stable':>7} "
-             f"{'growth rate':>12}"]
+             f"{'growth rate':>12}" + (f"  {ROD_RATE:>26}" if extrapolated else "")]
     for row in rows:
         lines.append(f"{row['u_1']:12.6g} {row['sigma_1']:12.6g} {row['theta_1']:10.5g} "
                      f"{'yes' if row['contact'] else 'no':>8} "
                      f"{_verdict(row):>7} {row['growth_rate']:12.5g}"
+                     + (f"  {_continuum(row):>26}" if extrapolated else "")
                      + ("  (fold)" if row["tangential"] else ""))
     return lines
+
+
+ROD_RATE = "the rod's (extrapolated)"
+
+
+def _continuum(row: dict) -> str:
+    """The rod's growth rate ± its error estimate, or why there is none."""
+    if math.isfinite(row["continuum_rate"]):
+        return f"{row['continuum_rate']:.8g} ± {row['continuum_error']:.1e}"
+    return "pre-asymptotic" if math.isfinite(row["continuum_error"]) else "-"
 
 
 def _verdict(row: dict) -> str:
