@@ -237,6 +237,5 @@ def bifurcation(scene: str | Path | Mapping | Scene, key: str, lo: float, hi: fl
     for value in (lo, hi):
         scene_of(base, {key: float(value)})
     spectra = Spectra()
-    found = diagram.compute(base, key, min(lo, hi), max(lo, hi), spectra, extrapolate,
-                            lambda at, problem, state: st.state_row(at, problem, state, spectra))
+    found = diagram.compute(base, key, min(lo, hi), max(lo, hi), spectra, extrapolate)
     return {"branches": found.branch_rows, "points": found.point_rows}

@@ -131,9 +131,7 @@ def _steady_files(args, scene, comm, spectra, rows, key, lo, hi, n, follow, out)
 
         st.scenes_over(args.scene, args.overrides, key, [lo, hi])  # both ends valid
         found = diagram.compute(scene, key, min(lo, hi), max(lo, hi), spectra,
-                                args.extrapolate,
-                                lambda at, problem, state: st.state_row(at, problem, state,
-                                                                        spectra))
+                                args.extrapolate)
         branch_rows, point_rows = found.branch_rows, found.point_rows
     curve_rows = grid = None
     if follow is not None:

@@ -39,13 +39,24 @@ def _stability(row: dict) -> str:
     return "stable" if row["stable"] else "unstable"
 
 
-def compute(scene, key: str, lo: float, hi: float, spectra, extrapolate: bool = False,
-            row_of=None) -> Diagram:
-    """The diagram of ``scene`` over ``key`` in [lo, hi]; ``row_of(scene, problem, state)``
-    gives a state's row with its stability (:func:`.states.state_row`)."""
+def compute(scene, key: str, lo: float, hi: float, spectra, extrapolate: bool = False) -> Diagram:
+    """The diagram of ``scene`` over ``key`` in [lo, hi], its work dealt to the ranks of
+    ``spectra.comm``. Each rank takes the spectra of its share on its own (a mesh on one process,
+    as a serial run's): a share needs operators that no other rank does (a finer mesh's, a
+    time step's dispersion-free mass), and the serial answer is the one assembled on one
+    process."""
+    from rodfem.studies.steady.states import state_row
+
     comm = spectra.comm
+    if comm.size > 1:
+        from mpi4py import MPI
+
+        spectra = type(spectra)(MPI.COMM_SELF, spectra.dense_cells)
+
+    def row_of(at, problem, state):
+        return state_row(at, problem, state, spectra)
+
     curve = ct.Curve(scene, key, lo, hi)
-    spectra.assemble(scene)  # collective: the mesh's operators, once
     found = ct.branches(scene, key, lo, hi)
     spectral = pt.Spectral(curve, spectra)
     tasks = [(b, i) for b, branch in enumerate(found) for i in range(len(branch))]
