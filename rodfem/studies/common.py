@@ -69,10 +69,13 @@ def csv_value(value) -> str:
     """A table cell: empty for None, true/false, floats to round-trip, nan and ±inf by name."""
     if value is None:
         return ""
-    if isinstance(value, bool):
+    if isinstance(value, (bool, np.bool_)):
         return "true" if value else "false"
-    if isinstance(value, float):
+    if isinstance(value, (float, np.floating)):  # NumPy 2's repr of its own floats says so
+        value = float(value)
         return repr(value) if math.isfinite(value) else str(value)
+    if isinstance(value, np.integer):
+        return str(int(value))
     return str(value)
 
 

@@ -365,8 +365,8 @@ def find(flow, scene, u_star: float, x: np.ndarray, period: float, comm,
             break
     else:
         raise NoOrbit(f"the period {T:.6g} keeps changing its number of steps")
-    orbit = Orbit(period=T, steps=N, state=x, u_star=u_star, residual=residual,
-                  iterations=iterations)
+    orbit = Orbit(period=float(T), steps=int(N), state=x, u_star=float(u_star),
+                  residual=float(residual), iterations=int(iterations))
     record = trace(flow, scene, orbit)
     u_1, p = record["u_1"], record["p"]
     orbit.u_min, orbit.u_max = float(u_1.min()), float(u_1.max())
@@ -375,7 +375,8 @@ def find(flow, scene, u_star: float, x: np.ndarray, period: float, comm,
         raise NoOrbit(f"Newton's method reached the steady state (u(1) varies by "
                       f"{orbit.u_max - orbit.u_min:.2g} over the period), not an orbit")
     orbit.contact_fraction = float(np.mean(p[1:] > 0.0))
-    orbit.multipliers, orbit.trivial, orbit.multiplier_error = shooting.floquet(x, T)
+    orbit.multipliers, trivial, error = shooting.floquet(x, T)
+    orbit.trivial, orbit.multiplier_error = complex(trivial), float(error)
     largest = float(np.abs(orbit.multipliers[0])) if orbit.multipliers.size else 0.0
     error = orbit.multiplier_error
     orbit.stable = True if largest < 1.0 - error else False if largest > 1.0 + error else None

@@ -194,7 +194,7 @@ def write(out: Path, force: bool, comm, rows: list[dict],
         if curve_rows is not None:
             write_csv(out / curves.CURVES, curves.COLUMNS, curve_rows)
             write_csv(out / curves.COUNTS, ("parameter", "parameter2", "count", "key", "key2"),
-                      [{"parameter": x, "parameter2": y, "count": int(n),
+                      [{"parameter": float(x), "parameter2": float(y), "count": int(n),
                         "key": grid["key"], "key2": grid["key2"]}
                        for j, y in enumerate(grid["y"]) for i, x in enumerate(grid["x"])
                        for n in [grid["count"][j, i]]])
