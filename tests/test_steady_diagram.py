@@ -3,6 +3,7 @@ two-parameter curves of ``--follow``, serial and under MPI, and bad input."""
 
 import csv
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -18,8 +19,8 @@ from rodfem.solver.spectrum import Spectra
 from rodfem.studies.steady import continuation as ct
 from rodfem.studies.steady import points as pt
 
-MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
-           "OMPI_MCA_rmaps_base_oversubscribe": "1", "PATH": "/usr/bin:/bin"}
+MPI_ENV = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1"}
 HOT = ["model.theta_A=10", "initial.theta0=10", "obstacle.temperature=0",
        "heat_exchange.k1=1000", "heat_exchange.exponent=2", "obstacle.gap=0.11",
        "obstacle.epsilon=0.1"]
