@@ -201,7 +201,7 @@ def _follow(args, key, n):
     if key is None or n is not None:
         raise st.SteadyError("--follow needs --continue KEY=a:b (the branches followed, not "
                              "sampled at n values)")
-    return curves.parse_along(args.along, None, key, st.SteadyError)
+    return curves.parse_along(args.along, key, st.SteadyError)
 
 
 def _stopped(out: Path) -> int:

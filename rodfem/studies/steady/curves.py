@@ -34,7 +34,7 @@ GRID = (60, 40)  # the counts' grid over (KEY, KEY2)
 REACH = 12  # a Hopf point is searched this many branch points either way of where it was
 
 
-def parse_along(text: str, scene, key: str, error) -> tuple[str, float, float, int]:
+def parse_along(text: str, key: str, error) -> tuple[str, float, float, int]:
     """``KEY2=c:d`` or ``KEY2=c:d:n`` → (KEY2, c, d, n): a real scene key other than ``key``
     (``error``: the exception raised, with its one line)."""
     from rodfem.studies.steady.ranges import parse_range

@@ -165,7 +165,7 @@ def point_lines(rows: list[dict], key: str) -> list[str]:
     for row in rows:
         where = f"{key} = {row['parameter']:.12g}"
         text = {"fold": "fold", "grazing": "grazing", "hopf": "Hopf point"}[row["kind"]]
-        extra = f" (the branch turns back there)" if row["turns"] else ""
+        extra = " (the branch turns back there)" if row["turns"] else ""
         if row["kind"] == "hopf":
             extra = f", period {row['period']:.6g}"
             if math.isfinite(row["parameter_continuum"]):
