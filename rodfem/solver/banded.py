@@ -4,7 +4,7 @@ whose dense eigenproblem is too slow.
 Its unknowns are taken node by node, (θ_i, u_i, v_i) for i = 1 … n (the held end keeps only θ_n):
 P1's M, M_b, K and G are tridiagonal, and the exchange's terms at x = 1 couple only the last
 nodes, so A and B are banded with at most 5 diagonals on each side. :class:`Band` factors
-A − z B by LAPACK's banded LU with partial pivoting (complex z too) in O(N) memory and time:
+A − z B by LAPACK's banded LU with partial pivoting (real arithmetic for a real z) in O(N) memory and time:
 the solves of shift-and-invert (:mod:`rodfem.solver.rightmost`) and the determinant's phase of
 the stability count.
 """
@@ -120,29 +120,38 @@ def bandwidths(*mats: sp.spmatrix) -> tuple[int, int]:
 def _storage(S: sp.spmatrix, kl: int, ku: int) -> np.ndarray:
     """S in LAPACK's banded LU storage (kl extra rows for the fill-in of pivoting)."""
     C = S.tocoo()
-    ab = np.zeros((2 * kl + ku + 1, S.shape[1]), dtype=complex)
+    ab = np.zeros((2 * kl + ku + 1, S.shape[1]), dtype=np.result_type(C.data, float),
+                  order="F")
     np.add.at(ab, (kl + ku + C.row - C.col, C.col), C.data)
     return ab
 
 
 class Band:
-    """A − z B for any complex z, factored by LAPACK's banded LU (zgbtrf) in O(N kl (kl + ku))."""
+    """A − z B for any complex z, factored by LAPACK's banded LU in O(N kl (kl + ku)): in real
+    arithmetic (dgbtrf) where z and the pencil are real, four times cheaper than complex."""
 
     def __init__(self, A: sp.spmatrix, B: sp.spmatrix):
         self.kl, self.ku = bandwidths(A, B)
         self.size = A.shape[0]
         self._A, self._B = _storage(A, self.kl, self.ku), _storage(B, self.kl, self.ku)
+        self.real = not (np.iscomplexobj(A.data) or np.iscomplexobj(B.data))
 
     def factor(self, z: complex) -> Factor:
         from scipy.linalg import lapack
 
-        lu, pivots, info = lapack.zgbtrf(self._A - z * self._B, self.kl, self.ku)
+        z = complex(z)
+        if self.real and z.imag == 0.0:
+            lu, pivots, info = lapack.dgbtrf(self._A.real - z.real * self._B.real, self.kl,
+                                             self.ku, overwrite_ab=True)
+        else:
+            lu, pivots, info = lapack.zgbtrf(self._A - z * self._B, self.kl, self.ku,
+                                             overwrite_ab=True)
         return Factor(lu, pivots, info, self.kl, self.ku)
 
 
 @dataclasses.dataclass
 class Factor:
-    """The banded LU of A − z B; ``singular`` where a pivot is exactly 0."""
+    """The banded LU of A − z B (real where z is); ``singular`` where a pivot is exactly 0."""
 
     lu: np.ndarray
     pivots: np.ndarray
@@ -155,11 +164,20 @@ class Factor:
         return self.info != 0
 
     def solve(self, rhs: np.ndarray, adjoint: bool = False) -> np.ndarray:
-        """(A − z B)⁻¹ rhs, or (A − z B)⁻ᴴ rhs with ``adjoint``."""
+        """(A − z B)⁻¹ rhs, or (A − z B)⁻ᴴ rhs with ``adjoint``; real where the factor and
+        ``rhs`` are (a real factor solves a complex ``rhs`` as its two real columns)."""
         from scipy.linalg import lapack
 
-        x, info = lapack.zgbtrs(self.lu, self.kl, self.ku, np.asarray(rhs, dtype=complex),
-                                self.pivots, trans=2 if adjoint else 0)
+        rhs = np.asarray(rhs)
+        if np.isrealobj(self.lu):
+            if np.iscomplexobj(rhs):
+                parts = self.solve(np.stack([rhs.real, rhs.imag], axis=-1), adjoint)
+                return parts[..., 0] + 1j * parts[..., 1]
+            x, info = lapack.dgbtrs(self.lu, self.kl, self.ku, np.asarray(rhs, dtype=float),
+                                    self.pivots, trans=1 if adjoint else 0)
+        else:
+            x, info = lapack.zgbtrs(self.lu, self.kl, self.ku, np.asarray(rhs, dtype=complex),
+                                    self.pivots, trans=2 if adjoint else 0)
         if info != 0:
             raise np.linalg.LinAlgError(f"banded solve failed (info {info})")
         return x

@@ -53,7 +53,10 @@ from rodfem.solver.banded import Band
 EPS = float(np.finfo(float).eps)
 NEAREST = 6  # eigenvalues found beyond the ``count`` asked, per target
 TOLERANCE = 1e-6  # SLEPc's relative residual; the refinement brings it to round-off
-RESTARTS = 100  # of Krylov–Schur: a cluster (−1/ζ's) need not converge, its Ritz values are refined
+RESTARTS = 30  # of Krylov–Schur, the Kelvin–Voigt cluster left out: it converges in one or two
+CLUSTER = 0.05  # the Kelvin–Voigt cluster's disk about −1/ζ: radius CLUSTER/ζ
+BLOCK = 8  # vectors of the block inverse iteration at the cluster's edge
+EDGE_ROUNDS = 8  # of targets moved towards −1/ζ at the cluster's edge
 MAX_SAMPLES = 20_000  # of g(iω) for the count
 PHASE_STEP = np.pi / 4
 SETTLED = 1e3  # the last sample's frequency, in units of the pencil's scale
@@ -80,14 +83,34 @@ class _Inverse:
         y.array[:] = self.factor.solve(self.B @ x.array_r).real
 
 
-def nearest(A: sp.csr_matrix, B: sp.csr_matrix, band: Band, sigma: float,
-            nev: int) -> np.ndarray:
-    """The ``nev`` (or more) eigenvalues of A x = λ B x nearest the real ``sigma``, by SLEPc's
-    Krylov–Schur on (A − σB)⁻¹B (sequential: every rank computes the same, from the same start
-    vector). Eigenvalues at infinity (μ = 0) are left out."""
+def _region(sigma: float, cluster: tuple[float, float]):
+    """SLEPc's region of the operator's eigenvalues μ = 1/(λ − σ) that lie outside the disk
+    |λ − c| < r, ``cluster`` = (c, r), c real: the disk's image is the disk on the diameter
+    1/(c − r − σ), 1/(c + r − σ) (a Möbius map takes circles to circles, the real axis to
+    itself), its outside kept where σ lies outside the disk, its inside where σ lies inside."""
     from petsc4py import PETSc
     from slepc4py import SLEPc
 
+    c, r = cluster
+    ends = 1.0 / (c - r - sigma), 1.0 / (c + r - sigma)
+    region = SLEPc.RG().create(comm=PETSc.COMM_SELF)
+    region.setType(SLEPc.RG.Type.ELLIPSE)
+    region.setEllipseParameters(0.5 * (ends[0] + ends[1]), 0.5 * abs(ends[0] - ends[1]), 1.0)
+    region.setComplement(abs(sigma - c) > r)
+    return region
+
+
+def nearest(A: sp.csr_matrix, B: sp.csr_matrix, band: Band, sigma: float,
+            nev: int, cluster: tuple[float, float] | None = None) -> np.ndarray:
+    """The ``nev`` (or more) eigenvalues of A x = λ B x nearest the real ``sigma``, by SLEPc's
+    Krylov–Schur on (A − σB)⁻¹B (sequential: every rank computes the same, from the same start
+    vector), those in the disk ``cluster`` = (centre, radius) left out and not waited for.
+    Eigenvalues at infinity (μ = 0) are left out."""
+    from petsc4py import PETSc
+    from slepc4py import SLEPc
+
+    if cluster is not None and abs(abs(sigma - cluster[0]) - cluster[1]) <= 1e-9 * cluster[1]:
+        sigma += 1e-6 * cluster[1]  # σ on the disk's rim: its image would be a line
     factor = band.factor(sigma)
     if factor.singular:
         return np.zeros(0, dtype=complex)
@@ -96,6 +119,7 @@ def nearest(A: sp.csr_matrix, B: sp.csr_matrix, band: Band, sigma: float,
     op = PETSc.Mat().createPython([size, size], _Inverse(factor, B), comm=PETSc.COMM_SELF)
     op.setUp()
     eps = SLEPc.EPS().create(comm=PETSc.COMM_SELF)
+    region = _region(sigma, cluster) if cluster is not None else None
     try:
         eps.setOptionsPrefix("rodfem_spectrum_")
         eps.setOperators(op)
@@ -104,6 +128,8 @@ def nearest(A: sp.csr_matrix, B: sp.csr_matrix, band: Band, sigma: float,
         eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
         eps.setDimensions(nev, min(size, max(2 * nev + 1, nev + 40)))
         eps.setTolerances(TOLERANCE, RESTARTS)
+        if region is not None:
+            eps.setRG(region)
         start = op.createVecRight()
         start.array[:] = np.random.default_rng(0).standard_normal(size)
         eps.setInitialSpace([start])
@@ -112,9 +138,34 @@ def nearest(A: sp.csr_matrix, B: sp.csr_matrix, band: Band, sigma: float,
     finally:
         eps.destroy()
         op.destroy()
+        if region is not None:
+            region.destroy()
     mu = np.asarray(found, dtype=complex)
     mu = mu[np.abs(mu) > 1e3 * EPS * (np.abs(mu).max() if mu.size else 1.0)]
     return sigma + 1.0 / mu
+
+
+def crowded(B: sp.csr_matrix, band: Band, centre: float, block: int = BLOCK,
+            steps: int = 6) -> np.ndarray:
+    """Guesses at the eigenvalues nearest ``centre`` where they crowd (the Kelvin–Voigt
+    cluster's edge): ``steps`` of block inverse iteration with (A − cB)⁻¹B on ``block`` vectors
+    from the same random start on every rank, and the Ritz values of that operator on the
+    subspace they span (Rayleigh–Ritz), λ = c + 1/μ. Krylov–Schur would wait for these to
+    converge one by one, and they need not; :func:`refined` takes each to an eigenvalue."""
+    import scipy.linalg
+
+    factor = band.factor(centre)
+    if factor.singular:
+        centre = centre * (1 + 4 * EPS) + 4 * EPS
+        factor = band.factor(centre)
+        if factor.singular:
+            return np.asarray([centre], dtype=complex)
+    X = np.random.default_rng(2).standard_normal((B.shape[0], block))
+    for _ in range(steps):
+        X, _ = scipy.linalg.qr(factor.solve(B @ X), mode="economic")
+    mu = scipy.linalg.eigvals(X.T @ factor.solve(B @ X))
+    mu = mu[np.abs(mu) > 1e3 * EPS * np.abs(mu).max()]
+    return centre + 1.0 / mu
 
 
 def refined(A, B, band: Band, guess: complex, norms: tuple[float, float],
@@ -148,6 +199,29 @@ def refined(A, B, band: Band, guess: complex, norms: tuple[float, float],
     return complex(lam), float(error) if np.isfinite(error) else float("inf")
 
 
+def edge(A, B, band: Band, centre: float, norms: tuple[float, float],
+         rounds: int = EDGE_ROUNDS) -> tuple[complex, float]:
+    """The rightmost eigenvalue found where the Kelvin–Voigt cluster crowds towards −1/ζ
+    (``centre``) from the left, and its error bound: the cluster's members found nearest a
+    target (:func:`crowded`), the rightmost few refined, the target then moved a hundredth of
+    the way from the rightmost so far towards −1/ζ, where the next members are far better
+    separated relative to their distance from it, until a round finds none further right."""
+    best: tuple[complex, float] | None = None
+    target = centre
+    for _ in range(rounds):
+        guesses = crowded(B, band, target)
+        found = [refined(A, B, band, g, norms) for g in guesses[np.argsort(-guesses.real)][:3]]
+        found = [p for p in found if np.isfinite(p[0]) and np.isfinite(p[1])]
+        if not found:
+            break
+        top = max(found, key=lambda p: p[0].real)
+        if best is not None and top[0].real <= best[0].real + best[1]:
+            break
+        best = top
+        target = best[0].real + (centre - best[0].real) / 100.0
+    return best if best is not None else (complex("nan"), float("nan"))
+
+
 def _unique(values: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The eigenvalues found twice (by two targets, or a pair's two members refined to one) kept
     once: two within each other's error bounds and 1e-13 relative."""
@@ -162,25 +236,50 @@ def _unique(values: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.ndar
     return values[kept_], errors[kept_]
 
 
+def _candidates(guesses: np.ndarray, count: int, extra: tuple[complex, ...]) -> np.ndarray:
+    """The guesses worth refining: of each conjugate pair the member above the axis (the pencil
+    is real: the other is its conjugate, with the same bound), each once (two targets find the
+    same), the ``count`` + 2 of largest real part, and every ``extra``."""
+    upper = np.concatenate([guesses, np.asarray(extra, dtype=complex)])
+    upper = np.where(upper.imag < 0.0, upper.conj(), upper)
+    upper = upper[np.isfinite(upper)]
+    order = np.argsort(-upper.real, kind="stable")
+    kept: list[complex] = []
+    for lam in upper[order]:
+        if all(abs(lam - k) > 1e-5 * max(1.0, abs(k)) for k in kept):
+            kept.append(lam)
+    best = kept[:count + 2]
+    for z in np.asarray(extra, dtype=complex):
+        z = z.conjugate() if z.imag < 0.0 else z
+        if np.isfinite(z) and all(abs(z - k) > 1e-5 * max(1.0, abs(k)) for k in best):
+            best.append(z)
+    return np.asarray(best, dtype=complex)
+
+
 def rightmost(A: sp.csr_matrix, B: sp.csr_matrix, count: int,
-              extra: tuple[complex, ...] = ()) -> tuple[np.ndarray, np.ndarray]:
-    """The ``count`` eigenvalues of largest real part among those nearest the targets and
-    those near the ``extra`` guesses (the module's doc), refined, with their error bounds,
-    largest real part first (of a complex pair, the member above the axis first)."""
+              extra: tuple[complex, ...] = (), zeta: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The ``count`` eigenvalues of largest real part among those nearest the targets, those
+    at the Kelvin–Voigt cluster's edge where it may hold the rightmost (ζ > 0), and those near
+    the ``extra`` guesses (the module's doc), refined, with their error bounds, largest real
+    part first (of a complex pair, the member above the axis first)."""
     band = Band(A, B)
     norms = (float(sp.linalg.norm(A)), float(sp.linalg.norm(B)))
     nev = count + NEAREST
-    guesses = nearest(A, B, band, 0.0, nev)
+    cluster = (-1.0 / zeta, CLUSTER / zeta) if zeta > 0.0 else None
+    guesses = nearest(A, B, band, 0.0, nev, cluster)
     if guesses.size == 0:  # λ = 0 is an eigenvalue: a target beside it
-        guesses = nearest(A, B, band, -1e-8 * (1.0 + norms[0] / max(norms[1], EPS)), nev)
+        guesses = nearest(A, B, band, -1e-8 * (1.0 + norms[0] / max(norms[1], EPS)), nev,
+                          cluster)
     if guesses.size:
         top = guesses[np.argmax(guesses.real)]
         if abs(top.imag) <= 1e-12 * abs(top):
             sigma = top.real + 1e-3 * max(1.0, abs(top.real))
-            guesses = np.concatenate([guesses, nearest(A, B, band, sigma, nev)])
-    guesses = np.concatenate([guesses, np.asarray(extra, dtype=complex),
-                              np.conj(np.asarray(extra, dtype=complex))])
-    pairs = [refined(A, B, band, g, norms) for g in guesses]
+            guesses = np.concatenate([guesses, nearest(A, B, band, sigma, nev, cluster)])
+    pairs = [refined(A, B, band, g, norms) for g in _candidates(guesses, count, extra)]
+    pairs += [(np.conj(lam), err) for lam, err in pairs if lam.imag != 0.0]
+    if cluster is not None and not any(
+            np.isfinite(p[0]) and p[0].real > cluster[0] + cluster[1] for p in pairs):
+        pairs.append(edge(A, B, band, cluster[0], norms))
     values = np.array([p[0] for p in pairs], dtype=complex)
     errors = np.array([p[1] for p in pairs], dtype=float)
     good = np.isfinite(values)
@@ -188,7 +287,7 @@ def rightmost(A: sp.csr_matrix, B: sp.csr_matrix, count: int,
     return values[:count], errors[:count]
 
 
-def spectrum(A, B, A0, B0, count: int, dissipative: bool) -> Rightmost:
+def spectrum(A, B, A0, B0, count: int, dissipative: bool, zeta: float = 0.0) -> Rightmost:
     """The ``count`` rightmost eigenvalues of A x = λ B x found (:func:`rightmost`, on the
     balanced pencil), the zeros of the exchange's g in Re λ ≥ 0 among them, and their count
     (``right``, None where the energy identity does not hold or the count is not sound)."""
@@ -201,9 +300,9 @@ def spectrum(A, B, A0, B0, count: int, dissipative: bool) -> Rightmost:
     elif exchange is not None:
         right, minima = exchange.count()
         if right:
-            extra = exchange.zeros(minima)
+            extra = exchange.zeros(minima, right)
     Ab, Bb, _, _ = balanced(A, B)
-    values, errors = rightmost(Ab, Bb, count, tuple(extra))
+    values, errors = rightmost(Ab, Bb, count, tuple(extra), zeta)
     return Rightmost(values, errors, right)
 
 
@@ -287,14 +386,16 @@ class Exchange:
         if abs(zeros - count) > 0.25 or count < 0:
             return None, []
         modulus = np.abs(g)
-        minima = [omegas[k] for k in range(1, len(g) - 1)
-                  if modulus[k] <= modulus[k - 1] and modulus[k] <= modulus[k + 1]]
+        inner = [k for k in range(1, len(g) - 1)
+                 if modulus[k] < modulus[k - 1] and modulus[k] < modulus[k + 1]]
+        minima = [omegas[k] for k in sorted(inner, key=lambda k: modulus[k])]
         return count, minima
 
-    def zeros(self, minima: list[float]) -> list[complex]:
+    def zeros(self, minima: list[float], wanted: int | None = None) -> list[complex]:
         """Zeros of g in Re λ ≥ 0 by Newton's method, from the positive real axis (where g's
         sign changes between 0 and ∞: g is real and continuous there) and from beside each
-        local minimum of |g(iω)|."""
+        local minimum of |g(iω)|, deepest first; each zero once (with its conjugate where
+        complex), the seeds left once ``wanted`` are found (the count's)."""
         seeds = [1j * w + 1e-3 * max(1.0, w) for w in minima]
         g0, g_inf = self(0.0)[0].real, self(SETTLED * self.scale)[0].real
         if g0 * g_inf < 0:
@@ -307,21 +408,38 @@ class Exchange:
                     lo = mid
                 else:
                     hi = mid
-            seeds.append(0.5 * (lo + hi))
-        found = []
+            seeds.insert(0, 0.5 * (lo + hi))
+        found: list[complex] = []
         for lam in seeds:
-            lam = complex(lam)
-            for _ in range(60):
-                g, slope = self(lam)
-                if slope == 0:
-                    break
-                step = g / slope
-                lam -= step
-                if abs(step) <= 1e-14 * max(1.0, abs(lam)):
-                    break
-            if lam.real >= 0.0 and np.isfinite(lam) and abs(self(lam)[0]) <= 1e-8 * self.size:
-                found.append(lam)
+            if wanted is not None and len(found) >= wanted:
+                break
+            lam = self._newton(complex(lam))
+            if lam is None or any(abs(lam - z) <= 1e-10 * max(1.0, abs(z)) for z in found):
+                continue
+            found.append(lam)
+            if abs(lam.imag) > 1e-12 * abs(lam):
+                found.append(lam.conjugate())
         return found
+
+    def _newton(self, lam: complex) -> complex | None:
+        """A zero of g in Re λ ≥ 0 by Newton's method from ``lam``; None where the steps stop
+        shrinking before |g| reaches round-off's 1e-8 of its size, or leave the frequencies
+        where g was sampled."""
+        previous = np.inf
+        for _ in range(60):
+            g, slope = self(lam)
+            if abs(g) <= 1e-13 * self.size or slope == 0:
+                break
+            step = g / slope
+            if not np.isfinite(step) or abs(step) >= previous and abs(g) > 1e-8 * self.size:
+                return None  # diverging, or stalled above round-off
+            if abs(step) >= previous or abs(step) <= 1e-14 * max(1.0, abs(lam)):
+                break  # at round-off
+            lam, previous = lam - step, abs(step)
+            if abs(lam) > 10.0 * SETTLED * self.scale:
+                return None
+        ok = np.isfinite(lam) and lam.real >= 0.0 and abs(self(lam)[0]) <= 1e-8 * self.size
+        return lam if ok else None
 
 
 def dissipative(lin, zeta: float, b: float) -> bool:

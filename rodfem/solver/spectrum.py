@@ -368,7 +368,8 @@ class Spectra:
             A0, B0 = banded.pencil(ops, a, b, zeta, lin, exchange=False)
         if not all(np.all(np.isfinite(M.data)) for M in (A, B)):
             return None
-        return rightmost.spectrum(A, B, A0, B0, count, rightmost.dissipative(lin, zeta, b))
+        return rightmost.spectrum(A, B, A0, B0, count, rightmost.dissipative(lin, zeta, b),
+                                  zeta)
 
     def rightmost(self, scene, lin, count: int = 6):
         """The ``count`` eigenvalues of largest real part about the state linearised as ``lin``
