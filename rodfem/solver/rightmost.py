@@ -56,7 +56,7 @@ TOLERANCE = 1e-6  # SLEPc's relative residual; the refinement brings it to round
 RESTARTS = 30  # of Krylov–Schur, the Kelvin–Voigt cluster left out: it converges in one or two
 CLUSTER = 0.05  # the Kelvin–Voigt cluster's disk about −1/ζ: radius CLUSTER/ζ
 BLOCK = 8  # vectors of the block inverse iteration at the cluster's edge
-EDGE_ROUNDS = 8  # of targets moved towards −1/ζ at the cluster's edge
+EDGE_ROUNDS = 10  # of targets moved towards −1/ζ at the cluster's edge
 MAX_SAMPLES = 20_000  # of g(iω) for the count
 PHASE_STEP = np.pi / 4
 SETTLED = 1e3  # the last sample's frequency, in units of the pencil's scale
@@ -199,18 +199,24 @@ def refined(A, B, band: Band, guess: complex, norms: tuple[float, float],
     return complex(lam), float(error) if np.isfinite(error) else float("inf")
 
 
-def edge(A, B, band: Band, centre: float, norms: tuple[float, float],
+def edge(A, B, band: Band, centre: float, rim: float, norms: tuple[float, float],
          rounds: int = EDGE_ROUNDS) -> tuple[complex, float]:
-    """The rightmost eigenvalue found where the Kelvin–Voigt cluster crowds towards −1/ζ
-    (``centre``) from the left, and its error bound: the cluster's members found nearest a
-    target (:func:`crowded`), the rightmost few refined, the target then moved a hundredth of
-    the way from the rightmost so far towards −1/ζ, where the next members are far better
-    separated relative to their distance from it, until a round finds none further right."""
+    """The rightmost eigenvalue found in the disk :func:`rightmost` leaves out, whose right rim
+    is ``rim`` right of −1/ζ (``centre``), and its error bound. First those nearest the rim
+    (:func:`crowded`): a member between −1/ζ and the rim stands apart from the cluster and is
+    the one, or one of a crowd there (a massless rod's, b = 0). Then, round by round, the
+    target is moved to a hundredth of the way from the rightmost found so far towards −1/ζ
+    (where the Kelvin–Voigt cluster's members crowd from the left) or towards the previous
+    target (where the rightmost lies right of −1/ζ), −1/ζ itself after the rim where none lies
+    right of it: those found nearest it, the rightmost few
+    refined, are far better separated relative to their distance from it, and a round that
+    finds none further right ends the search."""
     best: tuple[complex, float] | None = None
-    target = centre
+    target = centre + rim
     for _ in range(rounds):
         guesses = crowded(B, band, target)
-        found = [refined(A, B, band, g, norms) for g in guesses[np.argsort(-guesses.real)][:3]]
+        found = [refined(A, B, band, g, norms, steps=6)
+                 for g in guesses[np.argsort(-guesses.real)][:3]]
         found = [p for p in found if np.isfinite(p[0]) and np.isfinite(p[1])]
         if not found:
             break
@@ -218,7 +224,11 @@ def edge(A, B, band: Band, centre: float, norms: tuple[float, float],
         if best is not None and top[0].real <= best[0].real + best[1]:
             break
         best = top
-        target = best[0].real + (centre - best[0].real) / 100.0
+        if best[0].real < centre < target:
+            target = centre  # none right of −1/ζ: the cluster's edge, from −1/ζ
+        else:
+            anchor = centre if best[0].real < centre else target
+            target = best[0].real + (anchor - best[0].real) / 100.0
     return best if best is not None else (complex("nan"), float("nan"))
 
 
@@ -265,7 +275,10 @@ def rightmost(A: sp.csr_matrix, B: sp.csr_matrix, count: int,
     band = Band(A, B)
     norms = (float(sp.linalg.norm(A)), float(sp.linalg.norm(B)))
     nev = count + NEAREST
-    cluster = (-1.0 / zeta, CLUSTER / zeta) if zeta > 0.0 else None
+    # the disk left out reaches CLUSTER/ζ left of −1/ζ, where the cluster's members crowd, and a
+    # tenth of that right of it (the held end's pencil has a member at −1/ζ + 0.021 at 100 cells)
+    rim = 0.1 * CLUSTER / zeta if zeta > 0.0 else 0.0
+    cluster = (-1.0 / zeta + rim - CLUSTER / zeta, CLUSTER / zeta) if zeta > 0.0 else None
     guesses = nearest(A, B, band, 0.0, nev, cluster)
     if guesses.size == 0:  # λ = 0 is an eigenvalue: a target beside it
         guesses = nearest(A, B, band, -1e-8 * (1.0 + norms[0] / max(norms[1], EPS)), nev,
@@ -279,7 +292,7 @@ def rightmost(A: sp.csr_matrix, B: sp.csr_matrix, count: int,
     pairs += [(np.conj(lam), err) for lam, err in pairs if lam.imag != 0.0]
     if cluster is not None and not any(
             np.isfinite(p[0]) and p[0].real > cluster[0] + cluster[1] for p in pairs):
-        pairs.append(edge(A, B, band, cluster[0], norms))
+        pairs.append(edge(A, B, band, -1.0 / zeta, rim, norms))
     values = np.array([p[0] for p in pairs], dtype=complex)
     errors = np.array([p[1] for p in pairs], dtype=float)
     good = np.isfinite(values)
