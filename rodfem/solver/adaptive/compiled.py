@@ -30,10 +30,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from rodfem.solver.adaptive.stepper import EVENT_WIDTH
+from rodfem.solver.adaptive.stepper import EVENT_WIDTH, KEPT
 from rodfem.solver.errors import StepTooSmall
 
-SIZES = 80  # the most step sizes one call can step with (the stepper keeps at most 64)
+SIZES = 80  # the most step sizes of the stepper's one call can step with (it keeps 64)
+POOL_BYTES = 2 << 20  # the memory of the sizes a call forms, kept for the next steps
 
 
 def tridiagonal(E) -> np.ndarray:
@@ -115,9 +116,33 @@ class CompiledSteps:
             R.problem_bytes = family.struct_size
             R.scratch = self._scratch
             R.scratch_memory = [self._pointer(memory) for memory in self._memory]
+            self._pool(family, problem)
         self._loops: list = []  # the loops whose problems the table points into
         self._seen = None
         self.home = home
+
+    def _pool(self, family, problem: str) -> None:
+        """The pool of step sizes formed in the C call (adaptive.h's ra_size): POOL_BYTES of
+        slots, from 4 to KEPT, their memory written once here (a page's first touch costs more
+        than forming a size on a shared virtual machine, 2–6 µs a page)."""
+        ffi, R = self._ffi, self.R
+        slots = int(min(KEPT, max(4, POOL_BYTES // (8 * family.size))))
+        self._slots = [ffi.new(problem) for _ in range(slots)]
+        self._slot_memory = np.zeros((slots, family.size))
+        self._slot_memory.fill(0.0)  # np.zeros maps pages without writing them
+        self._slot_h, self._slot_used = np.zeros(slots), np.zeros(slots, dtype=np.int64)
+        self._slot_pointers = ffi.new("void *[]", self._slots)
+        self._slot_memories = ffi.new("double *[]", [self._pointer(row)
+                                                     for row in self._slot_memory])
+        R.pool = slots
+        R.pool_h, R.pool_used = self._pointer(self._slot_h), self._pointer(self._slot_used,
+                                                                             "long *")
+        R.pool_problem, R.pool_memory = self._slot_pointers, self._slot_memories
+
+    @property
+    def formed(self) -> int:
+        """The step sizes formed in the C calls so far."""
+        return int(self.R.formed)
 
     def _pointer(self, array: np.ndarray, kind: str = "double *"):
         return self._ffi.cast(kind, self._ffi.from_buffer(array))

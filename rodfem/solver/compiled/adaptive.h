@@ -117,6 +117,17 @@ typedef struct {
     void *scratch[2];
     double *scratch_memory[2];
     double event_width;
+    /* the step sizes formed here (family not NULL): a pool of `pool` slots, each a problem
+     * (pool_problem[k], completed from a copy of the template) with its memory (pool_memory[k],
+     * the family's size), holding the step pool_h[k] (0: none), last used at the count
+     * pool_used[k] (the least recently used slot is formed again); formed counts them */
+    int pool;
+    double *pool_h;
+    long *pool_used;
+    void *const *pool_problem;
+    double *const *pool_memory;
+    long uses;
+    long formed;
     /* what happened: the rows written, the steps rejected, the events located, the size wanted
      * (RA_NEED) or the size rejected (RA_TOO_SMALL) */
     long written;
@@ -441,11 +452,17 @@ static inline double ra_measured(const ra_run *R)
     return R->end_force ? rc_force(&R->obstacle, R->values[3 * (size_t)R->n - 1]) : R->pressure;
 }
 
-static void *ra_problem(const ra_run *R, double h)
+/* The problem of a step h at hand: the table's, or the pool's (counted as used); else NULL. */
+static void *ra_problem(ra_run *R, double h)
 {
     for (int k = 0; k < R->sizes; k++)
         if (R->size_h[k] == h)
             return R->size_problem[k];
+    for (int k = 0; k < R->pool; k++)
+        if (R->pool_h[k] == h) {
+            R->pool_used[k] = ++R->uses;
+            return R->pool_problem[k];
+        }
     return NULL;
 }
 
@@ -488,8 +505,34 @@ static int ra_take(ra_run *R, double h, void *problem, long step, int iterations
     return 1;
 }
 
-/* The problem of a step h: the table's, or formed in the scratch place `slot`; NULL where it
- * cannot be formed. */
+/* The problem of a step h: at hand (ra_problem), or formed here in the pool's least recently
+ * used slot; NULL where there is no pool (RA_NEED: the stepper makes it) or the size cannot be
+ * formed (the stepper makes it again, and says why). A size's problem is the same wherever it is
+ * formed, so the pool's size changes no decision; a problem found or formed here is the most
+ * recently used, so with two slots or more a second one never evicts the first. */
+static void *ra_size(ra_run *R, double h)
+{
+    void *problem = ra_problem(R, h);
+    if (problem != NULL || R->family == NULL || R->pool < 2)
+        return problem;
+    int slot = 0;
+    for (int k = 1; k < R->pool; k++)
+        if (R->pool_used[k] < R->pool_used[slot])
+            slot = k;
+    problem = R->pool_problem[slot];
+    R->pool_h[slot] = 0.0;
+    R->pool_used[slot] = 0;
+    memcpy(problem, R->template_problem, (size_t)R->problem_bytes);
+    if (RA_FORM(R->family, R->dt0 / h, problem, R->pool_memory[slot]))
+        return NULL;
+    R->pool_h[slot] = h;
+    R->pool_used[slot] = ++R->uses;
+    R->formed++;
+    return problem;
+}
+
+/* The problem of a step h: at hand (ra_problem), or formed in the scratch place `slot` (an
+ * event's tries, each size tried once: the pool's sizes stay); NULL where it cannot be formed. */
 static void *ra_sized(ra_run *R, double h, int slot)
 {
     void *problem = ra_problem(R, h);
@@ -575,7 +618,7 @@ static long ra_restart(ra_run *R, long max_steps)
         return R->written ? RA_PAUSE : RA_RESTART;
     const int before = ra_contact(R, R->values[N - 1], R->pressure) > 0.0;
     const double h = ra_proposal(R, before), half = 0.5 * h;
-    void *problem = ra_problem(R, h), *problem_half = ra_problem(R, half);
+    void *problem = ra_size(R, h), *problem_half = ra_size(R, half);
     if (problem == NULL || problem_half == NULL) {
         if (problem == NULL || ra_rung(R->dt0, half) == half) {
             R->wanted = problem == NULL ? h : half;
@@ -687,7 +730,7 @@ long RA_NAME(ra_run *R, long max_steps)
         }
         const int before = ra_contact(R, R->values[3 * (size_t)n - 1], R->pressure) > 0.0;
         const double h = ra_proposal(R, before);
-        void *problem = ra_problem(R, h);
+        void *problem = ra_size(R, h);
         if (problem == NULL) {
             R->wanted = h;
             return RA_NEED;

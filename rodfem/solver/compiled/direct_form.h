@@ -17,18 +17,23 @@
 #ifndef RODFEM_DIRECT_FORM_H
 #define RODFEM_DIRECT_FORM_H
 
-/* The doubles of rk_form's memory (the ints of ipiv in their own doubles): what a size keeps.
- * The band being factored and a step's work are the family's (rk_work_size). Without
- * interchanges the steps read the node-blocked recurrences, not the kept bands, which are then
- * not written: their pages are never touched (a new size's cost is mostly its first touches). */
+/* The doubles of rk_form's memory (the ints of ipiv in their own doubles): what a size keeps,
+ * the responses and tables first, then rdiag and ipiv, then the factors the steps read: without
+ * interchanges the node-blocked recurrences fwd and bwd, else the kept bands lower and upper, in
+ * one place (a size has one or the other), each as wide as the kept bands and no wider. The band
+ * being factored and a step's work are the family's (rk_work_size). A size's pages are those
+ * it writes: q_h's only with a variable exchange, the factors' of its own kept bands (a new
+ * size's cost was mostly first touches of fresh pages; the adaptive loop's pool of sizes reuses
+ * them). */
 static size_t form_layout(const rk_family *F, size_t *at)
 {
     const size_t n = F->n, N = 2 * n, kl = F->kl, kd = F->kl + F->ku;
-    const size_t sizes[10] = {N, (N + 1) / 2, n * (2 * kl + 1), n * (2 * kd + 3), N, N,
-                              (size_t)F->r_classes * F->r_width, (size_t)F->r_classes * 2,
-                              N * kl, N * kd};
+    const size_t blocked = n * (2 * kl + 1) + n * (2 * kd + 3), banded = N * kl + N * kd;
+    const size_t sizes[7] = {N, F->exchange ? N : 0, (size_t)F->r_classes * F->r_width,
+                             (size_t)F->r_classes * 2, N, (N + 1) / 2,
+                             blocked > banded ? blocked : banded};
     size_t total = 0;
-    for (int k = 0; k < 10; k++) {
+    for (int k = 0; k < 7; k++) {
         at[k] = total;
         total += sizes[k];
     }
@@ -37,7 +42,7 @@ static size_t form_layout(const rk_family *F, size_t *at)
 
 long rk_form_size(const rk_family *F)
 {
-    size_t at[10];
+    size_t at[7];
     return (long)form_layout(F, at);
 }
 
@@ -145,12 +150,11 @@ static void form_solve(const double *ab, int N, int kl, int ku, const int *ipiv,
 int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
 {
     const int n = F->n, N = 2 * n, kl = F->kl, ku = F->ku, kd = kl + ku;
-    size_t at[10];
+    size_t at[7];
     form_layout(F, at);
-    double *rdiag = memory + at[0], *fwd = memory + at[2], *bwd = memory + at[3];
-    double *q = memory + at[4], *qh = memory + at[5], *rv = memory + at[6], *b = memory + at[7];
-    double *lower = memory + at[8], *upper = memory + at[9];
-    int *ipiv = (int *)(memory + at[1]);
+    double *q = memory + at[0], *qh = memory + at[1], *rv = memory + at[2], *b = memory + at[3];
+    double *rdiag = memory + at[4], *factors = memory + at[6];
+    int *ipiv = (int *)(memory + at[5]);
     const size_t ldab = 2 * (size_t)kl + ku + 1;
     double *ab = F->work, *s = F->work + ldab * N, *z = s + F->state;
     for (size_t k = 0; k < ldab * N; k++)
@@ -183,6 +187,8 @@ int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
         pivoting |= ipiv[j] != j;
     }
     const int blocked = !pivoting && klk <= KMAX && kuk <= KMAX;
+    double *fwd = factors, *bwd = factors + (size_t)n * (2 * klk + 1);
+    double *lower = factors, *upper = factors + (size_t)N * klk;
     if (!blocked)
         for (int j = 0; j < N; j++) {
             const double *col = ab + (size_t)j * ldab;
