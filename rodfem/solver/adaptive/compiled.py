@@ -13,12 +13,16 @@ in the same calls, as the stepper takes them.
 Everything else stays with the stepper (:meth:`AdaptiveStepper.step`), which the call hands
 the run back to with the state of the last accepted step:
 
-* a step that changes contact (it is located there), or that the method does not solve;
+* a step that changes contact where the sizes are not formed in C (it is located there), or
+  that the method does not solve;
 * a restart of the estimate (the two halves, at the start and after an event) that the C call
   does not take (RA_RESTART: adaptive.h says which);
 * a step below ``time.dt_min`` (the stepper's error, StepTooSmall, raised here);
 
-a step size with no problem yet is made between two calls (by the stepper's ``make``, and kept),
+a step size with no problem yet is formed in the C call itself, from the run's family of step
+sizes (:mod:`rodfem.solver.compiled.family`), in a pool of slots allocated and written here once
+(:meth:`CompiledSteps._pool`); without a family formed in C (Picard with a heat exchange that
+depends on the contact) it is made between two calls (by the stepper's ``make``, and kept),
 without going back to the run's loop;
 
 and the call returns when the history's block is full, a field save is due (a save interval

@@ -16,15 +16,22 @@
  *
  * The estimate's restarts (fewer than order + 1 states since the start or the last event) are
  * taken here too, as the stepper takes them: the step, then the same step again as two halves,
- * their difference the error (AdaptiveStepper._halves), the two halves accepted with a row each.
+ * their difference the error (AdaptiveStepper._halves), the two halves accepted with a row each;
+ * a half that changes contact rejects the step, as an infinite error.
+ *
+ * A step size with no problem yet is formed here, from the run's family of step sizes (RA_FORM,
+ * no Python between), in a pool of slots the caller allocated and wrote once: the least recently
+ * used slot is formed again. A size's problem is the same bit for bit wherever and whenever it
+ * is formed, so the pool changes no decision.
  *
  * What it does not do, handing the run back to Python with the state of the last accepted step
  * (rodfem/solver/adaptive/compiled.py): a step that changes contact where no step sizes can be
- * formed here (an event, located there), a step of a size it has no problem for (made there), a
- * step the method does not solve, a restart it does not take (RA_RESTART: one whose step or a
- * half changes contact or fails, whose first half begins a save interval or has a row that is not
- * finite, whose half has no problem and is off the ladder, or with room for fewer than two rows),
- * and a step size below dt_min. The paper scheme's special first step never comes here.
+ * formed here (an event, located there), a step of a size it has no problem for and cannot form
+ * (made there), a step the method does not solve, a restart it does not take (RA_RESTART: one
+ * whose step changes contact, whose step or a half fails, whose first half begins a save interval
+ * or has a row that is not finite, whose half has no problem and is off the ladder, or with room
+ * for fewer than two rows), and a step size below dt_min. The paper scheme's special first step
+ * never comes here.
  */
 #ifndef RODFEM_ADAPTIVE_H
 #define RODFEM_ADAPTIVE_H
@@ -585,13 +592,15 @@ static double ra_locate(ra_run *R, double h, void *problem_b, double fa, int bef
     return b;
 }
 
-/* ra_take, and whether contact is as it was (`before`) at the step's end: a step of a restart
- * that changes contact is the stepper's to locate. */
+/* ra_take, then whether contact is as it was (`before`) at the step's end: 1 if it is, -1 if
+ * it changed, 0 where the method did not solve the step. */
 static inline int ra_take_within(ra_run *R, double h, void *problem, long step, int iterations,
                                  double pressure, int before)
 {
-    return ra_take(R, h, problem, step, iterations, pressure) &&
-           (ra_contact(R, R->values[3 * (size_t)R->n - 1], R->pressure) > 0.0) == before;
+    if (!ra_take(R, h, problem, step, iterations, pressure))
+        return 0;
+    return (ra_contact(R, R->values[3 * (size_t)R->n - 1], R->pressure) > 0.0) == before ? 1
+                                                                                         : -1;
 }
 
 /* Home back at the start of a restart's step while the second half ran from the first. */
@@ -635,16 +644,20 @@ static long ra_restart(ra_run *R, long max_steps)
     const double pressure = R->pressure;
     memcpy(R->start, R->values, sizeof(double) * N);
     memcpy(R->start_u_prev, R->u_prev, sizeof(double) * (size_t)n);
-    /* the step, then its first half from the same start */
-    if (!ra_take_within(R, h, problem, step, iterations, pressure, before)) {
+    /* the step (one that meets an event is the stepper's to locate and accept) */
+    int within = ra_take_within(R, h, problem, step, iterations, pressure, before);
+    if (within <= 0) {
         ra_restore(R, step, iterations, pressure);
         return RA_RESTART;
     }
+    /* then its first half from the same start: a half that meets an event rejects the step as
+     * an infinite error would (_halves) */
     memcpy(R->whole, R->values, sizeof(double) * N);
     R->whole[N] = ra_measured(R);
-    if (!ra_take_within(R, half, problem_half, step, iterations, pressure, before)) {
+    within = ra_take_within(R, half, problem_half, step, iterations, pressure, before);
+    if (within <= 0) {
         ra_restore(R, step, iterations, pressure);
-        return RA_RESTART;
+        return within ? ra_reject(R, h, INFINITY) : RA_RESTART;
     }
     double *row1 = R->rows + (size_t)R->written * R->width;
     ra_row(R, row1);
@@ -664,9 +677,10 @@ static long ra_restart(ra_run *R, long max_steps)
     memcpy(R->held + N, R->start_u_prev, sizeof(double) * (size_t)n);
     memcpy(R->start, R->values, sizeof(double) * N);
     memcpy(R->start_u_prev, R->u_prev, sizeof(double) * (size_t)n);
-    if (!ra_take_within(R, half, problem_half, step1, iterations1, pressure1, before)) {
+    within = ra_take_within(R, half, problem_half, step1, iterations1, pressure1, before);
+    if (within <= 0) {
         ra_restore_held(R, step, iterations, pressure);
-        return RA_RESTART;
+        return within ? ra_reject(R, h, INFINITY) : RA_RESTART;
     }
     const double p2 = ra_measured(R);
     double error = ra_halves_error(R, R->values, p2);
