@@ -117,10 +117,9 @@ long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, lo
  * which rk_form makes the rk_problem of a step size (direct_form.h). */
 typedef struct {
     int n, kl, ku;         /* nodes; the band of the interleaved coupled operator C */
-    int entries[3];        /* C's non-zero parts P0, P1, P2: how many of each */
-    const long *place;     /* each one's place in C's band storage (column-major, 2 kl + ku + 1
-                              rows), those of P0, then P1, then P2 */
-    const double *parts;   /* their values, in the same order */
+    const double *band;    /* C's parts P0, P1, P2 in LAPACK's band storage of C (column-major,
+                              2 kl + ku + 1 rows, 2n columns), one after the other, 0 where C
+                              has no entry (and in the kl rows of fill-in) */
     int r_classes, r_width;  /* the table of R: classes x slots */
     const double *r_parts; /* 3 x r_classes x r_width */
     const double *b_parts; /* 3 x r_classes x 2 */
