@@ -37,7 +37,7 @@ import numpy as np
 from rodfem.solver.adaptive.stepper import EVENT_WIDTH, KEPT
 from rodfem.solver.errors import StepTooSmall
 
-SIZES = 80  # the most step sizes of the stepper's one call can step with (it keeps 64)
+SIZES = 80  # the most of the stepper's step sizes one call can step with (it keeps 64)
 POOL_BYTES = 2 << 20  # the memory of the sizes a call forms, kept for the next steps
 
 

@@ -13,9 +13,9 @@
  * (and q_h = C^-1 [-e; 0]) solved by dgbtrs's algorithm (U's diagonal as its reciprocals, as
  * band.h's substitutions take it), and the compliance read off q. C's parts come in the band
  * storage itself, 0 where C has no entry: (P0 + P1 lam) + P2 lam^2 at every place is combine's
- * sum (a part that is 0 adds an exact 0, whose sign no part that is not 0 sees), in one pass
- * the compiler can vectorise. The common bands (kl = ku = 3, and 2) are constants of their own
- * copy of the code, whose loops the compiler unrolls: the same operations in the same order.
+ * sum (a part that is 0 adds an exact 0, whose sign no part that is not 0 sees), in one pass.
+ * The common bands (kl = ku = 3, and 2) are constants of their own copy of the code, whose loops
+ * the compiler unrolls: the same operations in the same order.
  */
 #ifndef RODFEM_DIRECT_FORM_H
 #define RODFEM_DIRECT_FORM_H
@@ -119,8 +119,8 @@ RK_INLINE int form_factor(double *ab, int N, const int kl, const int ku, int *ip
 
 /* dgbtrs's solve of x (N) by the factors: the interchanges and L, then U (dtbsv's, with U's
  * diagonal as the reciprocals rdiag, as band.h's substitutions take it). */
-RK_INLINE void form_solve(const double *ab, int N, const int kl, const int ku, const int *ipiv,
-                       const double *rdiag, double *x)
+RK_INLINE void form_solve(const double *ab, int N, const int kl, const int ku,
+                          const int *ipiv, const double *rdiag, double *x)
 {
     const int kd = kl + ku, ldab = 2 * kl + ku + 1;
     for (int j = 0; j < N - 1; j++) {
