@@ -199,14 +199,17 @@ def test_a_separated_end_under_the_pressure_law_is_degenerate():
 
 # -- Barber's hot rod: the orbits born at its Hopf point -------------------------------------------
 
-def _hopf(cells: int, extra=()):
-    scene = rodfem.scene.load("barber", [*HOT, f"mesh.cells={cells}", *extra])
-    curve = ct.Curve(scene, "model.zeta", 0.005, 0.04)
-    branch = ct.branches(scene, "model.zeta", 0.005, 0.04)[0]
+def _hopf(overrides, key: str, lo: float, hi: float, which: int = 0):
+    """A scene's ``which``-th Hopf point over ``key`` in [lo, hi], its Spectral and its l₁."""
+    scene = rodfem.scene.load("barber", overrides)
+    curve = ct.Curve(scene, key, lo, hi)
     spectral = pt.Spectral(curve, Spectra(MPI.COMM_SELF))
-    tests = [spectral.test(p) for p in branch]
-    i = next(i for i in range(len(branch) - 1) if (tests[i] < 0.0) != (tests[i + 1] < 0.0))
-    hopf = spectral.hopf(branch[i], branch[i + 1])
+    found = []
+    for branch in ct.branches(scene, key, lo, hi):
+        tests = [spectral.test(p) for p in branch]
+        found += [spectral.hopf(branch[i], branch[i + 1]) for i in range(len(branch) - 1)
+                  if (tests[i] < 0.0) != (tests[i + 1] < 0.0)]
+    hopf = [h for h in found if h is not None][which]
     return scene, spectral, hopf, spectral.lyapunov(hopf)
 
 
@@ -225,34 +228,36 @@ def test_the_diagram_gives_each_hopf_point_its_criticality():
             assert row["criticality"] == "" and math.isnan(row["lyapunov"])
 
 
-def _orbit_near(scene, spectral, hopf, lyap, delta, dt=0.001):
+def _orbit_near(overrides, spectral, hopf, lyap, key: str, delta: float, dt: float):
     """The orbit of the Crank–Nicolson scheme (whose onset is the flow's: it grows exactly where
-    Re λ > 0) at ζ = ζ_H − delta, Newton started from the prediction x* + z q + c.c. with
-    |z|² = −Re λ′ (ζ − ζ_H)/(ω l₁) (NoOrbit where it reaches the state), and the slope Re λ′."""
+    Re λ > 0) at ``key`` = λ_H + delta, Newton started from the prediction x* + z q + c.c. with
+    |z|² = |Re λ′ (λ − λ_H)/(ω l₁)| (NoOrbit where it finds none), its first harmonic of u(1),
+    the prediction |z| and the slope Re λ′."""
     import scipy.linalg
 
     from rodfem.studies.steady import periodic as pd
     from rodfem.studies.steady.barber import at_rest
 
-    spectra, zeta_H, omega = spectral.spectra, hopf.point.value, hopf.omega
+    scene = rodfem.scene.load("barber", overrides)
+    spectra, value_H, omega = spectral.spectra, hopf.point.value, hopf.omega
+    u_H = spectral.state(hopf.point)[1].u_1
 
-    def pair(zeta):
-        at = ct.at(scene, "model.zeta", zeta)
+    def pair(value):
+        at = ct.at(scene, key, value)
         problem = ms.of_scene(at)
-        state = problem.states()[0]
+        state = min(problem.states(), key=lambda s: abs(s.u_1 - u_H))
         A, M = spectra.pencil(at, problem.linearise(state))
         values, vectors = scipy.linalg.eig(A, M)
         k = int(np.argmin(np.abs(values - 1j * omega)))
         return at, state, values[k], vectors[:, k]
 
-    step = 1e-6
-    slope = (pair(zeta_H + step)[2].real - pair(zeta_H - step)[2].real) / (2 * step)
-    zeta = zeta_H - delta
-    at, state, value, q = pair(zeta)
+    step = 1e-6 * max(abs(value_H), 1.0) * 0.1
+    slope = (pair(value_H + step)[2].real - pair(value_H - step)[2].real) / (2 * step)
+    at, state, value, q = pair(value_H + delta)
     n = q.size // 3
     q = q * (0.5 / q[2 * n - 1])
-    predicted = math.sqrt(abs(slope * (zeta - zeta_H) / (omega * lyap.value)))
-    rest = rodfem.scene.load("barber", [*HOT, f"mesh.cells={n}", f"model.zeta={zeta!r}",
+    predicted = math.sqrt(abs(slope * delta / (omega * lyap.value)))
+    rest = rodfem.scene.load("barber", [*overrides, f"{key}={value_H + delta!r}",
                                         "time.scheme=crank-nicolson", "solver.method=direct",
                                         f"time.dt={dt}", *at_rest(state, "0")])
     flow = pd.flow_of(rest, MPI.COMM_SELF)
@@ -270,34 +275,63 @@ def _orbit_near(scene, spectral, hopf, lyap, delta, dt=0.001):
     return orbit, harmonic, predicted, slope
 
 
+HOT_ZETA = ("model.zeta", 0.005, 0.04)
+
+
 def test_the_hot_rods_orbits_are_born_supercritical():
-    """20 cells: l₁ < 0, and on the unstable side (ζ_H − 1e-5, Re λ > 0) Crank–Nicolson's orbit
-    is stable with the first harmonic of u(1) the prediction √(−Re λ′ Δζ/(ω l₁)) (squared:
-    0.997 of it, its O(Δζ) correction measured as −0.3 % at 1e-5 and −1.2 % at 4e-5); on the
-    stable side (ζ_H + 1e-5) Newton from the same prediction finds no orbit, the state itself."""
+    """20 cells, Δt = 0.002: l₁ < 0, and on the unstable side (ζ_H − 1e-5, Re λ > 0)
+    Crank–Nicolson's orbit is stable with the first harmonic of u(1) the prediction
+    √(−Re λ′ Δζ/(ω l₁)) (squared: 0.997 of it, its O(Δζ) correction measured as −0.3 % at
+    1e-5 and −1.2 % at 4e-5); on the stable side (ζ_H + 1e-5) Newton from the same prediction
+    finds no orbit, the state itself."""
     from rodfem.studies.steady.periodic import NoOrbit
 
-    scene, spectral, hopf, lyap = _hopf(20)
+    overrides = [*HOT, "mesh.cells=20"]
+    _, spectral, hopf, lyap = _hopf(overrides, *HOT_ZETA)
     assert lyap.criticality == "supercritical"
-    orbit, harmonic, predicted, slope = _orbit_near(scene, spectral, hopf, lyap, 1e-5)
+    orbit, harmonic, predicted, slope = _orbit_near(overrides, spectral, hopf, lyap, "model.zeta",
+                                                    -1e-5, 0.002)
     assert slope < 0.0  # damping stabilises: the state is unstable below ζ_H
     assert orbit.stable is True
     assert (harmonic / predicted) ** 2 == pytest.approx(1.0, abs=0.01)
     with pytest.raises(NoOrbit, match="steady state"):
-        _orbit_near(scene, spectral, hopf, lyap, -1e-5)
+        _orbit_near(overrides, spectral, hopf, lyap, "model.zeta", 1e-5, 0.002)
 
 
 @pytest.mark.slow
 def test_the_amplitudes_leading_coefficient_is_l1s():
     """80 cells (the docs' mesh): (a/a_predicted)² at Δζ = 4e-5 and 1e-5, linear in Δζ,
     extrapolates to 1 within 0.2 %; and the sparse path's l₁ is the dense one's."""
-    scene, spectral, hopf, lyap = _hopf(80)
+    overrides = [*HOT, "mesh.cells=80"]
+    _, spectral, hopf, lyap = _hopf(overrides, *HOT_ZETA)
     ratios = []
-    for delta in (4e-5, 1e-5):
-        orbit, harmonic, predicted, _ = _orbit_near(scene, spectral, hopf, lyap, delta)
+    for delta in (-4e-5, -1e-5):
+        orbit, harmonic, predicted, _ = _orbit_near(overrides, spectral, hopf, lyap, "model.zeta",
+                                                    delta, 0.001)
         assert orbit.stable is True
         ratios.append((harmonic / predicted) ** 2)
     limit = ratios[1] + (ratios[1] - ratios[0]) / 3.0
     assert limit == pytest.approx(1.0, abs=2e-3)
     sparse = pt.Spectral(spectral.curve, Spectra(MPI.COMM_SELF, dense_cells=0)).lyapunov(hopf)
     assert abs(sparse.value - lyap.value) <= sparse.error + lyap.error
+
+
+@pytest.mark.slow
+def test_barbers_pressed_branch_loses_stability_subcritically():
+    """The built-in barber (10 cells) over θ_O: its pressed branch's Hopf point near the fold
+    is subcritical, l₁ > 0. Its orbits lie on the stable side (θ_O = θ_H + 1e-4, Re λ < 0),
+    unstable (a Floquet multiplier 1.034 outside the unit circle), with the first harmonic of
+    u(1) the prediction (squared: 0.9994 of it); on the unstable side Newton finds none."""
+    from rodfem.studies.steady.periodic import NoOrbit
+
+    overrides = ["mesh.cells=10"]
+    _, spectral, hopf, lyap = _hopf(overrides, "obstacle.temperature", 0.0, 30.0, which=1)
+    assert hopf.point.value == pytest.approx(3.51689748, abs=1e-8)
+    assert lyap.criticality == "subcritical"
+    orbit, harmonic, predicted, slope = _orbit_near(overrides, spectral, hopf, lyap,
+                                                    "obstacle.temperature", 1e-4, 0.002)
+    assert slope < 0.0  # the state is stable above θ_H
+    assert orbit.stable is False
+    assert (harmonic / predicted) ** 2 == pytest.approx(1.0, abs=0.01)
+    with pytest.raises(NoOrbit):
+        _orbit_near(overrides, spectral, hopf, lyap, "obstacle.temperature", -1e-4, 0.002)
