@@ -26,7 +26,7 @@ from rodfem.output.reductions import Reductions
 from rodfem.output.sizes import frame, save_every, save_interval
 from rodfem.output.summary import EnergyMonitor, Iterations, run_summary
 from rodfem.scene import Scene
-from rodfem.solver.compiled import compiled_loop, loop_name, loops_of
+from rodfem.solver.compiled import compiled_kind, compiled_loop, loop_name, loops_of
 from rodfem.solver.errors import NotConverged, NotFinite
 from rodfem.solver.linalg import free_garbage
 from rodfem.solver.methods import make_method
@@ -114,6 +114,16 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
         return run.outcome(status, error, setup_seconds, bar)
 
 
+def numpy_run(scene: Scene, comm: MPI.Comm) -> bool:
+    """Whether a run's operators and state can be NumPy's (:mod:`rodfem.discrete.arrays`): on
+    one rank, with fixed steps that a compiled loop takes (:func:`compiled_kind`) and a constant
+    heat exchange, so that PETSc would do nothing but hold arrays (the paper scheme's first step
+    and the first rows, done in NumPy with PETSc's arithmetic). Adaptive runs, the PETSc loops
+    and parallel runs keep PETSc's objects."""
+    return (comm.size == 1 and not scene.adaptive and compiled_kind(scene) is not None
+            and scene["heat_exchange.law"] == "constant")
+
+
 class Simulation:
     """One simulation's parts: its set-up (the discretisation, the method, the history and the
     files, a checkpoint's state restored), the time loop with its saves and checkpoints
@@ -127,9 +137,11 @@ class Simulation:
         if out is not None and resume is None:
             write_text(out / "scene.toml", scene.to_toml(), comm)
         self.scene, self.out, self.comm, self.resumed = scene, out, comm, bool(resume)
-        # a run of its own keeps its operators for the next (rodfem.discrete.cache)
+        # a run of its own keeps its operators for the next (rodfem.discrete.cache), in NumPy
+        # where PETSc takes none of its steps
         disc = self.disc = (setups.discretisation(scene, comm) if setups
-                            else Discretisation(scene, comm, cache=True))
+                            else Discretisation(scene, comm, cache=True,
+                                                petsc=not numpy_run(scene, comm)))
         method = self.method = make_method(disc)
         self.saving = out is not None or keep_fields
         # the recorded fields as maps of the state, read once: for the fields and the readings
@@ -163,6 +175,7 @@ class Simulation:
         self.loops = loops_of(meta if resume else None, method.n, loop_name(scene))
         self.stepper = self._stepper(resume) if scene.adaptive else None
         self.library_version = disc.library_version()
+        self.petsc_version = disc.petsc_version()
         disc.keep()
         self.loop_before = meta.get("loop_seconds", 0.0)
         self.loop_started = time.perf_counter()
@@ -399,7 +412,7 @@ class Simulation:
             self.flush()
         summary = run_summary(self.scene, status, error, self.iterations, self.energy,
                            setup_seconds, loop_seconds, self.comm, resumed=self.resumed,
-                           dolfinx=self.library_version)
+                           dolfinx=self.library_version, petsc=self.petsc_version)
         summary["loops"] = self.loops
         summary["contact"] = dataclasses.asdict(self.contact)
         summary["measures"] = self.measures(summary)
