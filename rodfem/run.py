@@ -7,11 +7,13 @@ import sys
 import time
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from mpi4py import MPI
 
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output import interrupts
+from rodfem.parallel import world
 from rodfem.output.atomic import io_line
 from rodfem.output.checkpoint import RunFiles
 from rodfem.output.columns import INDEX, for_scene, readings
@@ -30,6 +32,9 @@ from rodfem.solver.compiled import compiled_kind, compiled_loop, loop_name, loop
 from rodfem.solver.errors import NotConverged, NotFinite
 from rodfem.solver.linalg import free_garbage
 from rodfem.solver.methods import make_method
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
 
 STOP_EVERY = 256  # steps between two checks, agreed by all ranks, for a request to stop
 
@@ -84,7 +89,7 @@ class SetUps:
         return disc
 
 
-def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
+def simulate(scene: Scene, out: Path | None, comm: MPI.Comm | None = None,
              progress: bool = True, force_progress: bool = False,
              resume: tuple[dict, dict] | None = None, setups: SetUps | None = None,
              keep_fields: bool = False, annotate: dict | None = None):
@@ -100,8 +105,12 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     output is not a terminal.
 
     Signals (Ctrl-C, SIGTERM, SIGHUP, SIGUSR1) stop the run at the end of a step, with its files
-    whole and a checkpoint to resume from (:mod:`rodfem.output.interrupts`)."""
+    whole and a checkpoint to resume from (:mod:`rodfem.output.interrupts`). ``comm``: MPI's
+    COMM_WORLD by default (in a process no launcher started, a world without MPI:
+    :func:`rodfem.parallel.world`)."""
     started = time.perf_counter()
+    if comm is None:
+        comm = world()
     run = Simulation(scene, out, comm, resume, setups, keep_fields)
     run.annotate = annotate or {}
     on_terminal = sys.stderr.isatty() or force_progress

@@ -1,11 +1,5 @@
 """NumPy's containers (rodfem/discrete/arrays.py) do PETSc's arithmetic bit for bit on the
-operators of the built-in scenes, and a small serial run whose loop is compiled and whose
-operators are cached imports no petsc4py."""
-
-import os
-import subprocess
-import sys
-from pathlib import Path
+operators of the built-in scenes (what a run without petsc4py does: tests/test_startup.py)."""
 
 import numpy as np
 import pytest
@@ -18,7 +12,6 @@ from rodfem.scene import load
 from rodfem.solver.linalg import lu_factor
 from rodfem.solver.methods import make_method
 
-ROOT = Path(__file__).resolve().parents[1]
 SCENES = {"paper1": ["mesh.cells=60"],
           "impact": ["mesh.cells=60", 'solver.method="direct"'],
           "paper2": ["mesh.cells=60", 'time.scheme="crank-nicolson"']}
@@ -75,26 +68,3 @@ def test_products_and_lu_are_petscs_bit_for_bit(name):
     for method in (with_petsc, with_numpy):
         method.advance()
     assert with_petsc.values.tobytes() == with_numpy.values.tobytes()
-
-
-@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="starts its own processes; run serially")
-def test_a_small_serial_run_imports_no_petsc4py(tmp_path):
-    """Once its operators are cached (a first run), ``rodfem run paper1`` for ten steps (Picard's
-    loop, the paper's first step) and ``impact`` (the direct method, Crank–Nicolson) import no
-    petsc4py, nor dolfinx, nor scipy.linalg (the direct loop's band LU is its extension
-    module's, loaded alone)."""
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [
-        str(ROOT), os.environ.get("PYTHONPATH")])))
-    for name in ("paper1", "impact"):
-        for run in range(2):
-            done = subprocess.run(
-                [sys.executable, "-X", "importtime", "-m", "rodfem", "run", name, "--set",
-                 "time.end=0.01", "--set", "mesh.cells=100", "--out", str(tmp_path / name),
-                 "--force", "--quiet"],
-                env=env, cwd=tmp_path, capture_output=True, text=True, check=True)
-        imported = {line.split("|")[-1].strip() for line in done.stderr.splitlines()
-                    if line.startswith("import time:")}
-        assert "numpy" in imported and "rodfem.run" in imported  # the list is read
-        assert "petsc4py.PETSc" not in imported, name
-        assert "dolfinx" not in imported, name
-        assert "scipy.linalg" not in imported and "scipy.sparse" not in imported, name

@@ -113,8 +113,11 @@ class Discretisation:
         import forms.copetti as copetti
         from rodfem.discrete import compat
 
+        from rodfem.parallel import real
+
         scene = self.scene
-        self.mesh = mesh.create_interval(self.comm, scene["mesh.cells"], [0.0, 1.0])
+        # dolfinx needs MPI's communicator (a serial run may hold one without MPI)
+        self.mesh = mesh.create_interval(real(self.comm), scene["mesh.cells"], [0.0, 1.0])
         self.V = compat.function_space(self.mesh, "Lagrange", 1)
         self.W = compat.function_space(self.mesh, "DG", 0)  # for the stress σ, constant per cell
         tdim = self.mesh.topology.dim
