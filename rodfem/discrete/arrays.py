@@ -138,10 +138,12 @@ class Matrix:
     def copy(self) -> Matrix:
         return Matrix(self.indptr, self.indices, self.values.copy(), self.shape[1])
 
-    def duplicate(self) -> Matrix:
-        """The same pattern and values (as ``Mat.duplicate(copy=False)`` gives the pattern;
-        rodfem zeroes it after)."""
-        return self.copy()
+    def duplicate(self, copy: bool = False) -> Matrix:
+        """The same pattern, with the values too where ``copy`` (else zero)."""
+        made = self.copy()
+        if not copy:
+            made.zeroEntries()
+        return made
 
     def zeroEntries(self) -> None:  # noqa: N802
         self.values[:] = 0.0
