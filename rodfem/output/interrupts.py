@@ -26,7 +26,7 @@ import sys
 import threading
 
 # Environment variables a launcher (mpirun, mpiexec, srun) gives each process it starts.
-LAUNCHED = ("OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE", "MPI_LOCALRANKID")
+from rodfem.parallel import LAUNCHED
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGUSR1)
 
