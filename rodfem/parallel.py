@@ -72,9 +72,25 @@ def launched() -> bool:
     return any(name in os.environ for name in LAUNCHED)
 
 
+def start() -> None:
+    """Start PETSc on every process of a launched world of more than one, here and together.
+
+    PETSc's start (``PetscInitialize``) is collective over MPI's world. Left to the first use,
+    it happens where one rank's run first needs PETSc (its operators not cached, say) and not
+    where another's does: that rank then waits for ever for the others. So the entries of rodfem
+    (the command line, the library's calls, :func:`world`), which every rank passes alike,
+    start it first; in a process no launcher started this is free (nothing imported)."""
+    if launched() and "petsc4py.PETSc" not in sys.modules:
+        from mpi4py import MPI
+
+        if MPI.COMM_WORLD.size > 1:
+            from petsc4py import PETSc  # noqa: F401 (collective: every rank, at this point)
+
+
 def world():
     """MPI's COMM_WORLD where MPI is (or must be) started, else :data:`SERIAL`."""
     if "mpi4py.MPI" in sys.modules or launched():
+        start()
         from mpi4py import MPI
 
         return MPI.COMM_WORLD
