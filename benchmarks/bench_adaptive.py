@@ -13,13 +13,16 @@ about a microsecond per call), µs per accepted step in:
 
 * step: the method's step itself (the compiled loop, one step per call, or the PETSc one);
 * hand-over: the state handed to the method of the step's size and back (``_take``, ``_method``);
-* methods: the methods and compiled loops made for new step sizes (counted: on the controller's
-  ladder, or located: sizes the root-finder of an event tried);
+* methods: the methods and compiled loops made for new step sizes in Python (counted: on the
+  controller's ladder, or located: sizes the root-finder of an event tried); the sizes formed
+  inside the compiled calls (counted as "formed in C", the event's tries not counted) are part of
+  "other";
 * estimate: the error estimate (Milne's device, the two halves at a restart, the norm);
 * record: the history's row in Python (``record_step``) and what it saves;
 * locate: the Illinois iteration's own work (its steps and methods are counted above); per
   event, its evaluations and its whole time are given apart;
-* other: the rest of the loop (the controller, the contact test, the progress bar).
+* other: the rest of the loop: the compiled calls of the regular steps (their steps, estimates,
+  rows, events and the sizes they form), the controller, the contact test, the progress bar.
 
 Each round measures every case once in a fresh process (so the first new step size pays its
 imports in each, as in a run of its own); ``--rounds`` rounds are taken and the fastest kept
@@ -124,6 +127,18 @@ def instrumented(scene):
              if hasattr(cls, name)}
     steps = {CompiledLoop: CompiledLoop.advance, Method: Method.advance}
     init = saved["__init__"]
+    try:  # the sizes formed inside the compiled calls (none before they were)
+        from rodfem.solver.adaptive.compiled import CompiledSteps
+    except ImportError:
+        CompiledSteps = None
+    regular_advance = CompiledSteps.advance if CompiledSteps is not None else None
+    formed = [0]
+
+    def counted_advance(self, *args, **kwargs):
+        try:
+            return regular_advance(self, *args, **kwargs)
+        finally:
+            formed[0] = getattr(self, "formed", 0)
 
     def __init__(self, home, scene, make, loop, record, *args, **kwargs):
         def timed_make(h, *once):
@@ -156,14 +171,18 @@ def instrumented(scene):
         cls._locate = _locate
         for owner, advance in steps.items():
             owner.advance = timers.wrap(advance, "step", f"step {owner.__name__}")
+        if CompiledSteps is not None:
+            CompiledSteps.advance = counted_advance
         result, loop = timed_simulate(scene)
     finally:
         for name, function in saved.items():
             setattr(cls, name, function)
         for owner, advance in steps.items():
             owner.advance = advance
+        if CompiledSteps is not None:
+            CompiledSteps.advance = regular_advance
     timers.seconds["other"] = loop - sum(timers.seconds.values())
-    return timers, result.summary["adaptive"], made, events, loop
+    return timers, result.summary["adaptive"], made, events, loop, formed[0]
 
 
 def measure() -> dict:
@@ -180,7 +199,7 @@ def measure() -> dict:
             steps = result.summary["adaptive"]["steps"] if mode == "adaptive" else scene.steps
             out[mode] = {"us_per_step": 1e6 * runs[-1][1] / steps, "steps": steps,
                          "first_seconds": runs[0][1]}
-        timers, counts, made, events, loop = instrumented(
+        timers, counts, made, events, loop, formed = instrumented(
             rodfem.scene.load(name, overrides + ["time.adaptive=true"]))
         accepted = counts["steps"]
         ladder = [h for h, _, on in made if on]
@@ -189,7 +208,8 @@ def measure() -> dict:
             instrumented_us_per_step=1e6 * loop / accepted, calls=timers.calls,
             made={"count": len(made), "ladder": len(ladder), "ladder_sizes": len(set(ladder)),
                   "located": len(made) - len(ladder),
-                  "ms_each": 1e3 * sum(s for _, s, _ in made) / max(len(made), 1)},
+                  "ms_each": 1e3 * sum(s for _, s, _ in made) / max(len(made), 1),
+                  "formed_in_c": formed},
             events_located=[{"evaluations": e, "ms": 1e3 * s} for e, s in events])
         report[case] = out
     return report
@@ -230,6 +250,7 @@ def fastest(rounds: list[dict]) -> dict:
 def table(reports: dict[str, dict]) -> None:
     head = ("case", "code", "fixed µs", "adaptive µs", "adaptive/fixed", "first run s", "steps", "rejected",
             "events", *(f"{p} µs" for p in PARTS), "made (ladder/located)", "ms/made",
+            "formed in C",
             "evals/event", "ms/event")
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
@@ -247,7 +268,8 @@ def table(reports: dict[str, dict]) -> None:
                      a["rejected"], a["events"],
                      *(f"{a['split'][p]:.1f}" for p in PARTS),
                      f"{made['count']} ({made['ladder']}/{made['located']})",
-                     f"{made['ms_each']:.1f}", f"{evals:.1f}", f"{ms:.0f}")
+                     f"{made['ms_each']:.1f}", made.get("formed_in_c", 0), f"{evals:.1f}",
+                     f"{ms:.0f}")
             print("| " + " | ".join(str(c) for c in cells) + " |")
 
 

@@ -8,7 +8,11 @@ and an earlier one, and against GetFEM's start, on this machine.
   together). The earlier version is the git revision ``--rev``, checked out by ``git worktree
   add`` into a temporary directory and put first on PYTHONPATH. Both use the per-user cache as a
   user's second run finds it (compiled loops and, for this version, operators: one run of each
-  first, not timed); ``RODFEM_CACHE=0`` shows this version without its operator cache.
+  first, not timed); ``RODFEM_CACHE=0`` shows this version without its operator cache. Both
+  checkouts are byte-compiled first, as ``make setup`` does (a machine with
+  PYTHONDONTWRITEBYTECODE set would otherwise compile rodfem's modules in every run). Besides
+  the wall time, the processor time of each run (user + system, its children included), which
+  the load of a shared machine disturbs less.
 * a fresh machine's first run: the same command with caches of its own (an empty
   ``$XDG_CACHE_HOME``), once after ``rodfem prepare SCENE`` (what ``make setup`` runs for every
   built-in scene; not timed) and once without it (the loops built and the forms compiled in the
@@ -21,7 +25,7 @@ and an earlier one, and against GetFEM's start, on this machine.
   stiffness matrices, which is how the demo starts.
 
     .venv/bin/python benchmarks/bench_startup.py [--repeats 9] [--fresh 3] [--rev 60c163f]
-        [--json FILE]
+        [--json FILE] [--scenes paper1 impact] [--no-fresh] [--no-cache-variant]
 
 The machine is printed first; ``--json`` also writes the numbers and the machine to FILE.
 """
@@ -33,6 +37,7 @@ import json
 import os
 import platform
 import re
+import resource
 import shutil
 import statistics
 import subprocess
@@ -43,7 +48,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = {"paper1": ["--set", "time.end=0.01"], "impact": ["--set", "time.end=0.01"]}
-PACKAGES = ("mpi4py.MPI", "petsc4py.PETSc", "dolfinx", "ufl", "h5py", "scipy", "numpy",
+PACKAGES = ("mpi4py.MPI", "petsc4py.PETSc", "dolfinx", "ufl", "h5py", "scipy", "scipy.linalg",
+            "numpy", "cffi",
             "rodfem.cli", "rodfem.run")
 GETFEM_STAND_IN = """
 import numpy as np
@@ -79,14 +85,26 @@ def run_command(scene: str, out: Path) -> list[str]:
             "--quiet"]
 
 
-def seconds(arguments: list[str], env: dict, cwd: Path) -> float:
-    """Wall time of ``python arguments`` as a new process."""
+def seconds(arguments: list[str], env: dict, cwd: Path, cpu: list | None = None) -> float:
+    """Wall time of ``python arguments`` as a new process (its processor time appended to
+    ``cpu``)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     # run from a directory without rodfem/: "python -m" puts the working directory first on
     # sys.path, and a checkout's rodfem/ there would shadow PYTHONPATH
     subprocess.run([sys.executable, *arguments], check=True, env=env, cwd=cwd,
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return time.perf_counter() - started
+    wall = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if cpu is not None:
+        cpu.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+    return wall
+
+
+def byte_compiled(source: Path) -> None:
+    """rodfem's modules byte-compiled, as make setup does."""
+    subprocess.run([sys.executable, "-m", "compileall", "-q", str(source / "rodfem"),
+                    str(source / "forms")], check=True, stdout=subprocess.DEVNULL)
 
 
 def import_breakdown(arguments: list[str], env: dict, cwd: Path) -> dict:
@@ -140,6 +158,11 @@ def main() -> int:
                         help="the earlier version (a git revision; default: the one before "
                              "rodfem prepare)")
     parser.add_argument("--json", type=Path, help="write the numbers and the machine here")
+    parser.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
+    parser.add_argument("--no-fresh", action="store_true",
+                        help="leave out a fresh machine's first runs")
+    parser.add_argument("--no-cache-variant", action="store_true",
+                        help="leave out this version with RODFEM_CACHE=0")
     args = parser.parse_args()
     info = machine()
     print("machine:", ", ".join(f"{k} {v}" for k, v in info.items()))
@@ -147,21 +170,28 @@ def main() -> int:
     old = checkout(args.rev, work / "old")
     revision = subprocess.run(["git", "-C", str(old), "rev-parse", "--short", "HEAD"],
                               capture_output=True, text=True, check=True).stdout.strip()
-    versions = {f"earlier ({revision})": environment(old), "this version": environment(ROOT),
-                "this version, RODFEM_CACHE=0": environment(ROOT, RODFEM_CACHE="0")}
+    versions = {f"earlier ({revision})": environment(old), "this version": environment(ROOT)}
+    if not args.no_cache_variant:
+        versions["this version, RODFEM_CACHE=0"] = environment(ROOT, RODFEM_CACHE="0")
+    for source in (old, ROOT):
+        byte_compiled(source)
     results: dict = {"machine": info, "rev": revision, "repeats": args.repeats, "runs": {}}
     try:
-        for scene in SCENES:
+        for scene in args.scenes:
             out = work / "out"
             for env in versions.values():  # the caches as a second run finds them
                 seconds(run_command(scene, out), env, work)
             times = {name: [] for name in versions}
+            cpu = {name: [] for name in versions}
             for _ in range(args.repeats):
                 for name, env in versions.items():
-                    times[name].append(seconds(run_command(scene, out), env, work))
-            results["runs"][scene] = {name: {"median": statistics.median(t), "all": t}
+                    times[name].append(seconds(run_command(scene, out), env, work, cpu[name]))
+            results["runs"][scene] = {name: {"median": statistics.median(t), "all": t,
+                                             "cpu_median": statistics.median(cpu[name]),
+                                             "cpu_all": cpu[name]}
                                       for name, t in times.items()}
-            results["runs"][scene].update(fresh_machine(scene, out, work, args.fresh))
+            if not args.no_fresh:
+                results["runs"][scene].update(fresh_machine(scene, out, work, args.fresh))
             results["runs"][scene]["imports"] = {
                 name: import_breakdown(run_command(scene, out), versions[name], work)
                 for name in list(versions)[:2]}
@@ -186,10 +216,11 @@ def _has_getfem() -> bool:
 
 
 def report(results: dict) -> None:
-    print(f"whole process, median of {results['repeats']} (s):")
+    print(f"whole process, median of {results['repeats']} (s; processor time in brackets):")
     for scene, runs in results["runs"].items():
-        line = ", ".join(f"{name} {r['median']:.3f}" for name, r in runs.items()
-                         if name != "imports")
+        line = ", ".join(f"{name} {r['median']:.3f}"
+                         + (f" [{r['cpu_median']:.3f}]" if "cpu_median" in r else "")
+                         for name, r in runs.items() if name != "imports")
         print(f"  rodfem run {scene} {' '.join(SCENES[scene])}: {line}")
         for name, breakdown in runs["imports"].items():
             parts = ", ".join(f"{p} {s:.3f}" for p, s in breakdown["packages"].items())

@@ -216,8 +216,9 @@ def bifurcation(scene: str | Path | Mapping | Scene, key: str, lo: float, hi: fl
     Returns:
         ``branches``, the rows of branches.csv (each state with its stability, ``branch`` and
         its ``point`` along it), and ``points``, the rows of points.csv (``kind`` fold, grazing or hopf, the ``parameter``, the state there, and for a
-        Hopf point ``omega`` and ``period``; with ``extrapolate`` the continuum's parameter and
-        period with their error estimates).
+        Hopf point ``omega``, ``period``, the first Lyapunov coefficient ``lyapunov`` with its
+        ``lyapunov_error`` and ``criticality``: supercritical, subcritical or degenerate; with
+        ``extrapolate`` the continuum's parameter and period with their error estimates).
 
     Raises:
         SceneError: a mistake in the scene, the overrides or the range, or a key that changes

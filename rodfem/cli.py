@@ -30,7 +30,7 @@ import os
 import sys
 from pathlib import Path
 
-from rodfem import commands
+from rodfem import commands, parallel
 from rodfem.commands.arguments import (add_format, add_output, add_overrides, add_progress,
                                        add_version, add_yes, path_argument)
 from rodfem.output import interrupts
@@ -445,6 +445,7 @@ def _release(status: str) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     interrupts.install()  # before anything heavy is imported: signals stop rodfem cleanly
+    parallel.start()  # under mpirun: PETSc started on every rank alike, before any rank's work
     with interrupts.command():
         return _main(argv)
 

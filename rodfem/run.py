@@ -7,11 +7,13 @@ import sys
 import time
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from mpi4py import MPI
 
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output import interrupts
+from rodfem.parallel import world
 from rodfem.output.atomic import io_line
 from rodfem.output.checkpoint import RunFiles
 from rodfem.output.columns import INDEX, for_scene, readings
@@ -26,10 +28,13 @@ from rodfem.output.reductions import Reductions
 from rodfem.output.sizes import frame, save_every, save_interval
 from rodfem.output.summary import EnergyMonitor, Iterations, run_summary
 from rodfem.scene import Scene
-from rodfem.solver.compiled import compiled_loop, loop_name, loops_of
+from rodfem.solver.compiled import compiled_kind, compiled_loop, loop_name, loops_of
 from rodfem.solver.errors import NotConverged, NotFinite
 from rodfem.solver.linalg import free_garbage
 from rodfem.solver.methods import make_method
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
 
 STOP_EVERY = 256  # steps between two checks, agreed by all ranks, for a request to stop
 
@@ -84,7 +89,7 @@ class SetUps:
         return disc
 
 
-def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
+def simulate(scene: Scene, out: Path | None, comm: MPI.Comm | None = None,
              progress: bool = True, force_progress: bool = False,
              resume: tuple[dict, dict] | None = None, setups: SetUps | None = None,
              keep_fields: bool = False, annotate: dict | None = None):
@@ -100,8 +105,12 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     output is not a terminal.
 
     Signals (Ctrl-C, SIGTERM, SIGHUP, SIGUSR1) stop the run at the end of a step, with its files
-    whole and a checkpoint to resume from (:mod:`rodfem.output.interrupts`)."""
+    whole and a checkpoint to resume from (:mod:`rodfem.output.interrupts`). ``comm``: MPI's
+    COMM_WORLD by default (in a process no launcher started, a world without MPI:
+    :func:`rodfem.parallel.world`)."""
     started = time.perf_counter()
+    if comm is None:
+        comm = world()
     run = Simulation(scene, out, comm, resume, setups, keep_fields)
     run.annotate = annotate or {}
     on_terminal = sys.stderr.isatty() or force_progress
@@ -112,6 +121,16 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm = MPI.COMM_WORLD,
     with interrupts.deferred():
         status, error = run.loop(bar)
         return run.outcome(status, error, setup_seconds, bar)
+
+
+def numpy_run(scene: Scene, comm: MPI.Comm) -> bool:
+    """Whether a run's operators and state can be NumPy's (:mod:`rodfem.discrete.arrays`): on
+    one rank, with fixed steps that a compiled loop takes (:func:`compiled_kind`) and a constant
+    heat exchange, so that PETSc would do nothing but hold arrays (the paper scheme's first step
+    and the first rows, done in NumPy with PETSc's arithmetic). Adaptive runs, the PETSc loops
+    and parallel runs keep PETSc's objects."""
+    return (comm.size == 1 and not scene.adaptive and compiled_kind(scene) is not None
+            and scene["heat_exchange.law"] == "constant")
 
 
 class Simulation:
@@ -127,9 +146,11 @@ class Simulation:
         if out is not None and resume is None:
             write_text(out / "scene.toml", scene.to_toml(), comm)
         self.scene, self.out, self.comm, self.resumed = scene, out, comm, bool(resume)
-        # a run of its own keeps its operators for the next (rodfem.discrete.cache)
+        # a run of its own keeps its operators for the next (rodfem.discrete.cache), in NumPy
+        # where PETSc takes none of its steps
         disc = self.disc = (setups.discretisation(scene, comm) if setups
-                            else Discretisation(scene, comm, cache=True))
+                            else Discretisation(scene, comm, cache=True,
+                                                petsc=not numpy_run(scene, comm)))
         method = self.method = make_method(disc)
         self.saving = out is not None or keep_fields
         # the recorded fields as maps of the state, read once: for the fields and the readings
@@ -163,6 +184,7 @@ class Simulation:
         self.loops = loops_of(meta if resume else None, method.n, loop_name(scene))
         self.stepper = self._stepper(resume) if scene.adaptive else None
         self.library_version = disc.library_version()
+        self.petsc_version = disc.petsc_version()
         disc.keep()
         self.loop_before = meta.get("loop_seconds", 0.0)
         self.loop_started = time.perf_counter()
@@ -399,7 +421,7 @@ class Simulation:
             self.flush()
         summary = run_summary(self.scene, status, error, self.iterations, self.energy,
                            setup_seconds, loop_seconds, self.comm, resumed=self.resumed,
-                           dolfinx=self.library_version)
+                           dolfinx=self.library_version, petsc=self.petsc_version)
         summary["loops"] = self.loops
         summary["contact"] = dataclasses.asdict(self.contact)
         summary["measures"] = self.measures(summary)

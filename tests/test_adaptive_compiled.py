@@ -116,3 +116,29 @@ def test_a_step_below_dt_min_is_refused_as_by_the_stepper():
         messages.append(str(result.error))
     assert messages[0] == messages[1]
     assert "time.dt_min = 1e-05" in messages[0]
+
+
+def test_the_pool_of_sizes_changes_no_decision():
+    """The sizes a compiled call forms are kept in a pool, the least recently used formed again:
+    with the smallest pool (four slots) more sizes are formed, and the run is the same bit for
+    bit, the stepper's too."""
+    formed, histories = [], []
+    advance = compiled.CompiledSteps.advance
+
+    def kept(self, *args):
+        code = advance(self, *args)
+        formed[-1] = self.formed
+        return code
+
+    for budget in (compiled.POOL_BYTES, 0):
+        formed.append(0)
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(compiled, "POOL_BYTES", budget)
+            patch.setattr(compiled.CompiledSteps, "advance", kept)
+            result, calls, _ = run(*CASES["stiff crank-nicolson"], regular=True)
+        histories.append(result)
+    python, _, _ = run(*CASES["stiff crank-nicolson"], regular=False)
+    assert formed[1] > formed[0] > 10
+    for result in histories:
+        assert result.summary["adaptive"] == python.summary["adaptive"]
+        np.testing.assert_array_equal(result.history, python.history)

@@ -29,9 +29,12 @@ GAP = 0.1  # stiff's obstacle.gap
 
 def run(out, scheme: str, stop_at_event: bool = False):
     """``stiff`` at TIGHT with ``scheme`` into ``out``; ``stop_at_event``: stopped (Ctrl-C, as
-    at a terminal) as the event's step is recorded, and the checkpoint written there."""
+    at a terminal) as the event's step is recorded, and the checkpoint written there (the
+    compiled steps taken one a call, so that the call that records the event ends with it: a
+    request to stop is seen between calls)."""
     import rodfem as api
     from rodfem.run import Simulation
+    from rodfem.solver.adaptive.compiled import CompiledSteps
 
     check = Simulation.check
 
@@ -44,11 +47,16 @@ def run(out, scheme: str, stop_at_event: bool = False):
     scene = {**TIGHT, "time.scheme": scheme}
     if not stop_at_event:
         return api.simulate("stiff", scene, out=out)
-    Simulation.check = stopping
+    advance = CompiledSteps.advance
+
+    def one(self, max_steps, *args):
+        return advance(self, 1, *args)
+
+    Simulation.check, CompiledSteps.advance = stopping, one
     try:
         return api.simulate("stiff", scene, out=out)
     finally:
-        Simulation.check = check
+        Simulation.check, CompiledSteps.advance = check, advance
 
 
 @pytest.fixture(scope="module")

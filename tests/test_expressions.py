@@ -89,3 +89,20 @@ def test_transcendental_functions_and_powers_are_the_c_librarys_bit_for_bit():
     roots = Expression("(-x)**0.5", ())(points, {})
     assert np.isnan(logs[0]) and logs[1] == -np.inf and exps[2] == np.inf
     assert roots[0] == 1.0 and roots[1] == 0.0 and np.isnan(roots[2])
+
+
+def test_kept_parts_give_a_fresh_evaluations_bits():
+    """A source evaluated step after step keeps its parts in x alone; whatever changes between
+    calls (t, another parameter, the points, in place or not), each value is a fresh
+    expression's bit for bit, and a part in x and t is never kept across a change of t."""
+    text = "exp(-t)*x*(1 - x)**2 + a*cos(pi*x/2)*sin(t) + sin(x*t)**2"
+    kept = Expression(text, {"a", "t"})
+    x = np.linspace(0.0, 1.0, 17)
+    calls = [(x, {"a": 0.5, "t": 0.1}), (x, {"a": 0.5, "t": 0.2}), (x, {"a": 0.7, "t": 0.2}),
+             (x[:9], {"a": 0.7, "t": 0.2}), (x, {"a": 0.7, "t": 0.3})]
+    for points, parameters in calls:
+        fresh = Expression(text, {"a", "t"})(points, parameters)
+        assert kept(points, parameters).tobytes() == fresh.tobytes()
+    x *= 2.0  # the caller's points changed in place
+    assert kept(x, {"a": 0.7, "t": 0.3}).tobytes() == \
+        Expression(text, {"a", "t"})(x, {"a": 0.7, "t": 0.3}).tobytes()

@@ -8,6 +8,7 @@ sweep, fit, sensitivity, steady, verify and stability directories are made once,
 """
 
 import json
+import math
 import re
 import shutil
 from pathlib import Path
@@ -450,3 +451,20 @@ def test_the_paper_draws_its_still_figures_in_the_format_asked(made):
     for path in written:
         if path.suffix == ".pdf":
             assert_not_blank(path)
+
+
+def test_a_text_that_cannot_fit_is_given_up_once_it_is_smallest(monkeypatch):
+    """Mathtext too wide for its canvas even at the smallest size (it is never cut): fitting
+    stops as soon as a draw changes nothing, not after a fixed number of draws."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(1.5, 1.5), layout="constrained")
+    ax = fig.add_subplot()
+    ax.set_title("$" + r"\hat{E}_{\max} + " * 12 + "1$")
+    size, draws = ax.title.get_fontsize(), []
+    measured = figures.outside
+    monkeypatch.setattr(figures, "outside", lambda f: draws.append(1) or measured(f))
+    assert figures.fit_texts(fig) is False
+    assert ax.title.get_fontsize() == figures.SMALLEST
+    shrinks = math.ceil(math.log(figures.SMALLEST / size) / math.log(0.88))
+    assert len(draws) <= shrinks + 2

@@ -1,10 +1,19 @@
 """The command's start: a process not started by a launcher asks Open MPI for its ob1 layer (no
 UCX to initialise) and no daemon of its own; one under a launcher, or with a choice of its own,
-keeps it."""
+keeps it. A small serial run whose operators are cached starts neither PETSc nor MPI, and the
+world without MPI answers as MPI's of one process does."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
 from rodfem import __main__ as entry
+from rodfem import parallel
+
+ROOT = Path(__file__).resolve().parents[1]
 
 CHOICES = {"OMPI_MCA_pml": "ob1", "OMPI_MCA_ess_singleton_isolated": "1"}
 
@@ -55,3 +64,43 @@ def test_a_commands_parser_alone_is_the_one_of_the_full_parser():
         assert name in alone and len(alone) <= 2  # verify makes work-precision too
         assert described(alone[name]) == described(full[name]), name
         assert alone[name].description == full[name].description
+
+
+@pytest.mark.skipif(parallel.launched(), reason="starts its own processes; run serially")
+def test_a_small_serial_run_imports_neither_petsc4py_nor_mpi(tmp_path):
+    """Once its operators are cached (a first run), ``rodfem run paper1`` for ten steps (Picard's
+    loop, the paper's first step) and ``impact`` (the direct method, Crank–Nicolson) import no
+    petsc4py, nor dolfinx, nor scipy.linalg (the direct loop's band LU is its extension
+    module's, loaded alone), and do not start MPI (the process is MPI's only one)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [
+        str(ROOT), os.environ.get("PYTHONPATH")])))
+    for name in ("paper1", "impact"):
+        for run in range(2):
+            done = subprocess.run(
+                [sys.executable, "-X", "importtime", "-m", "rodfem", "run", name, "--set",
+                 "time.end=0.01", "--set", "mesh.cells=100", "--out", str(tmp_path / name),
+                 "--force", "--quiet"],
+                env=env, cwd=tmp_path, capture_output=True, text=True, check=True)
+        imported = {line.split("|")[-1].strip() for line in done.stderr.splitlines()
+                    if line.startswith("import time:")}
+        assert "numpy" in imported and "rodfem.run" in imported  # the list is read
+        assert "petsc4py.PETSc" not in imported, name
+        assert "mpi4py.MPI" not in imported, name
+        assert "dolfinx" not in imported, name
+        assert "scipy.linalg" not in imported and "scipy.sparse" not in imported, name
+
+
+def test_the_world_without_mpi_answers_as_mpis_of_one_process():
+    """rank 0 of 1, collectives the identity on a copy (as mpi4py's lower-case ones give);
+    anything else is MPI's own."""
+    world = parallel.SERIAL
+    data = {"a": [1, 2.5]}
+    assert (world.rank, world.size, world.Get_rank(), world.Get_size()) == (0, 1, 0, 1)
+    for got in (world.bcast(data, root=0), world.allgather(data)[0], world.gather(data)[0],
+                world.allreduce(data)):
+        assert got == data and got is not data
+    world.barrier()
+    from mpi4py import MPI
+
+    assert world.Get_name() == MPI.COMM_WORLD.Get_name()
+    assert parallel.real(world) is MPI.COMM_WORLD and parallel.world() is MPI.COMM_WORLD

@@ -16,9 +16,9 @@ EXIT_INPUT, EXIT_DIVERGED, EXIT_IO = 2, 3, 4
 
 def say(message: str, stream=None) -> None:
     """Print one line, once (on rank 0), to stderr unless a stream is given."""
-    from mpi4py import MPI
+    from rodfem.parallel import world
 
-    if MPI.COMM_WORLD.rank == 0:
+    if world().rank == 0:
         print(message, file=stream or sys.stderr, flush=True)
 
 

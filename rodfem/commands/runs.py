@@ -48,39 +48,40 @@ def run(args: argparse.Namespace) -> int:
     scene = load(args.scene, args.overrides)  # validates everything before anything is written
     out = args.out if args.out is not None else Path("results") / Path(args.scene).stem
 
-    from mpi4py import MPI
-
     from rodfem.output import handover, interrupts
     from rodfem.output.directories import OutputError, prepare_directory
     from rodfem.output.files import write_text
     from rodfem.output.sizes import SizeError, check_room
+    from rodfem.parallel import world
     from rodfem.solver.compiled import KernelUnavailable, ready
 
+    comm = world()  # MPI's, or where no launcher started the process one without MPI
+
     try:  # the compiled loop built, or checked, before anything is written
-        ready(scene, MPI.COMM_WORLD)
+        ready(scene, comm)
     except KernelUnavailable as err:
         say(err.line())
         return EXIT_DIVERGED
     try:
-        check_room(scene, out, MPI.COMM_WORLD, allow=args.large)
+        check_room(scene, out, comm, allow=args.large)
         scene_file = Path(args.scene) if args.scene not in BUILTIN else None
         # A directory marked is one with its scene.toml, which resume reads: a signal between
         # the two is taken after both.
         with interrupts.deferred():
-            prepare_directory(out, args.force, MPI.COMM_WORLD, keep=scene_file,
+            prepare_directory(out, args.force, comm, keep=scene_file,
                               files=run_files(scene))
-            write_text(out / "scene.toml", scene.to_toml(), MPI.COMM_WORLD)
+            write_text(out / "scene.toml", scene.to_toml(), comm)
     except (OutputError, SizeError) as err:
         say(f"rodfem: error: {err}")
         return EXIT_INPUT
     if interrupts.signal_received() is not None:
         raise interrupts.Interrupted(interrupts.signal_received())
-    handover.pause_for_tests(MPI.COMM_WORLD)
+    handover.pause_for_tests(comm)
     if scene.targets:
         return run_to_target(scene, out, args.quiet)
     from rodfem.run import simulate
 
-    result = simulate(scene, out, MPI.COMM_WORLD, progress=not args.quiet,
+    result = simulate(scene, out, comm, progress=not args.quiet,
                       force_progress=args.progress)
     return report_run(scene, result, out, args.quiet)
 
@@ -191,12 +192,11 @@ def report_run(scene, result, out: Path, quiet: bool) -> int:
 def resume(args: argparse.Namespace) -> int:
     """Continue the run in args.dir from its checkpoint (or extend a finished one), or the
     sweep in args.dir."""
-    from mpi4py import MPI
-
     from rodfem.output.directories import OutputError, mark_running, release, reopen
     from rodfem.output.resume import ResumeError, plan
+    from rodfem.parallel import world
 
-    comm, out = MPI.COMM_WORLD, args.dir
+    comm, out = world(), args.dir
     try:
         marker = reopen(out, comm)
     except OutputError as err:

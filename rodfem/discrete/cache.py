@@ -41,7 +41,8 @@ ROOT = Path(__file__).resolve().parents[2]
 # The code the arrays come from: the forms, their assembly, and what reads them off.
 SOURCES = ("forms/copetti.py", "rodfem/discrete/discretisation.py", "rodfem/discrete/nodes.py",
            "rodfem/discrete/compat.py", "rodfem/discrete/cache.py",
-           "rodfem/solver/methods/base.py", "rodfem/output/history.py",
+           "rodfem/discrete/arrays.py", "rodfem/solver/methods/base.py",
+           "rodfem/solver/methods/direct.py", "rodfem/solver/linalg.py", "rodfem/output/history.py",
            "rodfem/output/pointwise.py", "rodfem/solver/compiled/laurent.py")
 LIBRARIES = ("dolfinx", "ufl", "ffcx", "basix", "petsc4py")
 # The user's settings of the compilation of the forms, which change the assembled values (a

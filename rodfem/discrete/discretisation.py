@@ -28,14 +28,19 @@ import dataclasses
 import os
 import types
 
-import numpy as np
-from mpi4py import MPI
-from petsc4py import PETSc
+from typing import TYPE_CHECKING
 
+import numpy as np
+
+from rodfem.discrete.arrays import Matrix, Vector
 from rodfem.discrete.cache import CELLS_MAX, OperatorCache, conforms, digest
 from rodfem.discrete.nodes import NodeOrder
 from rodfem.scene import Scene
 from rodfem.scene.schema import REDISTRIBUTED
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+    from petsc4py import PETSc
 
 OBSTACLE = 1  # facet tag of the point x = 1
 PARAMETERS = ("a", "b", "zeta", "k", "theta_A")  # the model's, constants of the forms
@@ -48,9 +53,9 @@ FINITE_ELEMENTS = ("mesh", "V", "W", "bcs", "ds_1", "dx", "dx_m", "dx_b", "const
 class AffineOperator:
     """A x = Σ_k N_k y_k + b for a residual F(x; y) affine in all its functions (node order)."""
 
-    A: PETSc.Mat
-    N: dict[str, PETSc.Mat]
-    b: PETSc.Vec
+    A: PETSc.Mat | Matrix
+    N: dict[str, PETSc.Mat | Matrix]
+    b: PETSc.Vec | Vector
 
 
 class Discretisation:
@@ -60,11 +65,21 @@ class Discretisation:
     on first use. With ``cache`` (a serial run), the operators, the nodes and the other arrays
     read off the forms (:meth:`arrays`) come from the operator cache where it has them
     (:mod:`rodfem.discrete.cache`): a run that finds them all never imports dolfinx. Call
-    :meth:`keep` once they are made, to store them for the next run."""
+    :meth:`keep` once they are made, to store them for the next run.
 
-    def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, cache: bool = False):
+    The operators are sequential PETSc objects, or with ``petsc=False`` on one rank NumPy's
+    (:mod:`rodfem.discrete.arrays`: the same arrays, for a run whose steps PETSc never takes,
+    which then imports no petsc4py where the cache has them)."""
+
+    def __init__(self, scene: Scene, comm: MPI.Comm | None = None, cache: bool = False,
+                 petsc: bool = True):
+        if comm is None:
+            from mpi4py import MPI
+
+            comm = MPI.COMM_WORLD
         self.scene = scene
         self.comm = comm
+        self.petsc = petsc or comm.size > 1
         self.redistributed = scene["discretisation.mass"] in REDISTRIBUTED
         self._symbols: dict[str, object] = {}
         self._forms: dict[str, object] = {}  # by the UFL expression's repr
@@ -93,12 +108,16 @@ class Discretisation:
     def _finite_elements(self) -> None:
         import ufl
         from dolfinx import fem, mesh
+        from petsc4py import PETSc
 
         import forms.copetti as copetti
         from rodfem.discrete import compat
 
+        from rodfem.parallel import real
+
         scene = self.scene
-        self.mesh = mesh.create_interval(self.comm, scene["mesh.cells"], [0.0, 1.0])
+        # dolfinx needs MPI's communicator (a serial run may hold one without MPI)
+        self.mesh = mesh.create_interval(real(self.comm), scene["mesh.cells"], [0.0, 1.0])
         self.V = compat.function_space(self.mesh, "Lagrange", 1)
         self.W = compat.function_space(self.mesh, "DG", 0)  # for the stress σ, constant per cell
         tdim = self.mesh.topology.dim
@@ -175,18 +194,36 @@ class Discretisation:
 
     def library_version(self) -> str:
         """dolfinx's version: the one that made the cached arrays if dolfinx is not loaded."""
+        def version() -> str:
+            import dolfinx
+
+            return dolfinx.__version__
+
+        return self._version("dolfinx", "dolfinx", version)
+
+    def petsc_version(self) -> str:
+        """PETSc's version (major.minor.patch): the one of the run that made the cached arrays
+        if petsc4py is not loaded (a new PETSc is a new cache: :mod:`rodfem.discrete.cache`)."""
+        def version() -> str:
+            from petsc4py import PETSc
+
+            return ".".join(map(str, PETSc.Sys.getVersion()))
+
+        return self._version("petsc", "petsc4py.PETSc", version)
+
+    def _version(self, name: str, module: str, version) -> str:
+        """``version()``, or where ``module`` is not loaded the one the cache holds under
+        ``name``; kept in the cache where it has none."""
         import sys
 
-        if "dolfinx" not in sys.modules:
-            found = self._cached("dolfinx",
-                                 lambda found: conforms(found, {"version": ("str", ())}))
+        if module not in sys.modules:
+            found = self._cached(name, lambda found: conforms(found, {"version": ("str", ())}))
             if found is not None:
                 return str(found["version"])
-        import dolfinx
-
-        if self._cache is not None and self._cache.get("dolfinx") is None:
-            self._cache.put("dolfinx", {"version": np.array(dolfinx.__version__)})
-        return dolfinx.__version__
+        made = version()
+        if self._cache is not None and self._cache.get(name) is None:
+            self._cache.put(name, {"version": np.array(made)})
+        return made
 
     def _redistributed(self, vertices) -> tuple:
         """The inertia with the contact node's mass moved to its neighbour (Khenous, Laborde
@@ -197,6 +234,7 @@ class Discretisation:
         base is consistent and lumped blended for the ratio Δt/h (a constant of the forms)."""
         import ufl
         from dolfinx import fem
+        from petsc4py import PETSc
 
         h = 1.0 / self.scene["mesh.cells"]
         W = self.W
@@ -312,13 +350,14 @@ class Discretisation:
         return AffineOperator(A, N, self.vector(lambda: -residual(), key=part("b")))
 
     def matrix(self, a, diagonal: float = 0.0, rows_only: bool = False,
-               key: tuple | None = None) -> PETSc.Mat:
+               key: tuple | None = None) -> PETSc.Mat | Matrix:
         """The matrix of a bilinear form on S_E (``diagonal`` in the row of x = 0), node order.
         With ``rows_only`` the column of x = 0 is kept and only its row is zero. ``a`` and
         ``key`` as for :meth:`form`; a keyed matrix is cached (:meth:`arrays`). Without a
         cache the assembled matrix is the one returned: its CSR copy would be made the same way
-        from the same arrays (where rows are not zeroed, which drops their entries)."""
-        if key is None or (self._cache is None and not rows_only):
+        from the same arrays (where rows are not zeroed, which drops their entries). Without
+        PETSc (``petsc=False``), a NumPy matrix of the CSR arrays, assembled or cached."""
+        if (key is None or (self._cache is None and not rows_only)) and self.petsc:
             return self._assembled_matrix(a, diagonal, rows_only, key)
 
         def csr() -> dict[str, np.ndarray]:
@@ -327,7 +366,14 @@ class Discretisation:
             B.destroy()
             return {"indptr": indptr, "indices": indices, "values": values}
 
-        found = self.arrays(repr(("matrix", key, diagonal, rows_only)), csr, self._is_csr)
+        if key is None or self._cache is None:
+            found = csr()
+        else:
+            found = self.arrays(repr(("matrix", key, diagonal, rows_only)), csr, self._is_csr)
+        if not self.petsc:
+            return Matrix(found["indptr"], found["indices"], found["values"].copy())
+        from petsc4py import PETSc
+
         size = found["indptr"].size - 1
         B = PETSc.Mat().createAIJ(size=(size, size), comm=PETSc.COMM_SELF, csr=(
             found["indptr"].astype(PETSc.IntType), found["indices"].astype(PETSc.IntType),
@@ -349,6 +395,8 @@ class Discretisation:
 
     def _assembled_matrix(self, a, diagonal: float, rows_only: bool,
                           key: tuple | None) -> PETSc.Mat:
+        from petsc4py import PETSc
+
         from rodfem.discrete import compat
 
         form = self.form(a, key)
@@ -362,7 +410,7 @@ class Discretisation:
             B.zeroRows(np.flatnonzero(self.nodes.x == 0.0).astype(PETSc.IntType), diag=0.0)
         return B
 
-    def vector(self, L, key: tuple | None = None) -> PETSc.Vec:
+    def vector(self, L, key: tuple | None = None) -> PETSc.Vec | Vector:
         """The vector of a linear form on S_E (0 in the row of x = 0), node order. ``L`` and
         ``key`` as for :meth:`form`; a keyed vector is cached (:meth:`arrays`)."""
         def assembled() -> dict[str, np.ndarray]:
@@ -380,4 +428,8 @@ class Discretisation:
             n = self.scene["mesh.cells"] + 1
             values = self.arrays(repr(("vector", key)), assembled,
                                  lambda found: conforms(found, {"values": ("f8", (n,))}))["values"]
+        if not self.petsc:
+            return Vector(np.array(values))
+        from petsc4py import PETSc
+
         return PETSc.Vec().createWithArray(np.array(values), comm=PETSc.COMM_SELF)

@@ -117,14 +117,20 @@ def fit_texts(fig) -> bool:
         texts = outside(fig)
         if not texts:
             return True
+        changed = False
         for text in texts:
             size = text.get_fontsize()
             if size > SMALLEST:
                 text.set_fontsize(max(SMALLEST, 0.88 * size))
+                changed = True
             elif "$" not in text.get_text():  # mathtext is not cut: "$" pairs must stay whole
                 lines = text.get_text().split("\n")
                 width = max(8, int(0.8 * max(len(line) for line in lines)))
-                text.set_text("\n".join(textwrap.fill(line, width) for line in lines))
+                wrapped = "\n".join(textwrap.fill(line, width) for line in lines)
+                changed |= wrapped != text.get_text()
+                text.set_text(wrapped)
+        if not changed:  # as small and as wrapped as they can be: drawing again changes nothing
+            return False
     return False
 
 

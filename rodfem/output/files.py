@@ -13,13 +13,16 @@ import json
 import os
 import shutil
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from mpi4py import MPI
 
 from rodfem.output.atomic import named, replacing, temporary
 from rodfem.output.columns import COLUMNS
 from rodfem.output.readers import DATASET
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
 
 CHUNK = 1024  # rows of an HDF5 chunk of the history: 1024 × 7 × 8 bytes = 57 kB by default
 

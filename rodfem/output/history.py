@@ -8,13 +8,18 @@ values are read off its array.
 
 from __future__ import annotations
 
-import numpy as np
-from petsc4py import PETSc
+from typing import TYPE_CHECKING
 
+import numpy as np
+
+from rodfem.discrete.arrays import Vector
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.discrete.nodes import block_diagonal
 from rodfem.model import contact, exchange
 from rodfem.output.columns import RAW, RAW_INDEX, Context, columns_of, for_scene, readings
+
+if TYPE_CHECKING:
+    from petsc4py import PETSc
 
 
 class Energy:
@@ -53,7 +58,12 @@ class Energy:
         n = disc.nodes.size
         # ½ sᵀE s + wᵀU = ½ (E s + 2w)ᵀs with w = [0; 0; a θ_A z − a θ_O z_s]: one product, one
         # dot (z_s only for an obstacle whose temperature is not 0)
-        self.two_w = PETSc.Vec().createSeq(3 * n, comm=PETSc.COMM_SELF)
+        if disc.petsc:
+            from petsc4py import PETSc
+
+            self.two_w = PETSc.Vec().createSeq(3 * n, comm=PETSc.COMM_SELF)
+        else:
+            self.two_w = Vector.zeros(3 * n)
         self.two_w.array[2 * n:] = 2.0 * self.a_theta_A * self.z.array_r
         a_theta_O = scene["model.a"] * scene["obstacle.temperature"]
         if a_theta_O != 0.0:

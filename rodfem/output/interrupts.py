@@ -25,8 +25,9 @@ import signal
 import sys
 import threading
 
+from rodfem import parallel
 # Environment variables a launcher (mpirun, mpiexec, srun) gives each process it starts.
-LAUNCHED = ("OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE", "MPI_LOCALRANKID")
+from rodfem.parallel import LAUNCHED
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGUSR1)
 
@@ -141,7 +142,9 @@ def deferred():
 def call():
     """A library call (``rodfem.simulate``) that a signal may stop: a signal received during
     it concerns it alone, so the next call starts as if none had come. The handlers are
-    restored on the way out by :func:`deferred`."""
+    restored on the way out by :func:`deferred`. Under a launcher, PETSc is started here on
+    every rank (:func:`rodfem.parallel.start`)."""
+    parallel.start()
     _depth_calls[0] += 1
     try:
         yield

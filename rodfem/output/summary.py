@@ -58,9 +58,7 @@ class Iterations:
 
 
 def run_summary(scene, status, error, iterations, energy, setup_seconds, loop_seconds, comm,
-                resumed: bool, dolfinx: str) -> dict:
-    from petsc4py import PETSc
-
+                resumed: bool, dolfinx: str, petsc: str) -> dict:
     done = iterations.rows - 1
     summary = {
         "status": status,
@@ -85,7 +83,7 @@ def run_summary(scene, status, error, iterations, energy, setup_seconds, loop_se
         "versions": {
             "rodfem": rodfem.__version__,
             "dolfinx": dolfinx,
-            "petsc": ".".join(map(str, PETSc.Sys.getVersion())),
+            "petsc": petsc,
         },
     }
     if error is not None:

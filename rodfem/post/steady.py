@@ -24,7 +24,7 @@ FLAGS = ("contact", "stable", "tangential")
 WORDS = ("trust", "key")  # read as they are written
 FIGURE = "branches.png"
 POINTS = "points.csv"
-POINT_WORDS = ("kind", "before", "after", "asymptotic", "key")
+POINT_WORDS = ("kind", "before", "after", "asymptotic", "key", "criticality")
 # The located points' marks: (marker, colour, legend).
 MARKS = {"fold": ("o", "k", "fold"), "grazing": ("^", "tab:green", "grazing (touches the obstacle)"),
          "hopf": ("*", "tab:purple", "Hopf point")}

@@ -2,9 +2,10 @@
 
 A scene is data: its expressions are parsed with :mod:`ast` into a tree that holds numbers, ``x``,
 parameter names, ``+ - * / **``, parentheses, the functions sin cos tan exp log sqrt abs and the
-constant pi, and nothing else. The tree is evaluated by walking it with NumPy, its transcendental
-functions and powers by the C library's (:func:`_libm`: the same bits on every machine); nothing
-a user wrote is ever passed to ``eval`` or ``exec``.
+constant pi, and nothing else. The tree is made once into nested Python functions that evaluate it
+with NumPy, its transcendental functions and powers by the C library's (:func:`_libm`: the same
+bits on every machine); the parts in x of a source evaluated at every step are kept while the
+parameters they read stay put. Nothing a user wrote is ever passed to ``eval`` or ``exec``.
 """
 
 from __future__ import annotations
@@ -31,6 +32,8 @@ def _libm(function: Callable[..., float], numpy_function) -> Callable[..., np.nd
             return float(numpy_function(*(np.float64(a) for a in args)))
 
     def apply(*arrays):
+        if not any(isinstance(a, np.ndarray) for a in arrays):  # scalars: the same call, bare
+            return np.float64(element(*(float(a) for a in arrays)))
         shaped = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in arrays))
         columns = [a.ravel().tolist() for a in shaped]
         out = np.fromiter(map(element, *columns), np.float64, shaped[0].size)
@@ -101,6 +104,45 @@ class Expression:
             raise ExpressionError("is not a valid expression (nested too deeply)") from None
         self._check(tree.body, 0)
         self._tree = tree.body
+        self._x: np.ndarray | None = None
+        self._kept: dict[ast.AST, tuple[tuple, np.ndarray]] = {}
+        self._evaluate = None
+
+    def __getstate__(self):  # the evaluator and the kept values are this process's
+        return {**self.__dict__, "_x": None, "_kept": {}, "_evaluate": None}
+
+    def _compiled(self, node: ast.AST):
+        """(``node``'s evaluator: a function of the names' values, the names it reads). A
+        subtree in x keeps its value and is evaluated again only when a parameter it reads
+        changes: a source's parts in x alone are evaluated once a run, by the same arithmetic."""
+        if isinstance(node, ast.Constant):
+            value = np.float64(float(node.value))
+            return (lambda values: value), frozenset()
+        if isinstance(node, ast.Name):
+            name = node.id
+            return (lambda values: values[name]), frozenset([name])
+        if isinstance(node, ast.BinOp):
+            (left, a), (right, b) = self._compiled(node.left), self._compiled(node.right)
+            op = _BINARY[type(node.op)]
+            evaluate, used = (lambda values: op(left(values), right(values))), a | b
+        elif isinstance(node, ast.UnaryOp):
+            (operand, used), op = self._compiled(node.operand), _UNARY[type(node.op)]
+            evaluate = lambda values: op(operand(values))  # noqa: E731
+        else:
+            (argument, used), function = self._compiled(node.args[0]), FUNCTIONS[node.func.id]
+            evaluate = lambda values: function(argument(values))  # noqa: E731
+        if "x" not in used:
+            return evaluate, used
+        names, kept = tuple(sorted(used - {"x", *CONSTANTS})), self._kept
+
+        def again(values):
+            key = tuple(values[name] for name in names)
+            last = kept.get(node)
+            if last is None or last[0] != key:
+                last = kept[node] = (key, evaluate(values))
+            return last[1]
+
+        return again, used
 
     def _check(self, node: ast.AST, depth: int) -> None:
         allowed = sorted({"x", *CONSTANTS, *self.names})
@@ -150,20 +192,12 @@ class Expression:
     def __call__(self, x: np.ndarray, parameters: Mapping[str, float]) -> np.ndarray:
         """Evaluate at the points x (a 1D array) with the given parameter values."""
         x = np.asarray(x, dtype=np.float64)
+        if self._evaluate is None:
+            self._evaluate = self._compiled(self._tree)[0]
+        if self._x is None or not np.array_equal(self._x, x):
+            self._x = x.copy()
+            self._kept.clear()
         values = {"x": x, **CONSTANTS, **{k: np.float64(v) for k, v in parameters.items()}}
         with np.errstate(all="ignore"):
-            result = self._eval(self._tree, values)
+            result = self._evaluate(values)
         return np.broadcast_to(np.asarray(result, dtype=np.float64), x.shape).copy()
-
-    def _eval(self, node: ast.AST, values):
-        if isinstance(node, ast.Constant):
-            return np.float64(float(node.value))
-        if isinstance(node, ast.Name):
-            return values[node.id]
-        if isinstance(node, ast.BinOp):
-            left, right = self._eval(node.left, values), self._eval(node.right, values)
-            return _BINARY[type(node.op)](left, right)
-        if isinstance(node, ast.UnaryOp):
-            return _UNARY[type(node.op)](self._eval(node.operand, values))
-        assert isinstance(node, ast.Call)
-        return FUNCTIONS[node.func.id](self._eval(node.args[0], values))

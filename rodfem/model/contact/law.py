@@ -96,6 +96,12 @@ class ContactLaw:
         """φ''(g + d) for the penetration d > 0 (0 for d ≤ 0)."""
         raise NotImplementedError
 
+    def pressure_derivatives(self, d: float) -> tuple[float, float, float, float]:
+        """(P, P′, P″, P‴) at the penetration d > 0, P(d) = φ'(g + d) the force: its first
+        three derivatives in u(1), the law's Taylor expansion to third order that the first
+        Lyapunov coefficient of a Hopf point needs (:mod:`rodfem.model.expansion`)."""
+        raise NotImplementedError
+
     def penetration(self, t: float) -> tuple[float, float]:
         """(d, p): the penetration and force with d + p(d) = t, the end's excess t = y + p − g
         over the gap (0, 0 for t ≤ 0), to round-off in d and p however small t is."""

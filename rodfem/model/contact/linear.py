@@ -44,6 +44,12 @@ class LinearLaw(ContactLaw):
     def pressure_slope(self, d: float) -> float:
         return 1.0 / self.epsilon if d > 0.0 else 0.0
 
+    def pressure_derivatives(self, d: float) -> tuple[float, float, float, float]:
+        """d/ε, 1/ε and no curvature: the law is linear in contact."""
+        if d <= 0.0:
+            return 0.0, 0.0, 0.0, 0.0
+        return d / self.epsilon, 1.0 / self.epsilon, 0.0, 0.0
+
     def penetration(self, t: float) -> tuple[float, float]:
         """p = t/(1 + ε) and d = ε p (not t − p, which cancels for a small ε)."""
         if t <= 0.0:

@@ -56,6 +56,16 @@ class PowerLaw(ContactLaw):
     def pressure_slope(self, d: float) -> float:
         return self.exponent * _power(d, self.exponent - 1.0) / self.epsilon if d > 0.0 else 0.0
 
+    def pressure_derivatives(self, d: float) -> tuple[float, float, float, float]:
+        """dʲ/ddʲ d^m/ε = m (m − 1) … (m − j + 1) d^(m−j)/ε, j = 0 … 3."""
+        if d <= 0.0:
+            return 0.0, 0.0, 0.0, 0.0
+        m, found, factor = self.exponent, [], 1.0
+        for j in range(4):
+            found.append(factor * _power(d, m - j) / self.epsilon if factor else 0.0)
+            factor *= m - j
+        return tuple(found)
+
     def energies(self, u: np.ndarray) -> np.ndarray:
         d = np.maximum(np.asarray(u, dtype=float) - self.gap, 0.0)
         with np.errstate(over="ignore"):

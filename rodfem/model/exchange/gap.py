@@ -41,6 +41,17 @@ class GapLaw(ExchangeLaw):
             return 0.0, 0.0
         return self.extra_at(gap, e, p) / self.length, 0.0
 
+    def extra_derivatives_at(self, gap: float, e: float, p: float) -> np.ndarray:
+        """k₁ exp(e/ℓ)/ℓⁱ in D[i, 0] for e < 0; in contact q = k₁ is constant (one-sided from
+        above at e = 0, as :meth:`extra_slopes_at`)."""
+        found = np.zeros((4, 4))
+        q = self.extra_at(gap, e, p)
+        found[0, 0] = q
+        if e < 0.0:
+            for i in range(1, 4):
+                found[i, 0] = q / self.length**i
+        return found
+
     def extra_slope_bounds(self, y_lo: float, y_hi: float, p_lo: float,
                            p_hi: float) -> tuple[float, float]:
         """∂q/∂y = q/ℓ grows with y up to its left limit k₁/ℓ at g, and is 0 beyond: q(y_hi)/ℓ

@@ -42,6 +42,13 @@ class ExchangeLaw:
         """(∂q/∂y, ∂q/∂p) at u(1) = g + e, one-sided (from above) at a kink."""
         return self.extra_slopes(gap + e, p)
 
+    def extra_derivatives_at(self, gap: float, e: float, p: float) -> np.ndarray:
+        """D[i, j] = ∂^(i+j) q/∂yⁱ ∂pʲ at u(1) = g + e under the pressure p, for i + j ≤ 3 (the
+        rest 0): the law's Taylor expansion to third order, which the first Lyapunov
+        coefficient of a Hopf point needs (:mod:`rodfem.model.expansion`). Where p = 0 only the
+        derivatives in y are used (the end is separated, and p stays 0 about it)."""
+        raise NotImplementedError
+
     def extra_slope_bounds(self, y_lo: float, y_hi: float, p_lo: float,
                            p_hi: float) -> tuple[float, float]:
         """Upper bounds of ∂q/∂y and ∂q/∂p on [y_lo, y_hi] × [p_lo, p_hi] (the direct step's
@@ -87,3 +94,6 @@ class ConstantLaw(ExchangeLaw):
     def coefficients(self, y, p) -> np.ndarray:
         y, p = np.broadcast_arrays(np.asarray(y, dtype=float), np.asarray(p, dtype=float))
         return np.full(y.shape, self.k)
+
+    def extra_derivatives_at(self, gap: float, e: float, p: float) -> np.ndarray:
+        return np.zeros((4, 4))

@@ -42,3 +42,18 @@ class PressureLaw(ExchangeLaw):
         if m == 1.0:
             return 0.0, self.k1
         return 0.0, (0.0 if m > 1.0 or self.k1 == 0.0 else math.inf)
+
+    def extra_derivatives_at(self, gap: float, e: float, p: float) -> np.ndarray:
+        """k₁ m (m − 1) … (m − j + 1) p^(m−j) in D[0, j]: q does not depend on y."""
+        found = np.zeros((4, 4))
+        if p <= 0.0:
+            return found
+        m, factor = self.exponent, self.k1
+        for j in range(4):
+            if factor:
+                try:
+                    found[0, j] = factor * p ** (m - j)
+                except OverflowError:  # p near the smallest doubles, m < j: C's pow gives inf
+                    found[0, j] = math.copysign(math.inf, factor)
+            factor *= m - j
+        return found

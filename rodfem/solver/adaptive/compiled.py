@@ -13,12 +13,16 @@ in the same calls, as the stepper takes them.
 Everything else stays with the stepper (:meth:`AdaptiveStepper.step`), which the call hands
 the run back to with the state of the last accepted step:
 
-* a step that changes contact (it is located there), or that the method does not solve;
+* a step that changes contact where the sizes are not formed in C (it is located there), or
+  that the method does not solve;
 * a restart of the estimate (the two halves, at the start and after an event) that the C call
   does not take (RA_RESTART: adaptive.h says which);
 * a step below ``time.dt_min`` (the stepper's error, StepTooSmall, raised here);
 
-a step size with no problem yet is made between two calls (by the stepper's ``make``, and kept),
+a step size with no problem yet is formed in the C call itself, from the run's family of step
+sizes (:mod:`rodfem.solver.compiled.family`), in a pool of slots allocated and written here once
+(:meth:`CompiledSteps._pool`); without a family formed in C (Picard with a heat exchange that
+depends on the contact) it is made between two calls (by the stepper's ``make``, and kept),
 without going back to the run's loop;
 
 and the call returns when the history's block is full, a field save is due (a save interval
@@ -30,10 +34,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from rodfem.solver.adaptive.stepper import EVENT_WIDTH
+from rodfem.solver.adaptive.stepper import EVENT_WIDTH, KEPT
 from rodfem.solver.errors import StepTooSmall
 
-SIZES = 80  # the most step sizes one call can step with (the stepper keeps at most 64)
+SIZES = 80  # the most of the stepper's step sizes one call can step with (it keeps 64)
+POOL_BYTES = 2 << 20  # the memory of the sizes a call forms, kept for the next steps
 
 
 def tridiagonal(E) -> np.ndarray:
@@ -115,9 +120,33 @@ class CompiledSteps:
             R.problem_bytes = family.struct_size
             R.scratch = self._scratch
             R.scratch_memory = [self._pointer(memory) for memory in self._memory]
+            self._pool(family, problem)
         self._loops: list = []  # the loops whose problems the table points into
         self._seen = None
         self.home = home
+
+    def _pool(self, family, problem: str) -> None:
+        """The pool of step sizes formed in the C call (adaptive.h's ra_size): POOL_BYTES of
+        slots, from 4 to KEPT, their memory written once here (a page's first touch costs more
+        than forming a size on a shared virtual machine, 2–6 µs a page)."""
+        ffi, R = self._ffi, self.R
+        slots = int(min(KEPT, max(4, POOL_BYTES // (8 * family.size))))
+        self._slots = [ffi.new(problem) for _ in range(slots)]
+        self._slot_memory = np.zeros((slots, family.size))
+        self._slot_memory.fill(0.0)  # np.zeros maps pages without writing them
+        self._slot_h, self._slot_used = np.zeros(slots), np.zeros(slots, dtype=np.int64)
+        self._slot_pointers = ffi.new("void *[]", self._slots)
+        self._slot_memories = ffi.new("double *[]", [self._pointer(row)
+                                                     for row in self._slot_memory])
+        R.pool = slots
+        R.pool_h, R.pool_used = self._pointer(self._slot_h), self._pointer(self._slot_used,
+                                                                             "long *")
+        R.pool_problem, R.pool_memory = self._slot_pointers, self._slot_memories
+
+    @property
+    def formed(self) -> int:
+        """The step sizes formed in the C calls so far."""
+        return int(self.R.formed)
 
     def _pointer(self, array: np.ndarray, kind: str = "double *"):
         return self._ffi.cast(kind, self._ffi.from_buffer(array))

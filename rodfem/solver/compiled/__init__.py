@@ -18,10 +18,12 @@ switched to the PETSc loop unasked.
 from __future__ import annotations
 
 import os
-
-from mpi4py import MPI
+from typing import TYPE_CHECKING
 
 from rodfem.solver.errors import KernelUnavailable
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
 
 PETSC = "petsc"  # loop_name of the PETSc loop
 UNRECORDED = "unrecorded"  # the loop of the steps of a checkpoint that does not say

@@ -16,15 +16,22 @@
  *
  * The estimate's restarts (fewer than order + 1 states since the start or the last event) are
  * taken here too, as the stepper takes them: the step, then the same step again as two halves,
- * their difference the error (AdaptiveStepper._halves), the two halves accepted with a row each.
+ * their difference the error (AdaptiveStepper._halves), the two halves accepted with a row each;
+ * a half that changes contact rejects the step, as an infinite error.
+ *
+ * A step size with no problem yet is formed here, from the run's family of step sizes (RA_FORM,
+ * no Python between), in a pool of slots the caller allocated and wrote once: the least recently
+ * used slot is formed again. A size's problem is the same bit for bit wherever and whenever it
+ * is formed, so the pool changes no decision.
  *
  * What it does not do, handing the run back to Python with the state of the last accepted step
  * (rodfem/solver/adaptive/compiled.py): a step that changes contact where no step sizes can be
- * formed here (an event, located there), a step of a size it has no problem for (made there), a
- * step the method does not solve, a restart it does not take (RA_RESTART: one whose step or a
- * half changes contact or fails, whose first half begins a save interval or has a row that is not
- * finite, whose half has no problem and is off the ladder, or with room for fewer than two rows),
- * and a step size below dt_min. The paper scheme's special first step never comes here.
+ * formed here (an event, located there), a step of a size it has no problem for and cannot form
+ * (made there), a step the method does not solve, a restart it does not take (RA_RESTART: one
+ * whose step changes contact, whose step or a half fails, whose first half begins a save interval
+ * or has a row that is not finite, whose half has no problem and is off the ladder, or with room
+ * for fewer than two rows), and a step size below dt_min. The paper scheme's special first step
+ * never comes here.
  */
 #ifndef RODFEM_ADAPTIVE_H
 #define RODFEM_ADAPTIVE_H
@@ -117,6 +124,17 @@ typedef struct {
     void *scratch[2];
     double *scratch_memory[2];
     double event_width;
+    /* the step sizes formed here (family not NULL): a pool of `pool` slots, each a problem
+     * (pool_problem[k], completed from a copy of the template) with its memory (pool_memory[k],
+     * the family's size), holding the step pool_h[k] (0: none), last used at the count
+     * pool_used[k] (the least recently used slot is formed again); formed counts them */
+    int pool;
+    double *pool_h;
+    long *pool_used;
+    void *const *pool_problem;
+    double *const *pool_memory;
+    long uses;
+    long formed;
     /* what happened: the rows written, the steps rejected, the events located, the size wanted
      * (RA_NEED) or the size rejected (RA_TOO_SMALL) */
     long written;
@@ -441,11 +459,17 @@ static inline double ra_measured(const ra_run *R)
     return R->end_force ? rc_force(&R->obstacle, R->values[3 * (size_t)R->n - 1]) : R->pressure;
 }
 
-static void *ra_problem(const ra_run *R, double h)
+/* The problem of a step h at hand: the table's, or the pool's (counted as used); else NULL. */
+static void *ra_problem(ra_run *R, double h)
 {
     for (int k = 0; k < R->sizes; k++)
         if (R->size_h[k] == h)
             return R->size_problem[k];
+    for (int k = 0; k < R->pool; k++)
+        if (R->pool_h[k] == h) {
+            R->pool_used[k] = ++R->uses;
+            return R->pool_problem[k];
+        }
     return NULL;
 }
 
@@ -488,8 +512,34 @@ static int ra_take(ra_run *R, double h, void *problem, long step, int iterations
     return 1;
 }
 
-/* The problem of a step h: the table's, or formed in the scratch place `slot`; NULL where it
- * cannot be formed. */
+/* The problem of a step h: at hand (ra_problem), or formed here in the pool's least recently
+ * used slot; NULL where there is no pool (RA_NEED: the stepper makes it) or the size cannot be
+ * formed (the stepper makes it again, and says why). A size's problem is the same wherever it is
+ * formed, so the pool's size changes no decision; a problem found or formed here is the most
+ * recently used, so with two slots or more a second one never evicts the first. */
+static void *ra_size(ra_run *R, double h)
+{
+    void *problem = ra_problem(R, h);
+    if (problem != NULL || R->family == NULL || R->pool < 2)
+        return problem;
+    int slot = 0;
+    for (int k = 1; k < R->pool; k++)
+        if (R->pool_used[k] < R->pool_used[slot])
+            slot = k;
+    problem = R->pool_problem[slot];
+    R->pool_h[slot] = 0.0;
+    R->pool_used[slot] = 0;
+    memcpy(problem, R->template_problem, (size_t)R->problem_bytes);
+    if (RA_FORM(R->family, R->dt0 / h, problem, R->pool_memory[slot]))
+        return NULL;
+    R->pool_h[slot] = h;
+    R->pool_used[slot] = ++R->uses;
+    R->formed++;
+    return problem;
+}
+
+/* The problem of a step h: at hand (ra_problem), or formed in the scratch place `slot` (an
+ * event's tries, each size tried once: the pool's sizes stay); NULL where it cannot be formed. */
 static void *ra_sized(ra_run *R, double h, int slot)
 {
     void *problem = ra_problem(R, h);
@@ -542,13 +592,15 @@ static double ra_locate(ra_run *R, double h, void *problem_b, double fa, int bef
     return b;
 }
 
-/* ra_take, and whether contact is as it was (`before`) at the step's end: a step of a restart
- * that changes contact is the stepper's to locate. */
+/* ra_take, then whether contact is as it was (`before`) at the step's end: 1 if it is, -1 if
+ * it changed, 0 where the method did not solve the step. */
 static inline int ra_take_within(ra_run *R, double h, void *problem, long step, int iterations,
                                  double pressure, int before)
 {
-    return ra_take(R, h, problem, step, iterations, pressure) &&
-           (ra_contact(R, R->values[3 * (size_t)R->n - 1], R->pressure) > 0.0) == before;
+    if (!ra_take(R, h, problem, step, iterations, pressure))
+        return 0;
+    return (ra_contact(R, R->values[3 * (size_t)R->n - 1], R->pressure) > 0.0) == before ? 1
+                                                                                         : -1;
 }
 
 /* Home back at the start of a restart's step while the second half ran from the first. */
@@ -575,7 +627,7 @@ static long ra_restart(ra_run *R, long max_steps)
         return R->written ? RA_PAUSE : RA_RESTART;
     const int before = ra_contact(R, R->values[N - 1], R->pressure) > 0.0;
     const double h = ra_proposal(R, before), half = 0.5 * h;
-    void *problem = ra_problem(R, h), *problem_half = ra_problem(R, half);
+    void *problem = ra_size(R, h), *problem_half = ra_size(R, half);
     if (problem == NULL || problem_half == NULL) {
         if (problem == NULL || ra_rung(R->dt0, half) == half) {
             R->wanted = problem == NULL ? h : half;
@@ -592,16 +644,20 @@ static long ra_restart(ra_run *R, long max_steps)
     const double pressure = R->pressure;
     memcpy(R->start, R->values, sizeof(double) * N);
     memcpy(R->start_u_prev, R->u_prev, sizeof(double) * (size_t)n);
-    /* the step, then its first half from the same start */
-    if (!ra_take_within(R, h, problem, step, iterations, pressure, before)) {
+    /* the step (one that meets an event is the stepper's to locate and accept) */
+    int within = ra_take_within(R, h, problem, step, iterations, pressure, before);
+    if (within <= 0) {
         ra_restore(R, step, iterations, pressure);
         return RA_RESTART;
     }
+    /* then its first half from the same start: a half that meets an event rejects the step as
+     * an infinite error would (_halves) */
     memcpy(R->whole, R->values, sizeof(double) * N);
     R->whole[N] = ra_measured(R);
-    if (!ra_take_within(R, half, problem_half, step, iterations, pressure, before)) {
+    within = ra_take_within(R, half, problem_half, step, iterations, pressure, before);
+    if (within <= 0) {
         ra_restore(R, step, iterations, pressure);
-        return RA_RESTART;
+        return within ? ra_reject(R, h, INFINITY) : RA_RESTART;
     }
     double *row1 = R->rows + (size_t)R->written * R->width;
     ra_row(R, row1);
@@ -621,9 +677,10 @@ static long ra_restart(ra_run *R, long max_steps)
     memcpy(R->held + N, R->start_u_prev, sizeof(double) * (size_t)n);
     memcpy(R->start, R->values, sizeof(double) * N);
     memcpy(R->start_u_prev, R->u_prev, sizeof(double) * (size_t)n);
-    if (!ra_take_within(R, half, problem_half, step1, iterations1, pressure1, before)) {
+    within = ra_take_within(R, half, problem_half, step1, iterations1, pressure1, before);
+    if (within <= 0) {
         ra_restore_held(R, step, iterations, pressure);
-        return RA_RESTART;
+        return within ? ra_reject(R, h, INFINITY) : RA_RESTART;
     }
     const double p2 = ra_measured(R);
     double error = ra_halves_error(R, R->values, p2);
@@ -687,7 +744,7 @@ long RA_NAME(ra_run *R, long max_steps)
         }
         const int before = ra_contact(R, R->values[3 * (size_t)n - 1], R->pressure) > 0.0;
         const double h = ra_proposal(R, before);
-        void *problem = ra_problem(R, h);
+        void *problem = ra_size(R, h);
         if (problem == NULL) {
             R->wanted = h;
             return RA_NEED;

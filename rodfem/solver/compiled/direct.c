@@ -117,10 +117,9 @@ long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, lo
  * which rk_form makes the rk_problem of a step size (direct_form.h). */
 typedef struct {
     int n, kl, ku;         /* nodes; the band of the interleaved coupled operator C */
-    int entries[3];        /* C's non-zero parts P0, P1, P2: how many of each */
-    const long *place;     /* each one's place in C's band storage (column-major, 2 kl + ku + 1
-                              rows), those of P0, then P1, then P2 */
-    const double *parts;   /* their values, in the same order */
+    const double *band;    /* C's parts P0, P1, P2 in LAPACK's band storage of C (column-major,
+                              2 kl + ku + 1 rows, 2n columns), one after the other, 0 where C
+                              has no entry (and in the kl rows of fill-in) */
     int r_classes, r_width;  /* the table of R: classes x slots */
     const double *r_parts; /* 3 x r_classes x r_width */
     const double *b_parts; /* 3 x r_classes x 2 */
@@ -140,11 +139,13 @@ int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory);
 long rk_adaptive(ra_run *R, long max_steps);
 /* cdef end */
 
-/* The loop bounds of a step: bands and slot counts. rk_advance passes constants for the common
- * cases, so that the inlined loops are unrolled with their offsets in registers. */
+/* The loop bounds of a step: bands and slot counts, and whether its row is recorded (record 0:
+ * no row, and its energy not summed). rk_advance passes constants for the common cases, so that
+ * the inlined loops are unrolled with their offsets in registers. */
 typedef struct {
     int blocked, kl, reach, ku, pivoting;
     int r0, r1, e0, e1, e2;
+    int record;
 } shape;
 
 /* Row c of node i (interleaved: 2 i + c) of R s + b; k = r_class[i]. */
@@ -162,9 +163,11 @@ RK_INLINE double rhs_row(const rk_problem *P, const double *sp, int i, int c, in
     return sum;
 }
 
-/* (E s + 2w).s over the three rows of node m. */
+/* (E s + 2w).s over the three rows of node m (0 where no row is recorded). */
 RK_INLINE double energy_rows(const rk_problem *P, const double *sp, int m, const shape S)
 {
+    if (!S.record)
+        return 0.0;
     const int count[3] = {S.e0, S.e1, S.e2};
     const int cm = P->e_class[m];
     const double *v = P->e_value + (size_t)cm * (S.e0 + S.e1 + S.e2);
@@ -276,6 +279,8 @@ RK_INLINE long steps_loop(const rk_problem *P, double *u_prev, long n0, long ste
             return k;
         }
         p = step_p;
+        if (!S.record)
+            continue;
         double *row = rows + (ptrdiff_t)P->width * k;
         row[RAW_N] = (double)(n0 + k + 1);
         row[RAW_ITERATIONS] = 1.0;
@@ -295,9 +300,10 @@ RK_INLINE long steps_loop(const rk_problem *P, double *u_prev, long n0, long ste
 
 /* `steps` steps from the state `values` = [Theta; D; U] (3n, block order), which is overwritten by
  * the last; u_prev (n) receives U of the step before the last, rows (steps x width) the history
- * rows (n, 1, U(1), D(1), U(0.5), bulk energy, p, the readings) of the steps n0 + 1 .. n0 + steps,
- * and *pressure (the method's p on entry) the last p. Returns the steps done (fewer than `steps`
- * where a step failed: steps_loop). */
+ * rows (n, 1, U(1), D(1), U(0.5), bulk energy, p, the readings) of the steps n0 + 1 .. n0 + steps
+ * (rows NULL: none, their energy not summed: the adaptive loop's steps, whose rows it records
+ * itself), and *pressure (the method's p on entry) the last p. Returns the steps done (fewer than
+ * `steps` where a step failed: steps_loop). */
 long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, long steps,
                 double *rows, double *pressure)
 {
@@ -318,27 +324,28 @@ long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, lo
      * run time. With a = 0 the band is narrower (kl = ku = 2: C is block diagonal, interleaved)
      * and the momentum rows of R read no Theta: without their own constants these cases ran the
      * generic loop, slower than the wider a != 0 (benchmarks/bench_kernel.py --shapes). */
-    const int blocked = P->fwd != NULL;
+    const int blocked = P->fwd != NULL, record = rows != NULL;
     const shape S = {blocked, P->kl, P->reach, P->ku, P->pivoting, P->r_slots[0], P->r_slots[1],
-                     P->e_slots[0], P->e_slots[1], P->e_slots[2]};
+                     P->e_slots[0], P->e_slots[1], P->e_slots[2], record};
 #define RK_SHAPE(KL, R0, R1, E0, E1, E2) \
     (S.blocked && S.kl == KL && S.ku == KL && S.r0 == R0 && S.r1 == R1 && S.e0 == E0 && \
      S.e1 == E1 && S.e2 == E2)
-    if (RK_SHAPE(3, 3, 7, 1, 1, 3)) {
-        const shape C = {1, 3, 3, 3, 0, 3, 7, 1, 1, 3};
-        done = steps_loop(P, u_prev, n0, steps, rows, pressure, C);
-    } else if (RK_SHAPE(3, 3, 9, 3, 3, 3)) {
-        const shape C = {1, 3, 3, 3, 0, 3, 9, 3, 3, 3};
-        done = steps_loop(P, u_prev, n0, steps, rows, pressure, C);
-    } else if (RK_SHAPE(2, 3, 4, 1, 1, 3)) {
-        const shape C = {1, 2, 2, 2, 0, 3, 4, 1, 1, 3};
-        done = steps_loop(P, u_prev, n0, steps, rows, pressure, C);
-    } else if (RK_SHAPE(2, 3, 6, 3, 3, 3)) {
-        const shape C = {1, 2, 2, 2, 0, 3, 6, 3, 3, 3};
-        done = steps_loop(P, u_prev, n0, steps, rows, pressure, C);
-    } else {
-        done = steps_loop(P, u_prev, n0, steps, rows, pressure, S);
-    }
+#define RK_CASE(KL, R0, R1, E0, E1, E2)                                               \
+    if (RK_SHAPE(KL, R0, R1, E0, E1, E2)) {                                           \
+        if (record) {                                                                 \
+            const shape C = {1, KL, KL, KL, 0, R0, R1, E0, E1, E2, 1};                \
+            done = steps_loop(P, u_prev, n0, steps, rows, pressure, C);               \
+        } else {                                                                      \
+            const shape C = {1, KL, KL, KL, 0, R0, R1, E0, E1, E2, 0};                \
+            done = steps_loop(P, u_prev, n0, steps, rows, pressure, C);               \
+        }                                                                             \
+    } else
+    RK_CASE(3, 3, 7, 1, 1, 3)
+    RK_CASE(3, 3, 9, 3, 3, 3)
+    RK_CASE(2, 3, 4, 1, 1, 3)
+    RK_CASE(2, 3, 6, 3, 3, 3)
+    done = steps_loop(P, u_prev, n0, steps, rows, pressure, S);
+#undef RK_CASE
 #undef RK_SHAPE
     for (int k = 0; k < 3; k++)
         for (int i = 0; i < n; i++)
@@ -347,11 +354,12 @@ long rk_advance(const rk_problem *P, double *values, double *u_prev, long n0, lo
 }
 
 /* The adaptive run's regular steps and events (adaptive.h), each step one rk_advance of its
- * size's problem, the sizes an event tries formed by rk_form. */
+ * size's problem without a row (the loop records the home state's row itself, the energy summed
+ * in the stepper's order), the sizes formed by rk_form. */
 #define RA_NAME rk_adaptive
 #define RA_FORM(family, lam, problem, memory) \
     rk_form((const rk_family *)(family), lam, (rk_problem *)(problem), memory)
 #define RA_STEP(problem, values, u_prev, n0, row, pressure, iterations) \
-    (rk_advance((const rk_problem *)(problem), values, u_prev, n0, 1, row, pressure) == 1 && \
+    (rk_advance((const rk_problem *)(problem), values, u_prev, n0, 1, NULL, pressure) == 1 && \
      (*(iterations) = 1, 1))
 #include "adaptive.h"

@@ -59,6 +59,7 @@ module compiles nothing and raises nothing.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -75,6 +76,43 @@ _source = CompiledSource(SOURCE, "_rodfem_kernel_", "kernel", check_library)
 _library = _source.library
 available = _source.available
 unavailable_reason = _source.unavailable_reason
+
+
+_lapack = []  # scipy's LAPACK, once loaded
+
+
+def scipy_lapack():
+    """SciPy's LAPACK functions (``scipy.linalg.lapack``'s: those of its extension module
+    ``scipy.linalg._flapack``), the extension loaded alone where scipy.linalg is not imported yet:
+    importing scipy.linalg imports scipy.sparse too, 40 ms of a small run's start, for one
+    dgbtrf. The same functions of the same library, so the same factors bit for bit."""
+    if not _lapack:
+        _lapack.append(_flapack_alone() if "scipy.linalg" not in sys.modules else None)
+        if _lapack[0] is None:
+            from scipy.linalg import lapack
+
+            _lapack[0] = lapack
+    return _lapack[0]
+
+
+def _flapack_alone():
+    """scipy.linalg._flapack loaded from its file without its package, or None."""
+    import importlib.machinery
+    import importlib.util
+
+    try:
+        scipy = importlib.util.find_spec("scipy")  # found, not imported
+        directory = Path(scipy.origin).parent / "linalg"
+        for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+            path = directory / f"_flapack{suffix}"
+            if path.is_file():
+                spec = importlib.util.spec_from_file_location("scipy.linalg._flapack", path)
+                module = importlib.util.module_from_spec(spec)
+                spec.loader.exec_module(module)
+                return module if hasattr(module, "dgbtrf") else None
+    except Exception:  # noqa: BLE001 (any other layout: scipy.linalg's own import)
+        return None
+    return None
 
 
 def _csr(A) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -197,8 +235,7 @@ class DirectKernel(CompiledLoop):
     what = "compiled direct loop"
 
     def __init__(self, method, history, blocked: bool = True, compress: bool = True):
-        from scipy.linalg import lapack
-
+        lapack = scipy_lapack()
         super().__init__(method, history)
         self._ffi, self._lib = _library()
         n = self.n

@@ -11,24 +11,32 @@
  * direct.py's band_factors does (kept bands, reciprocal diagonal, and without interchanges the
  * node-blocked recurrences of _blocked, the same expressions), the response q = C^-1 [0; -e]
  * (and q_h = C^-1 [-e; 0]) solved by dgbtrs's algorithm (U's diagonal as its reciprocals, as
- * band.h's substitutions take it), and the compliance read off q. C's parts come as lists of
- * the non-zero ones of each power, added a power at a time: the same sums as combine's.
+ * band.h's substitutions take it), and the compliance read off q. C's parts come in the band
+ * storage itself, 0 where C has no entry: (P0 + P1 lam) + P2 lam^2 at every place is combine's
+ * sum (a part that is 0 adds an exact 0, whose sign no part that is not 0 sees), in one pass.
+ * The common bands (kl = ku = 3, and 2) are constants of their own copy of the code, whose loops
+ * the compiler unrolls: the same operations in the same order.
  */
 #ifndef RODFEM_DIRECT_FORM_H
 #define RODFEM_DIRECT_FORM_H
 
-/* The doubles of rk_form's memory (the ints of ipiv in their own doubles): what a size keeps.
- * The band being factored and a step's work are the family's (rk_work_size). Without
- * interchanges the steps read the node-blocked recurrences, not the kept bands, which are then
- * not written: their pages are never touched (a new size's cost is mostly its first touches). */
+/* The doubles of rk_form's memory (the ints of ipiv in their own doubles): what a size keeps,
+ * the responses and tables first, then rdiag and ipiv, then the factors the steps read: without
+ * interchanges the node-blocked recurrences fwd and bwd, else the kept bands lower and upper, in
+ * one place (a size has one or the other), each as wide as the kept bands and no wider. The band
+ * being factored and a step's work are the family's (rk_work_size). A size's pages are those
+ * it writes: q_h's only with a variable exchange, the factors' of its own kept bands (a new
+ * size's cost was mostly first touches of fresh pages; the adaptive loop's pool of sizes reuses
+ * them). */
 static size_t form_layout(const rk_family *F, size_t *at)
 {
     const size_t n = F->n, N = 2 * n, kl = F->kl, kd = F->kl + F->ku;
-    const size_t sizes[10] = {N, (N + 1) / 2, n * (2 * kl + 1), n * (2 * kd + 3), N, N,
-                              (size_t)F->r_classes * F->r_width, (size_t)F->r_classes * 2,
-                              N * kl, N * kd};
+    const size_t blocked = n * (2 * kl + 1) + n * (2 * kd + 3), banded = N * kl + N * kd;
+    const size_t sizes[7] = {N, F->exchange ? N : 0, (size_t)F->r_classes * F->r_width,
+                             (size_t)F->r_classes * 2, N, (N + 1) / 2,
+                             blocked > banded ? blocked : banded};
     size_t total = 0;
-    for (int k = 0; k < 10; k++) {
+    for (int k = 0; k < 7; k++) {
         at[k] = total;
         total += sizes[k];
     }
@@ -37,7 +45,7 @@ static size_t form_layout(const rk_family *F, size_t *at)
 
 long rk_form_size(const rk_family *F)
 {
-    size_t at[10];
+    size_t at[7];
     return (long)form_layout(F, at);
 }
 
@@ -56,7 +64,8 @@ static inline double form_combine(const double *parts, size_t count, size_t k, d
 /* dgbtf2 on ab (ldab x N, column-major, kl subdiagonals, ku superdiagonals, the first kl rows
  * fill-in): ipiv 0-based, and rdiag the reciprocals of U's diagonal (the pivots' reciprocals
  * dgbtf2 scales the multipliers by). Returns 0, or 1 + the first zero pivot's column. */
-static int form_factor(double *ab, int N, int kl, int ku, int *ipiv, double *rdiag)
+RK_INLINE int form_factor(double *ab, int N, const int kl, const int ku, int *ipiv,
+                           double *rdiag)
 {
     const int kv = ku + kl, ldab = 2 * kl + ku + 1;
     int info = 0, ju = 0;
@@ -110,8 +119,8 @@ static int form_factor(double *ab, int N, int kl, int ku, int *ipiv, double *rdi
 
 /* dgbtrs's solve of x (N) by the factors: the interchanges and L, then U (dtbsv's, with U's
  * diagonal as the reciprocals rdiag, as band.h's substitutions take it). */
-static void form_solve(const double *ab, int N, int kl, int ku, const int *ipiv,
-                       const double *rdiag, double *x)
+RK_INLINE void form_solve(const double *ab, int N, const int kl, const int ku,
+                          const int *ipiv, const double *rdiag, double *x)
 {
     const int kd = kl + ku, ldab = 2 * kl + ku + 1;
     for (int j = 0; j < N - 1; j++) {
@@ -138,35 +147,23 @@ static void form_solve(const double *ab, int N, int kl, int ku, const int *ipiv,
     }
 }
 
-/* P's factors, tables, responses and compliance at lam, into `memory` (rk_form_size doubles);
- * P's other fields are the caller's. Returns 0; 1 + the column of a zero pivot; -1 if the
- * compliance is not positive; -2 if the end's temperature response to its heat loss is not
- * negative (a variable exchange). */
-int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
+/* rk_form with the band kl, ku constants where they are the common ones (rk_form). */
+RK_INLINE int form_at(const rk_family *F, double lam, rk_problem *P, double *memory, const int kl,
+                      const int ku)
 {
-    const int n = F->n, N = 2 * n, kl = F->kl, ku = F->ku, kd = kl + ku;
-    size_t at[10];
+    const int n = F->n, N = 2 * n, kd = kl + ku;
+    size_t at[7];
     form_layout(F, at);
-    double *rdiag = memory + at[0], *fwd = memory + at[2], *bwd = memory + at[3];
-    double *q = memory + at[4], *qh = memory + at[5], *rv = memory + at[6], *b = memory + at[7];
-    double *lower = memory + at[8], *upper = memory + at[9];
-    int *ipiv = (int *)(memory + at[1]);
-    const size_t ldab = 2 * (size_t)kl + ku + 1;
-    double *ab = F->work, *s = F->work + ldab * N, *z = s + F->state;
-    for (size_t k = 0; k < ldab * N; k++)
-        ab[k] = 0.0;
-    /* P0 + P1 lam + P2 lam^2, a power at a time (the same sums: a part that is 0 adds 0) */
-    const long *place = F->place;
-    const double *part = F->parts, scale[3] = {1.0, lam, lam * lam};
-    for (int k = 0; k < F->entries[0]; k++)
-        ab[place[k]] = part[k];
-    for (int power = 1; power < 3; power++) {
-        place += F->entries[power - 1];
-        part += F->entries[power - 1];
-        const double x = scale[power];
-        for (int k = 0; k < F->entries[power]; k++)
-            ab[place[k]] += part[k] * x;
-    }
+    double *q = memory + at[0], *qh = memory + at[1], *rv = memory + at[2], *b = memory + at[3];
+    double *rdiag = memory + at[4], *factors = memory + at[6];
+    int *ipiv = (int *)(memory + at[5]);
+    const size_t ldab = 2 * (size_t)kl + ku + 1, band = ldab * N;
+    double *ab = F->work, *s = F->work + band, *z = s + F->state;
+    /* P0 + P1 lam + P2 lam^2 at each place of the band, 0 where C has no entry: the sums of
+     * laurent.py's combine (a part that is 0 adds 0) */
+    const double *p0 = F->band, *p1 = p0 + band, *p2 = p1 + band, lam2 = lam * lam;
+    for (size_t k = 0; k < band; k++)
+        ab[k] = (p0[k] + p1[k] * lam) + p2[k] * lam2;
     const int info = form_factor(ab, N, kl, ku, ipiv, rdiag);
     if (info)
         return info;
@@ -183,6 +180,8 @@ int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
         pivoting |= ipiv[j] != j;
     }
     const int blocked = !pivoting && klk <= KMAX && kuk <= KMAX;
+    double *fwd = factors, *bwd = factors + (size_t)n * (2 * klk + 1);
+    double *lower = factors, *upper = factors + (size_t)N * klk;
     if (!blocked)
         for (int j = 0; j < N; j++) {
             const double *col = ab + (size_t)j * ldab;
@@ -281,6 +280,19 @@ int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
     P->s = s;
     P->z = z;
     return 0;
+}
+
+/* P's factors, tables, responses and compliance at lam, into `memory` (rk_form_size doubles);
+ * P's other fields are the caller's. Returns 0; 1 + the column of a zero pivot; -1 if the
+ * compliance is not positive; -2 if the end's temperature response to its heat loss is not
+ * negative (a variable exchange). */
+int rk_form(const rk_family *F, double lam, rk_problem *P, double *memory)
+{
+    if (F->kl == 3 && F->ku == 3)
+        return form_at(F, lam, P, memory, 3, 3);
+    if (F->kl == 2 && F->ku == 2)
+        return form_at(F, lam, P, memory, 2, 2);
+    return form_at(F, lam, P, memory, F->kl, F->ku);
 }
 
 #endif

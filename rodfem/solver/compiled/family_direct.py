@@ -1,7 +1,7 @@
 """The direct loop's step family (:mod:`.family`): rk_problem for a step h from the parts.
 
-Once per run: the coupled operator C = [[A_h, −N_U], [−N_Θ, A_m]] as parts on its entries, with
-each entry's place in LAPACK's band storage of the interleaved order; R and b by slots
+Once per run: the coupled operator C = [[A_h, −N_U], [−N_Θ, A_m]] as parts in LAPACK's band
+storage of the interleaved order (0 where C has no entry); R and b by slots
 (:func:`.direct._slots`'s layout) as parts, and the classes of their rows from the parts
 stacked; the load e interleaved. For a size h, at λ = Δt₀/h: C's band filled and factored by
 ``dgbtrf`` (:func:`.direct.band_factors`, as :class:`~.direct.DirectKernel` does), the responses
@@ -108,12 +108,14 @@ class DirectFamily(StepFamily):
         loop's, with the classes and slots of R from the parts."""
         ffi = kernel._ffi
         n = self.n
-        nonzero = [self.c_parts[k] != 0.0 for k in range(3)]
+        if np.unique(self.c_place).size != self.c_place.size:
+            raise ValueError("two entries of C at one place of its band")
+        band = np.zeros((3, self.ldab * 2 * n))  # +0.0 where a part is 0 (of either sign)
+        for k in range(3):
+            mine = self.c_parts[k] != 0.0
+            band[k, self.c_place[mine]] = self.c_parts[k][mine]
         self._kept = kept = {
-            "place": np.ascontiguousarray(np.concatenate(
-                [self.c_place[mine] for mine in nonzero]), dtype=np.int64),
-            "parts": np.ascontiguousarray(np.concatenate(
-                [self.c_parts[k][mine] for k, mine in enumerate(nonzero)])),
+            "band": band,
             "r_parts": np.ascontiguousarray(self.r_value),
             "b_parts": np.ascontiguousarray(self.b),
             "e": np.ascontiguousarray(self.e),
@@ -122,11 +124,9 @@ class DirectFamily(StepFamily):
         }
         F = ffi.new("rk_family *")
         F.n, F.kl, F.ku = n, self.kl, self.ku
-        F.entries = [int(np.count_nonzero(mine)) for mine in nonzero]
         F.r_classes, F.r_width = self.r_value.shape[1], self.r_value.shape[2]
-        for field in ("place", "parts", "r_parts", "b_parts", "e"):
-            ctype = "long *" if field == "place" else "double *"
-            setattr(F, field, ffi.cast(ctype, ffi.from_buffer(kept[field])))
+        for field in ("band", "r_parts", "b_parts", "e"):
+            setattr(F, field, ffi.cast("double *", ffi.from_buffer(kept[field])))
         if self.end_row is not None:
             kept["end_row"] = np.ascontiguousarray(self.end_row)
             F.end_row = ffi.cast("double *", ffi.from_buffer(kept["end_row"]))

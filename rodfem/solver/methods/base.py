@@ -22,8 +22,9 @@ condition Uⁿ(1) ≤ g for the rigid obstacle. σ(1) = −p. Vectors are sequen
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from petsc4py import PETSc
 
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.discrete.nodes import block_diagonal, block_matrix
@@ -33,6 +34,9 @@ from rodfem.solver.errors import SourceNotFinite
 from rodfem.solver.linalg import lu_solver, stacked
 from rodfem.solver.methods import massless
 from rodfem.solver.time_schemes import TIME_SCHEMES
+
+if TYPE_CHECKING:
+    from petsc4py import PETSc
 
 
 class Residuals:
@@ -136,17 +140,18 @@ class Method:
         # theta, du and u are views of its thirds. Both right-hand sides of a step, [h; m], are
         # one product with it: [h; m] = R s + [b_h; b_m].
         n = disc.nodes.size
-        self.state, (self.theta, self.du, self.u) = stacked(3, n)
+        # PETSc's vectors, or NumPy's where the operators are (disc.petsc False)
+        self.state, (self.theta, self.du, self.u) = stacked(3, n, disc.petsc)
         self.values = self.state.array  # the same memory, as a NumPy array
         self.u_prev = self.u.duplicate()
         self.R = block_matrix([[self.heat.N["theta_prev"], None, None],
                                [self.momentum.N["theta_prev"], self.momentum.N["du_prev"],
                                 self.momentum.N["u_prev"]]])
-        self.b, (b_h, b_m) = stacked(2, n)
+        self.b, (b_h, b_m) = stacked(2, n, disc.petsc)
         self.heat.b.copy(b_h)
         self.momentum.b.copy(b_m)
         if any(f is not None for f in self.sources.values()):
-            self._source_values, self._source_parts = stacked(2, n)
+            self._source_values, self._source_parts = stacked(2, n, disc.petsc)
             zero = self.heat.N["theta_prev"].duplicate()  # the same pattern, values zero
             zero.zeroEntries()
             self._source_matrix = block_diagonal(

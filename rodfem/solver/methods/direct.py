@@ -29,6 +29,8 @@ step above, untouched.
 
 from __future__ import annotations
 
+from rodfem.discrete.arrays import Vector, petsc_vector
+from rodfem.discrete.cache import conforms
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.solver.errors import NoUniqueStep
 from rodfem.solver.linalg import lu_factor, stacked
@@ -42,28 +44,19 @@ class DirectMethod(Method):
     def __init__(self, disc: Discretisation, dt: float | None = None):
         super().__init__(disc, dt)
         n = disc.nodes.size
-        self.x, (self.x_heat, self.x_momentum) = stacked(2, n)
-        self.rhs, (self.rhs_heat, self.rhs_momentum) = stacked(2, n)
+        self.x, (self.x_heat, self.x_momentum) = stacked(2, n, disc.petsc)
+        self.rhs, (self.rhs_heat, self.rhs_momentum) = stacked(2, n, disc.petsc)
         self._x_values, self._u_1 = self.x.array, 3 * n - 1  # NumPy views; U(1) in the state
-        if self.coupled:
-            self.ksp, factor = lu_factor(self.coupled_operator(), "rodfem_direct_", "rcm")
-            self._solve = factor.solve
-        else:
-            self.momentum_ksp, momentum_factor = lu_factor(self.momentum.A, "rodfem_momentum_")
-            solve_heat, solve_momentum = self.solve_heat, momentum_factor.solve
-
-            def solve(rhs, x):
-                solve_heat(self.rhs_heat, self.x_heat)
-                solve_momentum(self.rhs_momentum, self.x_momentum)
-
-            self._solve = solve
+        self._solver = None  # the factored operator (_factored), on the first solve
         # The response to a unit contact force: q = C⁻¹[0; −e], and the compliance w = −q_U(1).
-        self.rhs.zeroEntries()
-        self.contact_load.copy(self.rhs_momentum)
-        self.rhs_momentum.scale(-1.0)
-        self.response = self.x.duplicate()
-        self._solve(self.rhs, self.x)
-        self.x.copy(self.response)
+        # NumPy operators take it from the operator cache where it is (made by the same solve).
+        if disc.petsc:
+            self.response = self._unit_response()
+        else:
+            self.response = Vector(disc.arrays(
+                repr(("direct response", self.time_scheme.weight, self.coupled)),
+                lambda: {"values": self._unit_response().array_r.copy()},
+                lambda found: conforms(found, {"values": ("f8", (2 * n,))}))["values"].copy())
         self.compliance = -self.response.getValue(self._index)
         if self.massless is not None:  # the response of the end's free position y
             self.compliance = -self.massless.moved(self.response.array_r)
@@ -82,6 +75,37 @@ class DirectMethod(Method):
             h, q = self.heat_response.array_r, self.response.array_r
             self.exchange_step = ExchangeStep(self, h[self._index], q[self.last], h[self.last])
         self.x.zeroEntries()
+
+    def _factored(self):
+        """``solve(rhs, x)``: C⁻¹ by PETSc's LU in reverse Cuthill–McKee order, or for a = 0
+        A_h⁻¹ and A_m⁻¹ apart (factored here)."""
+        wrap = (lambda v: v) if self.disc.petsc else petsc_vector
+        if self.coupled:
+            self.ksp, factor = lu_factor(self.coupled_operator(), "rodfem_direct_", "rcm")
+            return lambda rhs, x: factor.solve(wrap(rhs), wrap(x))
+        self.momentum_ksp, momentum_factor = lu_factor(self.momentum.A, "rodfem_momentum_")
+        solve_heat, solve_momentum = self.solve_heat, momentum_factor.solve
+
+        def solve(rhs, x):
+            solve_heat(self.rhs_heat, self.x_heat)
+            solve_momentum(wrap(self.rhs_momentum), wrap(self.x_momentum))
+
+        return solve
+
+    def _solve(self, rhs, x) -> None:
+        if self._solver is None:
+            self._solver = self._factored()
+        self._solver(rhs, x)
+
+    def _unit_response(self):
+        """q = C⁻¹[0; −e], solved."""
+        self.rhs.zeroEntries()
+        self.contact_load.copy(self.rhs_momentum)
+        self.rhs_momentum.scale(-1.0)
+        response = self.x.duplicate()
+        self._solve(self.rhs, self.x)
+        self.x.copy(response)
+        return response
 
     def _step(self) -> None:
         self._fixed_parts(self.rhs)

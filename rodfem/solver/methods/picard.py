@@ -31,15 +31,17 @@ iteration, untouched.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from petsc4py import PETSc
 
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.solver.errors import PicardNotConverged
 from rodfem.solver.linalg import lu_solver, stacked
 from rodfem.solver.methods.base import Method
 
-INF = PETSc.NormType.INFINITY
+if TYPE_CHECKING:
+    from petsc4py import PETSc
 
 
 class PicardMethod(Method):
@@ -53,7 +55,9 @@ class PicardMethod(Method):
         self.solve_momentum = lu_solver(self.momentum.A, "rodfem_momentum_")
         new = self.heat.A.createVecRight
         self._work = [new() for _ in range(4)]
-        self._fixed, (self._heat_step, self._momentum_step) = stacked(2, disc.nodes.size)
+        self._fixed, (self._heat_step, self._momentum_step) = stacked(2, disc.nodes.size,
+                                                                      disc.petsc)
+        self._inf = None  # PETSc's max-norm, on the first step it takes
         self._rhs = new()
         self._unit_response = None  # v = A_h⁻¹ e, for a variable exchange (on first use)
         self._heat_free = new()  # with a = 0 and a variable exchange, ΔΘⁿ without it
@@ -79,6 +83,11 @@ class PicardMethod(Method):
         return y if end is None else end.displacement(y, end.law.force(y))
 
     def _step(self) -> None:
+        if self._inf is None:
+            from petsc4py import PETSc
+
+            self._inf = PETSc.NormType.INFINITY
+        INF = self._inf  # noqa: N806
         h_step, m_step, rhs = self._heat_step, self._momentum_step, self._rhs
         N_du, N_theta = self.heat.N["du"], self.momentum.N["dtheta"]
         # The parts of both right-hand sides that stay fixed during the step; Θ^{n,l} = Θⁿ⁻¹ +

@@ -21,7 +21,8 @@ from rodfem.studies.steady import points as pt
 POINTS = "points.csv"
 POINT_COLUMNS = ("kind", "parameter", "u_1", "theta_1", "p", "sigma_1", "branch", "turns",
                  "before", "after", "omega", "period", "growth_rate", "parameter_continuum",
-                 "parameter_error", "period_continuum", "period_error", "asymptotic", "key")
+                 "parameter_error", "period_continuum", "period_error", "asymptotic", "key",
+                 "lyapunov", "lyapunov_error", "criticality")
 
 
 @dataclasses.dataclass
@@ -112,6 +113,7 @@ def _hopf(spectral: pt.Spectral, found, pair, extrapolate: bool, scene):
     hopf = spectral.hopf(before, after)
     if hopf is None:
         return None
+    hopf = Located(hopf, spectral.lyapunov(hopf))
     if not extrapolate:
         return hopf, None, None
     values, periods = [hopf.point.value], [2.0 * math.pi / hopf.omega]
@@ -123,6 +125,23 @@ def _hopf(spectral: pt.Spectral, found, pair, extrapolate: bool, scene):
         values.append(again.point.value)
         periods.append(2.0 * math.pi / again.omega)
     return hopf, pt.extrapolated(values), pt.extrapolated(periods)
+
+
+@dataclasses.dataclass(frozen=True)
+class Located:
+    """A Hopf point (:class:`~.points.Hopf`) with its first Lyapunov coefficient
+    (:class:`~rodfem.solver.lyapunov.Lyapunov`), on the scene's mesh."""
+
+    hopf: pt.Hopf
+    lyapunov: object
+
+    @property
+    def point(self):
+        return self.hopf.point
+
+    @property
+    def omega(self) -> float:
+        return self.hopf.omega
 
 
 def _near(spectral: pt.Spectral, branch, i: int, reach: int = 8):
@@ -146,12 +165,15 @@ def _point_row(point, row: dict, branch: int, key: str, before, after, hopf) -> 
              "after": _stability(after) if after else "", "omega": nan, "period": nan,
              "growth_rate": row["growth_rate"], "parameter_continuum": nan,
              "parameter_error": nan, "period_continuum": nan, "period_error": nan,
-             "asymptotic": "", "key": key}
+             "asymptotic": "", "key": key, "lyapunov": nan, "lyapunov_error": nan,
+             "criticality": ""}
     if point.kind in ("fold", "grazing"):  # the states are exact: so are these points
         found.update(parameter_continuum=point.value, parameter_error=0.0)
     if hopf is not None:
         located, value, period = hopf
-        found.update(omega=located.omega, period=2.0 * math.pi / located.omega)
+        found.update(omega=located.omega, period=2.0 * math.pi / located.omega,
+                     lyapunov=located.lyapunov.value, lyapunov_error=located.lyapunov.error,
+                     criticality=located.lyapunov.criticality)
         if value is not None:
             found.update(parameter_continuum=value.value, parameter_error=value.error,
                          period_continuum=period.value, period_error=period.error,
@@ -168,6 +190,9 @@ def point_lines(rows: list[dict], key: str) -> list[str]:
         extra = " (the branch turns back there)" if row["turns"] else ""
         if row["kind"] == "hopf":
             extra = f", period {row['period']:.6g}"
+            if row["criticality"]:
+                extra += (f", {row['criticality']} (l1 = {row['lyapunov']:.4g} ± "
+                          f"{row['lyapunov_error']:.1g})")
             if math.isfinite(row["parameter_continuum"]):
                 extra += (f"; continuum {row['parameter_continuum']:.8g} ± "
                           f"{row['parameter_error']:.2g}, period "

@@ -66,6 +66,7 @@ class Hopf:
 
     point: ct.Point
     omega: float
+    rate: float = 0.0  # the pair's real part there, at round-off
 
 
 class Spectral:
@@ -125,7 +126,37 @@ class Spectral:
         rate, pair = psi(self.eigenvalues(point))
         if pair is None or abs(rate) > CROSSING * abs(pair):
             return None
-        return Hopf(ct.Point(point.t, point.value, "hopf"), pair.imag)
+        return Hopf(ct.Point(point.t, point.value, "hopf"), pair.imag, rate)
+
+    def lyapunov(self, hopf: Hopf):
+        """The first Lyapunov coefficient at a located Hopf point
+        (:mod:`rodfem.solver.lyapunov`, q normalised by u(1)): a
+        :class:`~rodfem.solver.lyapunov.Lyapunov`, unknown where the rigid obstacle holds the
+        end or a law gives no derivatives of third order."""
+        from rodfem.model.expansion import expand
+        from rodfem.solver import banded
+        from rodfem.solver import lyapunov as ly
+
+        problem, state = self.state(hopf.point)
+        scene = self.scene_at(hopf.point.value)
+        try:
+            expansion = expand(problem, state)
+        except NotImplementedError:
+            return ly.UNKNOWN
+        lin = problem.linearise(state)
+        a, b, zeta = scene["model.a"], scene["model.b"], scene["model.zeta"]
+        dense = self.spectra.dense(scene)
+        if dense:
+            A, M = self.spectra.pencil(scene, lin)
+        else:
+            A, M = banded.pencil(self.spectra.sparse_operators(scene), a, b, zeta, lin)
+        n = A.shape[0] // 3
+        if not (np.all(np.isfinite(np.asarray(A.data if not dense else A)))):
+            return ly.UNKNOWN
+        try:
+            return ly.of_rod(A, M, complex(hopf.rate, hopf.omega), expansion, n, not dense)
+        except (ValueError, RuntimeError):
+            return ly.UNKNOWN
 
 
 @dataclasses.dataclass(frozen=True)
