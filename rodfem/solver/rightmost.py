@@ -7,7 +7,15 @@ solves by the banded LU of :mod:`rodfem.solver.banded` (LAPACK with partial pivo
 own LU does not pivot, and A − σB has zeros on its diagonal); its eigenvalues μ give λ = σ + 1/μ,
 those nearest the real target σ first. A first pass at σ = 0 finds the nearest; where its
 rightmost is real, a second pass at a target just right of it resolves the eigenvalues that
-crowd there (a Kelvin–Voigt rod's accumulate at −1/ζ). Each eigenvalue is then refined by
+crowd there. A Kelvin–Voigt rod's eigenvalues accumulate at −1/ζ (its fast modes, overdamped),
+and Krylov–Schur would spend its restarts on that cluster's members one by one: its passes
+leave out a disk about −1/ζ (SLEPc's region, radius CLUSTER/ζ, its right rim a tenth of that
+right of −1/ζ). Where nothing found lies right of the disk, the rightmost is in it (the
+cluster's edge, or a member standing apart just right of −1/ζ), found by :func:`edge`: block
+inverse iteration at a target, the rightmost few Ritz values refined, the target moved a
+hundredth of the way towards −1/ζ round by round, where the next members are far better
+separated relative to their distance from it, until a round finds none further right. Only the
+rightmost guesses are refined. Each eigenvalue is then refined by
 two-sided inverse iteration with the pencil factored at λ, which gives its left eigenvector y
 beside the right one x, and its error, to first order,
 
