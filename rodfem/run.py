@@ -125,11 +125,11 @@ def simulate(scene: Scene, out: Path | None, comm: MPI.Comm | None = None,
 
 def numpy_run(scene: Scene, comm: MPI.Comm) -> bool:
     """Whether a run's operators and state can be NumPy's (:mod:`rodfem.discrete.arrays`): on
-    one rank, with fixed steps that a compiled loop takes (:func:`compiled_kind`) and a constant
-    heat exchange, so that PETSc would do nothing but hold arrays (the paper scheme's first step
-    and the first rows, done in NumPy with PETSc's arithmetic). Adaptive runs, the PETSc loops
-    and parallel runs keep PETSc's objects."""
-    return (comm.size == 1 and not scene.adaptive and compiled_kind(scene) is not None
+    one rank, with steps that a compiled loop takes (:func:`compiled_kind`), fixed or adaptive,
+    and a constant heat exchange, so that PETSc would do nothing but hold arrays (the paper
+    scheme's first step, the first rows and the adaptive stepper's hand-over and estimate, done
+    in NumPy with PETSc's arithmetic). The PETSc loops and parallel runs keep PETSc's objects."""
+    return (comm.size == 1 and compiled_kind(scene) is not None
             and scene["heat_exchange.law"] == "constant")
 
 

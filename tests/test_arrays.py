@@ -68,3 +68,26 @@ def test_products_and_lu_are_petscs_bit_for_bit(name):
     for method in (with_petsc, with_numpy):
         method.advance()
     assert with_petsc.values.tobytes() == with_numpy.values.tobytes()
+
+
+# adaptive runs through a contact event: the paper scheme with Picard's loop (its first step
+# and Picard's failures made in Python) and Crank–Nicolson with the direct one
+ADAPTIVE = {"paper1": ["mesh.cells=60", "time.adaptive=true", "time.end=0.25"],
+            "stiff": ["mesh.cells=60", "time.adaptive=true", 'time.scheme="crank-nicolson"',
+                      "time.end=0.3"]}
+
+
+@pytest.mark.parametrize("name", ADAPTIVE)
+def test_an_adaptive_run_in_numpys_containers_is_petscs_bit_for_bit(name, monkeypatch):
+    """The stepper's own arithmetic on the state (its hand-over, error estimate and first steps)
+    gives the same history in NumPy's containers as in PETSc's."""
+    import rodfem.run
+
+    scene = load(name, ADAPTIVE[name])
+    assert rodfem.run.numpy_run(scene, MPI.COMM_SELF)
+    histories = []
+    for numpy in (True, False):
+        monkeypatch.setattr(rodfem.run, "numpy_run", lambda scene, comm, numpy=numpy: numpy)
+        histories.append(rodfem.run.simulate(scene, None, MPI.COMM_SELF, progress=False).history)
+    assert histories[0].shape == histories[1].shape and histories[0].shape[0] > 100
+    assert histories[0].tobytes() == histories[1].tobytes()

@@ -66,28 +66,40 @@ def test_a_commands_parser_alone_is_the_one_of_the_full_parser():
         assert alone[name].description == full[name].description
 
 
+# a small run of each kind of compiled loop: fixed steps (Picard's loop with the paper's first
+# step; the direct method with Crank–Nicolson), and adaptive ones through a contact event (the
+# paper scheme's first step and Picard's failures made in Python; Crank–Nicolson in C alone)
+SMALL_RUNS = {
+    "paper1": ["paper1", "--set", "time.end=0.01", "--set", "mesh.cells=100"],
+    "impact": ["impact", "--set", "time.end=0.01", "--set", "mesh.cells=100"],
+    "paper1, adaptive": ["paper1", "--set", "time.adaptive=true", "--set", "time.end=0.25",
+                         "--set", "mesh.cells=100"],
+    "stiff, adaptive": ["stiff", "--set", "time.adaptive=true", "--set",
+                        "time.scheme=crank-nicolson", "--set", "time.end=0.3"],
+}
+
+
 @pytest.mark.skipif(parallel.launched(), reason="starts its own processes; run serially")
-def test_a_small_serial_run_imports_neither_petsc4py_nor_mpi(tmp_path):
-    """Once its operators are cached (a first run), ``rodfem run paper1`` for ten steps (Picard's
-    loop, the paper's first step) and ``impact`` (the direct method, Crank–Nicolson) import no
-    petsc4py, nor dolfinx, nor scipy.linalg (the direct loop's band LU is its extension
-    module's, loaded alone), and do not start MPI (the process is MPI's only one)."""
+@pytest.mark.parametrize("name", SMALL_RUNS)
+def test_a_small_serial_run_imports_neither_petsc4py_nor_mpi(tmp_path, name):
+    """Once its operators are cached (a first run), a small run whose steps a compiled loop
+    takes, fixed or adaptive, imports no petsc4py, nor dolfinx, nor scipy.linalg (the direct
+    loop's band LU is its extension module's, loaded alone), and does not start MPI (the
+    process is MPI's only one)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [
         str(ROOT), os.environ.get("PYTHONPATH")])))
-    for name in ("paper1", "impact"):
-        for run in range(2):
-            done = subprocess.run(
-                [sys.executable, "-X", "importtime", "-m", "rodfem", "run", name, "--set",
-                 "time.end=0.01", "--set", "mesh.cells=100", "--out", str(tmp_path / name),
-                 "--force", "--quiet"],
-                env=env, cwd=tmp_path, capture_output=True, text=True, check=True)
-        imported = {line.split("|")[-1].strip() for line in done.stderr.splitlines()
-                    if line.startswith("import time:")}
-        assert "numpy" in imported and "rodfem.run" in imported  # the list is read
-        assert "petsc4py.PETSc" not in imported, name
-        assert "mpi4py.MPI" not in imported, name
-        assert "dolfinx" not in imported, name
-        assert "scipy.linalg" not in imported and "scipy.sparse" not in imported, name
+    for run in range(2):
+        done = subprocess.run(
+            [sys.executable, "-X", "importtime", "-m", "rodfem", "run", *SMALL_RUNS[name],
+             "--out", str(tmp_path / "out"), "--force", "--quiet"],
+            env=env, cwd=tmp_path, capture_output=True, text=True, check=True)
+    imported = {line.split("|")[-1].strip() for line in done.stderr.splitlines()
+                if line.startswith("import time:")}
+    assert "numpy" in imported and "rodfem.run" in imported  # the list is read
+    assert "petsc4py.PETSc" not in imported
+    assert "mpi4py.MPI" not in imported
+    assert "dolfinx" not in imported
+    assert "scipy.linalg" not in imported and "scipy.sparse" not in imported
 
 
 def test_the_world_without_mpi_answers_as_mpis_of_one_process():

@@ -95,6 +95,18 @@ def scipy_lapack():
     return _lapack[0]
 
 
+def solve_tridiagonal(ab: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``scipy.linalg.solve_banded((1, 1), ab, b)`` as SciPy computes it (LAPACK's ``dgtsv`` on
+    copies of the three diagonals), without importing scipy.linalg (:func:`scipy_lapack`)."""
+    *_, x, info = scipy_lapack().dgtsv(np.array(ab[2, :-1], dtype=float),
+                                       np.array(ab[1, :], dtype=float),
+                                       np.array(ab[0, 1:], dtype=float),
+                                       np.array(b, dtype=float))
+    if info != 0:
+        raise np.linalg.LinAlgError(f"a tridiagonal matrix is singular (dgtsv's info {info})")
+    return x
+
+
 def _flapack_alone():
     """scipy.linalg._flapack loaded from its file without its package, or None."""
     import importlib.machinery

@@ -133,7 +133,7 @@ class Bound:
     def first_step(self) -> None:
         """The paper scheme's first step U¹ = U⁰ + h P u₁ of the home method (its D the step's:
         h P u₁), Θ¹ from (3.1) at h: :meth:`Method._first_step` with the operators of h."""
-        from scipy.linalg import solve_banded
+        from rodfem.solver.compiled.direct import solve_tridiagonal
 
         method, family = self.method, self.family
         lam, n, last = family.dt0 / self.h, self.n, method.last
@@ -142,11 +142,11 @@ class Bound:
         heat = family.first_step_operators(lam)
         rhs = heat["theta_prev"] @ theta + heat["b"] + heat["du"] @ d
         banded = heat["A"]
-        dtheta = solve_banded((1, 1), banded, rhs)
+        dtheta = solve_tridiagonal(banded, rhs)
         if method.exchange.variable:  # Method._first_exchange, at h
             q = method.exchange.extra(float(u[last] + d[last]), 0.0)
             if q != 0.0:
-                v = solve_banded((1, 1), banded, -heat["e"])
+                v = solve_tridiagonal(banded, -heat["e"])
                 T = (float(theta[last]) + method.offset) + dtheta[last]
                 dtheta += q * T / (1.0 - q * v[last]) * v
         theta += dtheta
