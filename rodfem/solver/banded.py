@@ -4,9 +4,9 @@ whose dense eigenproblem is too slow.
 Its unknowns are taken node by node, (θ_i, u_i, v_i) for i = 1 … n (the held end keeps only θ_n):
 P1's M, M_b, K and G are tridiagonal, and the exchange's terms at x = 1 couple only the last
 nodes, so A and B are banded with at most 5 diagonals on each side. :class:`Band` factors
-A − z B by LAPACK's banded LU with partial pivoting (real arithmetic for a real z) in O(N) memory and time:
-the solves of shift-and-invert (:mod:`rodfem.solver.rightmost`) and the determinant's phase of
-the stability count.
+A − z B by LAPACK's banded LU with partial pivoting (real arithmetic for a real z) in O(N)
+memory and time: the solves of shift-and-invert (:mod:`rodfem.solver.rightmost`) and the
+determinant's phase of the stability count.
 """
 
 from __future__ import annotations

@@ -216,9 +216,9 @@ def edge(A, B, band: Band, centre: float, rim: float, norms: tuple[float, float]
     target is moved to a hundredth of the way from the rightmost found so far towards −1/ζ
     (where the Kelvin–Voigt cluster's members crowd from the left) or towards the previous
     target (where the rightmost lies right of −1/ζ), −1/ζ itself after the rim where none lies
-    right of it: those found nearest it, the rightmost few
-    refined, are far better separated relative to their distance from it, and a round that
-    finds none further right ends the search."""
+    right of it: those found nearest it, the rightmost few refined, are far better separated
+    relative to their distance from it, and a round that finds none further right ends the
+    search."""
     best: tuple[complex, float] | None = None
     target = centre + rim
     for _ in range(rounds):
