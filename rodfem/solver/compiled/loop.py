@@ -73,13 +73,21 @@ def classes(columns: dict[str, np.ndarray], compress: bool = True):
     assert all(v.ndim == 2 and v.shape[0] == n for v in columns.values())
     if not compress:
         return np.arange(n, dtype=np.intc), columns
-    bits = np.concatenate([v.view(np.int64) for v in columns.values()], axis=1)
-    _, first, inverse = np.unique(bits, axis=0, return_index=True, return_inverse=True)
-    order = np.argsort(first)  # classes numbered by first occurrence
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
-    cls = np.ascontiguousarray(rank[inverse.reshape(-1)], dtype=np.intc)
-    tables = {k: np.ascontiguousarray(v[first[order]]) for k, v in columns.items()}
+    # a row's bytes as a dict key: classes numbered by first occurrence in one pass (NumPy's
+    # unique over rows sorts them as void records: 2–4 times slower)
+    bits = np.ascontiguousarray(np.concatenate([v.view(np.int64) for v in columns.values()],
+                                               axis=1))
+    data, width = bits.tobytes(), bits.shape[1] * 8
+    seen: dict[bytes, int] = {}
+    first: list[int] = []
+    rows = []
+    for i in range(n):
+        c = seen.setdefault(data[i * width:(i + 1) * width], len(first))
+        if c == len(first):
+            first.append(i)
+        rows.append(c)
+    cls = np.array(rows, dtype=np.intc)
+    tables = {k: np.ascontiguousarray(v[first]) for k, v in columns.items()}
     assert all(np.array_equal(t[cls].view(np.int64), columns[k].view(np.int64))
                for k, t in tables.items())
     return cls, tables
