@@ -37,7 +37,20 @@ def main() -> int:
         print(f"rodfem: {interrupts.Interrupted(signum)}; stopped during start-up, nothing "
               "written", file=sys.stderr)
         return 128 + signum
-    return cli()
+    code = cli()
+    ending()
+    return code
+
+
+def ending() -> None:
+    """The process ends after this: what it made is left to the interpreter's exit out of the
+    reach of its cyclic garbage collection (``gc.freeze``), which at exit walks every object
+    of every module imported, 25–35 ms of a small run's 0.25 s. Everything rodfem writes is
+    closed by then; objects are freed by their reference counts as at any exit, and the C
+    libraries' own exit handlers (HDF5's, MPI's through mpi4py) run as before."""
+    import gc
+
+    gc.freeze()
 
 
 if __name__ == "__main__":
