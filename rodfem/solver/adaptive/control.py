@@ -22,8 +22,8 @@ states.
 **The norm** is relative, per field: the root mean square over the nodes of the error in Θ, in
 the velocity and in U, each over the largest max-norm that field has had in the run so far, and
 the error in p over the largest contact force or strain (a stress) so far (not for the rigid
-obstacle's multiplier where it jumps at an impact: :class:`~.stepper.AdaptiveStepper`), each
-size at least the one the scene gives a field that starts at nothing (:meth:`ErrorNorm.seed`); the step's error is the
+obstacle's multiplier at a node with mass, an impulse at an impact), each size at least the one
+the scene gives a field that starts at nothing (:meth:`ErrorNorm.seed`); the step's error is the
 largest of these over ``time.tolerance`` (0, the default: 5e-5 for the paper's scheme, 1e-3 for
 Crank–Nicolson's, :data:`rodfem.scene.schema.TOLERANCES`), and a step is accepted where it is at
 most 1.
@@ -90,7 +90,7 @@ class ErrorNorm:
     dt0: float = 1.0
     massless_end: bool = False  # a redistributed mass: D(1) is not a velocity, left out
     maxima: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4))
-    force: bool = True  # whether p is measured (not where it jumps: see AdaptiveStepper)
+    force: bool = True  # whether p is measured (not an impulse: see AdaptiveStepper)
     _last: tuple | None = dataclasses.field(default=None, repr=False)  # (y, maxima, grown)
 
     def seed(self, y: np.ndarray, temperature: float, a: float) -> None:

@@ -95,19 +95,12 @@ class AdaptiveStepper:
         # massless end's force is its settled one, ψ'(y), already the state's.
         self.end_force = (home.time_scheme.gradient_contact and not self.rigid
                           and not home.disc.redistributed)
-        # The rigid obstacle's multiplier jumps at an impact where the end's equation has a
-        # time derivative: at a node with mass it is an impulse (the node's momentum over the
-        # step, ~ m v/h whatever h), at a massless end with viscosity the viscous stress of the
-        # end stopped at once, ~ ζ v/cell (then relaxing over ~ cell²/ζ, where Crank–Nicolson's
-        # multiplier, a force of the step's middle, is first order: on stiff with 1,000 cells at
-        # tolerance 1e-4 it asked for steps of 7e-10). Neither is a function of time whose error
-        # a smaller step reduces, so only the fields are measured. An end without either (an
-        # eliminated end, or ζ = 0) pushes with a force that starts at 0: measured.
-        redistributed = home.disc.redistributed
-        jumps = self.rigid and ((scene["model.b"] != 0.0 and not redistributed)
-                                or (scene["model.zeta"] != 0.0 and home.massless is None))
+        # The rigid obstacle's multiplier at a node with mass is an impulse at an impact (the
+        # node's momentum over the step, ~ m v/h whatever h): not a function of time whose
+        # error a smaller step reduces, so only the fields are measured.
+        impulse = self.rigid and scene["model.b"] != 0.0 and not home.disc.redistributed
         self.norm = ErrorNorm(self.nodes, 1.0 / scene["mesh.cells"], scene["model.b"],
-                              self.dt0, redistributed, force=not jumps)
+                              self.dt0, home.disc.redistributed, force=not impulse)
         self.cell = 1.0 / scene["mesh.cells"]
         self.t, self.h = 0.0, self.dt0
         self.cap = np.inf  # Picard: half the smallest step it failed at
