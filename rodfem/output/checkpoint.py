@@ -170,7 +170,8 @@ def _wrong_adaptive(arrays: dict[str, np.ndarray], meta: dict) -> str | None:
     state = arrays["state"].size + 1
     if any(a.dtype != np.float64 for a in (controller, times, past)):
         return "its controller's arrays are not float64"
-    if controller.shape != (8,) or times.ndim != 1 or not 1 <= times.size <= 3:
+    # no past state: just after an impact whose multiplier jumps (AdaptiveStepper.jumps)
+    if controller.shape != (8,) or times.ndim != 1 or not 0 <= times.size <= 3:
         return f"its controller is of shape {controller.shape}, its times {times.shape}"
     if past.shape != (times.size, state):
         return f"its past states are of shape {past.shape}"
@@ -180,7 +181,7 @@ def _wrong_adaptive(arrays: dict[str, np.ndarray], meta: dict) -> str | None:
         return "its controller's state is not finite"
     if not (t >= 0.0 and h > 0.0 and error >= 0.0 and min(sizes) >= 0.0):
         return "its controller's time, step, error or sizes are negative"
-    if times[-1] != t or (np.diff(times) <= 0.0).any():
+    if (times.size and times[-1] != t) or (np.diff(times) <= 0.0).any():
         return "its controller's past times do not end at its time"
     return None
 

@@ -83,6 +83,7 @@ class CompiledSteps:
         if norm.dt0 != stepper.dt0:
             raise ValueError("the norm's Δt₀ is not the stepper's")
         R.b, R.massless_end, R.force = norm.b, int(norm.massless_end), int(norm.force)
+        R.jumps = int(stepper.jumps)
         energy = history.energy
         arrays = self._arrays = {
             "past": np.zeros((stepper.order + 1) * (3 * n + 1)),

@@ -72,6 +72,9 @@ typedef struct {
      * p is measured, the largest sizes so far (Theta, D, U, stress) */
     double b;
     int massless_end, force;
+    /* whether the measured p jumps at an impact (AdaptiveStepper.jumps): the estimate then
+     * restarts without the event's own state */
+    int jumps;
     double maxima[4];
     /* the accepted states since the last restart, a ring of order + 1 places: the k-th oldest
      * (k < count) is past + ((head + k) % (order + 1)) (3n + 1), at the time past_t[same] */
@@ -795,9 +798,9 @@ long RA_NAME(ra_run *R, long max_steps)
         for (int m = 0; m < 4; m++)
             R->maxima[m] = grown[m];
         int at;
-        if (event) {  /* the estimate starts again from this state: its derivatives jump */
+        if (event) {  /* the estimate starts again from this state (or after it, where p jumps) */
             R->head = at = 0;
-            R->count = 1;
+            R->count = R->jumps ? 0 : 1;
             R->events++;
         } else {
             at = ra_place(R);
