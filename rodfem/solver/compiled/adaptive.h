@@ -331,9 +331,10 @@ static double ra_norm(const ra_run *R, const double *sq, double e_p, const doubl
 
 /* AdaptiveStepper._predicted: the local error of the step h just taken (to y = [s; p]), by
  * Milne's device from the last order + 1 states (control.py's extrapolate and milne), in
- * ErrorNorm's norm. The sums are NumPy's: the extrapolation from 0 term by term, the squares
- * pairwise. */
-static double ra_predicted(ra_run *R, double h, const double *s, double p, double grown[4])
+ * ErrorNorm's norm, p's error counted where `measured` (not at an event where p jumps). The
+ * sums are NumPy's: the extrapolation from 0 term by term, the squares pairwise. */
+static double ra_predicted(ra_run *R, double h, const double *s, double p, int measured,
+                           double grown[4])
 {
     const int n = R->n, k = R->order + 1, size = 3 * n + 1, places = R->order + 1;
     const double t = R->t + h;
@@ -369,7 +370,7 @@ static double ra_predicted(ra_run *R, double h, const double *s, double p, doubl
     double e_p = 0.0;
     for (int i = 0; i < k; i++)
         e_p += states[i][3 * (size_t)n] * weight[i];
-    e_p = (p - e_p) * factor;
+    e_p = measured ? (p - e_p) * factor : 0.0;
     ra_grow(R, fields, jump, p, grown);
     return ra_norm(R, sq, e_p, grown);
 }
@@ -784,7 +785,8 @@ long RA_NAME(ra_run *R, long max_steps)
         }
         double grown[4];
         const double measured = ra_measured(R);
-        double error = ra_predicted(R, h_taken, R->values, measured, grown);
+        /* a jump of p at the event is no error (AdaptiveStepper.jumps) */
+        double error = ra_predicted(R, h_taken, R->values, measured, !(event && R->jumps), grown);
         if (!(error <= 1.0)) {
             ra_restore(R, step, iterations, pressure);
             const long code = ra_reject(R, h_taken, error);
