@@ -252,6 +252,27 @@ def test_the_checks_can_fail():
     assert not UNIT.search("$\\sigma(1, t)$") and UNIT.search("$\\sigma(1, t)$ [$E$]")
 
 
+def test_wide_tick_labels_move_the_panels_in_rather_than_shrink_the_label():
+    """A narrow range's tick labels (4.8600 … 4.8450: the energy of a run stopped after two
+    steps) pushed the y label of a figure with fixed margins off the canvas, which then set it in
+    6-point type, and the last t tick too: the axes move in instead, the texts keep their size."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(12, 9), dpi=100)
+    grid = fig.add_gridspec(1, 1, left=0.075, right=0.98, bottom=0.15, top=0.91)
+    ax = fig.add_subplot(grid[0, 0])
+    ax.plot([0.0, 0.001], [4.8615, 4.8437])
+    ax.set_xlim(0.0, 0.001)
+    ax.set_ylabel(r"$\ln(\hat{E} + 0.01)$, $\hat{E}$ in [$EL$]", fontsize=15)
+    ax.tick_params(labelsize=12)
+    assert figures.outside(fig)  # as drawn: beyond the left and right edges
+    sizes = [t.get_fontsize() for t in (ax.yaxis.label, *ax.get_xticklabels())]
+    assert figures.fit_texts(fig)
+    assert figures.outside(fig) == []
+    assert [t.get_fontsize() for t in (ax.yaxis.label, *ax.get_xticklabels())] == sizes
+    assert ax.get_position().x0 > 0.075
+
+
 @pytest.mark.parametrize("fmt", figures.FORMATS)
 def test_the_same_figure_drawn_twice_is_the_same_bytes(fmt, tmp_path):
     """A resumed study draws its figure again: the file is the one an unstopped study writes

@@ -109,10 +109,43 @@ def _undrawn_tick_labels(fig) -> set[int]:
     return hidden
 
 
+def make_room(fig, texts: list) -> bool:
+    """Where ``texts`` outside the canvas (:func:`outside`) hold tick or axis labels that reach
+    beyond its left or right edge (the wide tick labels of a narrow range, 4.8600 … 4.8450,
+    push the y label off), move the axes in: every axes' horizontal extent mapped by one affine
+    map that takes the overflow back inside, so that the panels, the legend's strip and the
+    colour bar keep their proportions. Not for a figure with a layout engine, which places its
+    axes itself. Returns whether the axes moved."""
+    if fig.get_layout_engine() is not None:
+        return False
+    labels = {id(t) for ax in fig.axes for axis in (ax.xaxis, ax.yaxis)
+              for t in (axis.label, *axis.get_ticklabels(which="both"))}
+    renderer, box = fig.canvas.get_renderer(), fig.bbox
+    left = right = 0.0  # the overflow, a fraction of the canvas's width
+    for text in texts:
+        if id(text) in labels:
+            extent = text.get_window_extent(renderer)
+            left = max(left, (box.x0 - extent.x0 + 2.0) / box.width)
+            right = max(right, (extent.x1 - box.x1 + 2.0) / box.width)
+    if left <= 0.0 and right <= 0.0 or left + right >= 0.25:  # none, or beyond a little room
+        return False
+    left, right = max(left, 0.0), max(right, 0.0)
+    for ax in fig.axes:
+        x0, y0, width, height = ax.get_position().bounds
+        scale = 1.0 - left - right
+        ax.set_position((left + x0 * scale, y0, width * scale, height))
+    return True
+
+
 def fit_texts(fig) -> bool:
-    """Set each text that reaches beyond the canvas smaller, down to :data:`SMALLEST` points,
-    and then wrap it at its words, until it lies inside (or cannot be made to). Returns whether
-    the canvas holds the figure as it is now (drawn last with every text inside)."""
+    """Make room for tick and axis labels beyond the canvas's sides (:func:`make_room`), then set
+    each text that still reaches beyond it smaller, down to :data:`SMALLEST` points, and then
+    wrap it at its words, until it lies inside (or cannot be made to). Returns whether the
+    canvas holds the figure as it is now (drawn last with every text inside)."""
+    for _ in range(2):
+        texts = outside(fig)
+        if not texts or not make_room(fig, texts):
+            break
     for _ in range(12):
         texts = outside(fig)
         if not texts:
