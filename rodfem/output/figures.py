@@ -127,7 +127,7 @@ def make_room(fig, texts: list) -> bool:
             extent = text.get_window_extent(renderer)
             left = max(left, (box.x0 - extent.x0 + 2.0) / box.width)
             right = max(right, (extent.x1 - box.x1 + 2.0) / box.width)
-    if left <= 0.0 and right <= 0.0 or left + right >= 0.25:  # none, or beyond a little room
+    if (left <= 0.0 and right <= 0.0) or left + right >= 0.25:  # none, or more than a little
         return False
     left, right = max(left, 0.0), max(right, 0.0)
     for ax in fig.axes:
