@@ -160,6 +160,8 @@ CONTROLLER_EDITS = {
     "error nan": _item("controller", 2, np.nan),
     "a size infinite": _item("controller", 5, np.inf),
     "past missing": _drop("past"),
+    "past emptied": lambda arrays, meta: arrays.update(past=arrays["past"][:0],
+                                                       past_t=arrays["past_t"][:0]),
     "controller gone": _drop("controller", "past_t", "past", "adaptive"),
     "counts missing": _drop("adaptive"),
     "counts negative": lambda arrays, meta: meta.update(adaptive={"rejected": -1,

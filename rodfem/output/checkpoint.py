@@ -154,6 +154,23 @@ ADAPTIVE = {"controller": 8, "past_t": None, "past": None}
 COUNTS = ("rejected", "events")
 
 
+def _jumps(scene) -> bool:
+    """Whether the scene data ``scene`` (Scene.data) is one whose measured contact force jumps
+    at an impact, after which an adaptive run holds no past state
+    (:func:`rodfem.solver.adaptive.control.force_jumps`)."""
+    from rodfem.solver.adaptive.control import force_jumps
+
+    if not isinstance(scene, dict):
+        return False
+
+    def value(key: str):
+        section, name = key.split(".")
+        entries = scene.get(section)
+        return entries.get(name) if isinstance(entries, dict) else None
+
+    return force_jumps(value)
+
+
 def _wrong_adaptive(arrays: dict[str, np.ndarray], meta: dict) -> str | None:
     """What is wrong with the adaptive controller's arrays and counts (all or none), or None."""
     present = [name for name in ADAPTIVE if name in arrays]
@@ -170,9 +187,11 @@ def _wrong_adaptive(arrays: dict[str, np.ndarray], meta: dict) -> str | None:
     state = arrays["state"].size + 1
     if any(a.dtype != np.float64 for a in (controller, times, past)):
         return "its controller's arrays are not float64"
-    # no past state: just after an impact whose multiplier jumps (AdaptiveStepper.jumps)
     if controller.shape != (8,) or times.ndim != 1 or not 0 <= times.size <= 3:
         return f"its controller is of shape {controller.shape}, its times {times.shape}"
+    if times.size == 0 and not _jumps(meta.get("scene")):
+        return "its controller has no past state (only just after an impact the scene's " \
+               "contact force jumps at has it none)"
     if past.shape != (times.size, state):
         return f"its past states are of shape {past.shape}"
     t, h, error, cap, *sizes = (float(v) for v in controller)

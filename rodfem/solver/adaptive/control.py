@@ -41,10 +41,31 @@ import math
 
 import numpy as np
 
+from rodfem.scene.schema import REDISTRIBUTED
+
 RUNGS = 4  # ladder rungs per doubling of the step
 SAFETY, GROW, SHRINK = 0.9, 5.0, 0.2
 TINY = 1e-10  # the smallest error the controller divides by
 ROUNDOFF = 1e-12  # Θ⁰ at most this of the temperatures: the rod starts at its steady one
+
+
+def force_measured(value) -> bool:
+    """Whether the norm measures the contact force p (``value``: a scene's value of a dotted
+    key): not the rigid obstacle's multiplier at an end with mass, an impulse at an impact
+    (the node's momentum over the step, ~ m v/h whatever h: not a function of time whose error a
+    smaller step reduces), where only the fields are measured."""
+    return not (value("obstacle.kind") == "rigid" and value("model.b") != 0.0
+                and value("discretisation.mass") not in REDISTRIBUTED)
+
+
+def force_jumps(value) -> bool:
+    """Whether the measured p jumps at an impact: the rigid obstacle's multiplier where the
+    end's equation has the viscosity's time derivative (ζ > 0) and no mass, where the end is
+    stopped at once (the viscous stress ~ ζ v/cell, relaxing after it). The step that ends at
+    the event is then measured without p, and the estimate restarts from the states after the
+    event only (:class:`~.stepper.AdaptiveStepper`)."""
+    return (value("obstacle.kind") == "rigid" and value("model.zeta") != 0.0
+            and force_measured(value))
 
 
 def rung(dt0: float, h: float) -> float:

@@ -63,7 +63,8 @@ import numpy as np
 
 from rodfem.model.robin import temperature
 from rodfem.scene.schema import TOLERANCES
-from rodfem.solver.adaptive.control import Controller, ErrorNorm, extrapolate, milne, rung
+from rodfem.solver.adaptive.control import (Controller, ErrorNorm, extrapolate, force_jumps,
+                                           force_measured, milne, rung)
 from rodfem.solver.errors import NotConverged, NoUniqueStep, PicardNotConverged, StepTooSmall
 from rodfem.solver.linalg import free_garbage
 
@@ -95,22 +96,17 @@ class AdaptiveStepper:
         # massless end's force is its settled one, ψ'(y), already the state's.
         self.end_force = (home.time_scheme.gradient_contact and not self.rigid
                           and not home.disc.redistributed)
-        # The rigid obstacle's multiplier at a node with mass is an impulse at an impact (the
-        # node's momentum over the step, ~ m v/h whatever h): not a function of time whose
-        # error a smaller step reduces, so only the fields are measured.
-        impulse = self.rigid and scene["model.b"] != 0.0 and not home.disc.redistributed
+        # The rigid obstacle's multiplier is not measured where it is an impulse (force_measured),
+        # and where it jumps at an impact (a viscous end without mass: force_jumps), its value at
+        # the event is the one before the jump: an extrapolation through it asked for steps below
+        # time.dt_min (stiff, redistributed mass, 1,000 cells: 6.6e-10 at tolerance 1e-4), and
+        # the paper scheme's step to the event measured against the steps before it asked for
+        # 1e-11 at 1e-7. That step is measured without p (the jump is no error of the step), and
+        # the estimate restarts from the states after the event only (:meth:`_accept`).
         self.norm = ErrorNorm(self.nodes, 1.0 / scene["mesh.cells"], scene["model.b"],
-                              self.dt0, home.disc.redistributed, force=not impulse)
-        # Where the rigid obstacle's multiplier is measured and the end's equation has the
-        # viscosity's time derivative (ζ > 0; an end with mass has the impulse, left out above),
-        # the multiplier jumps at an impact by the viscous stress of the end stopped at once,
-        # ~ ζ v/cell, and then relaxes: its value at the event is the one before the jump, and an
-        # extrapolation through it asked for steps below time.dt_min (stiff, redistributed mass,
-        # 1,000 cells: 6.6e-10 at tolerance 1e-4). The step that ends at the event is then
-        # measured without p (the jump is no error of the step: the paper scheme at 1e-7 asked
-        # for 1e-11), and the estimate restarts from the states after the event only, the
-        # event's own left out (:meth:`_accept`).
-        self.jumps = self.rigid and self.norm.force and scene["model.zeta"] != 0.0
+                              self.dt0, home.disc.redistributed,
+                              force=force_measured(scene.__getitem__))
+        self.jumps = force_jumps(scene.__getitem__)
         self.cell = 1.0 / scene["mesh.cells"]
         self.t, self.h = 0.0, self.dt0
         self.cap = np.inf  # Picard: half the smallest step it failed at
