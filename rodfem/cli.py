@@ -464,14 +464,16 @@ def _main(argv: list[str] | None) -> int:
         commands.say(f"rodfem: error: {err}")
         return commands.EXIT_INPUT
     except Exception as err:  # noqa: BLE001 (what a signal or a failed write became)
+        from rodfem.output import handover
+
         signum = interrupts.signal_behind(err)
         if signum is not None:
             again = _release("interrupted")
             # said by every rank that gets here, not rank 0's alone: this rank may end the others
-            # (abort_ranks) before rank 0 has said anything
+            # (handover.abort_ranks) before rank 0 has said anything
             print(f"rodfem: {interrupts.Interrupted(signum)}; stopped outside a time loop, "
                   f"nothing half-written{again}", file=sys.stderr, flush=True)
-            interrupts.abort_ranks(128 + signum)
+            handover.abort_ranks(128 + signum)
             return 128 + signum
         from rodfem.solver.errors import KernelUnavailable
 
@@ -484,7 +486,7 @@ def _main(argv: list[str] | None) -> int:
             from rodfem.output.atomic import io_line
 
             commands.say(f"rodfem: error: {io_line(err)}")
-            interrupts.abort_ranks(commands.EXIT_IO)
+            handover.abort_ranks(commands.EXIT_IO)
             return commands.EXIT_IO
         raise
 

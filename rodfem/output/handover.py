@@ -1,7 +1,7 @@
 """How a command stopped is recorded before any rank ends the others.
 
 Under MPI rank 0 alone holds a command's directories and writes their markers; a rank stopped by
-a signal outside the time loop ends every rank (:func:`rodfem.output.interrupts.abort_ranks`),
+a signal outside the time loop ends every rank (:func:`abort_ranks`),
 rank 0 with them, perhaps while rank 0 is busy in compiled code or waiting for that very rank.
 Rank 0's marker must not be left saying ``running`` (read as ``gone``, as after a kill). So:
 
@@ -21,10 +21,13 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 import time
 from pathlib import Path
 
+from rodfem.output.interrupts import SIGNALS, Interrupted, signal_received
 from rodfem.output.writers import read_marker, write_marker
+from rodfem.parallel import LAUNCHED
 
 TAG = 0x52F0  # the tag of a rank's word to rank 0 that it is stopping
 GRACE = 2.0  # seconds a stopping rank waits for rank 0 to end every rank itself
@@ -77,8 +80,6 @@ def meet(comm) -> None:
         return
     from mpi4py import MPI
 
-    from rodfem.output.interrupts import Interrupted, signal_received
-
     request = comm.Ibarrier()
     world, word, noted = MPI.COMM_WORLD, MPI.Status(), None
     while not request.Test():
@@ -101,14 +102,26 @@ def notify(code: int) -> None:
     if world.rank == 0 or code <= 128 or _known:
         return
     world.isend(code - 128, dest=0, tag=TAG)
-    signal.pthread_sigmask(signal.SIG_BLOCK, _stop_signals())  # this rank is ending anyway
+    signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)  # this rank is ending anyway
     time.sleep(GRACE)
 
 
-def _stop_signals():
-    from rodfem.output.interrupts import SIGNALS
-
-    return SIGNALS
+def abort_ranks(code: int) -> None:
+    """Under MPI, end every rank: a rank stopped outside the time loop may leave the others
+    waiting in a collective call for ever (a signal that reached the ranks at different
+    points of their start-up). Open MPI then prints its own lines. A launcher's rank stopped
+    in the import of mpi4py.MPI (MPI started, the module not kept) ends without MPI_Finalize,
+    which would wait for those ranks: the launcher then ends the job. Rank 0's markers are
+    written first (:func:`notify`)."""
+    MPI = getattr(sys.modules.get("mpi4py.MPI"), "COMM_WORLD", None)
+    if MPI is None and "mpi4py" in sys.modules and any(v in os.environ for v in LAUNCHED):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    if MPI is not None and MPI.Get_size() > 1:
+        sys.stderr.flush()
+        notify(code)  # rank 0 records how the command stopped before it is ended
+        MPI.Abort(code)
 
 
 def pause_for_tests(comm) -> None:
@@ -116,7 +129,7 @@ def pause_for_tests(comm) -> None:
     seconds = float(os.environ.get(PAUSE, "0") or 0)
     if seconds <= 0:
         return
-    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, _stop_signals()) if comm.rank == 0 \
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS) if comm.rank == 0 \
         else None
     try:
         time.sleep(seconds)

@@ -199,23 +199,3 @@ def signal_behind(err: BaseException) -> int | None:
         seen.add(id(err))
         err = err.__cause__ or err.__context__
     return signal_received()
-
-
-def abort_ranks(code: int) -> None:
-    """Under MPI, end every rank: a rank stopped outside the time loop may leave the others
-    waiting in a collective call for ever (a signal that reached the ranks at different
-    points of their start-up). Open MPI then prints its own lines. A launcher's rank stopped
-    in the import of mpi4py.MPI (MPI started, the module not kept) ends without MPI_Finalize,
-    which would wait for those ranks: the launcher then ends the job. Rank 0's markers are
-    written first (:mod:`rodfem.output.handover`)."""
-    MPI = getattr(sys.modules.get("mpi4py.MPI"), "COMM_WORLD", None)
-    if MPI is None and "mpi4py" in sys.modules and any(v in os.environ for v in LAUNCHED):
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(code)
-    if MPI is not None and MPI.Get_size() > 1:
-        sys.stderr.flush()
-        from rodfem.output.handover import notify
-
-        notify(code)  # rank 0 records how the command stopped before it is ended
-        MPI.Abort(code)

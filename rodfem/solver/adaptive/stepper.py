@@ -96,13 +96,8 @@ class AdaptiveStepper:
         # massless end's force is its settled one, ψ'(y), already the state's.
         self.end_force = (home.time_scheme.gradient_contact and not self.rigid
                           and not home.disc.redistributed)
-        # The rigid obstacle's multiplier is not measured where it is an impulse (force_measured),
-        # and where it jumps at an impact (a viscous end without mass: force_jumps), its value at
-        # the event is the one before the jump: an extrapolation through it asked for steps below
-        # time.dt_min (stiff, redistributed mass, 1,000 cells: 6.6e-10 at tolerance 1e-4), and
-        # the paper scheme's step to the event measured against the steps before it asked for
-        # 1e-11 at 1e-7. That step is measured without p (the jump is no error of the step), and
-        # the estimate restarts from the states after the event only (:meth:`_accept`).
+        # p is measured but where it is an impulse; where it jumps at an impact, the step to the
+        # event is measured without it and the estimate restarts after the event (control.py)
         self.norm = ErrorNorm(self.nodes, 1.0 / scene["mesh.cells"], scene["model.b"],
                               self.dt0, home.disc.redistributed,
                               force=force_measured(scene.__getitem__))
