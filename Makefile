@@ -4,8 +4,8 @@ PY := .venv/bin/python
 MPIRUN := OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 \
   PRTE_MCA_rmaps_default_mapping_policy=:oversubscribe mpirun
 
-.PHONY: setup demo test test-full test-serial test-mpi check fuzz bench clean container-test \
-  container-test-sid docs test-docs notebooks
+.PHONY: setup demo test test-full test-serial test-mpi test-container check check-mpi fuzz bench \
+  clean container-test container-test-sid docs test-docs notebooks
 
 setup:
 	@scripts/setup.sh
@@ -46,7 +46,14 @@ CHECK_SERIAL := tests/test_architecture.py tests/test_expressions.py tests/test_
 
 check: setup
 	$(PY) -m pytest -q $(CHECK_SERIAL)
+	$(MAKE) --no-print-directory check-mpi
+
+check-mpi:
 	$(MPIRUN) -n 2 $(PY) -m mpi4py -m pytest -q $(CHECK_MPI)
+
+# The suite the container checks run: the serial suite whole (its tests that start mpirun
+# included), then check's part on two ranks. The whole suite on two ranks is make test's, natively.
+test-container: setup test-serial check-mpi
 
 # Scene loading fuzzed with 10^4 examples per property (the suite runs 150), and steady states
 # and their verdicts over 2,000 random scenes (the suite runs 25).
@@ -86,7 +93,8 @@ bench: setup
 	$(PY) benchmarks/bench_scaling.py
 
 # The container recipe (containers/Dockerfile, Debian 13) without Docker: a debootstrapped trixie
-# chroot in build/, the Dockerfile's install step, then `make test` and an mpirun paper run there.
+# chroot in build/, the Dockerfile's install step, then `make test-container` and an mpirun paper
+# run there.
 container-test:
 	scripts/container-test.sh
 

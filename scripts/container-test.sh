@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Check containers/Dockerfile without a Docker engine: carry out its instructions in a Debian root
-# filesystem made by debootstrap, then run the whole test suite (`make test`) and one
-# `mpirun -n 2` paper run there. CONTAINER_DOCKERFILE=containers/Dockerfile.sid checks another
-# recipe (its ignore file is the one BuildKit reads: containers/Dockerfile.sid.dockerignore).
+# filesystem made by debootstrap, then run the serial test suite whole, check's part on two ranks
+# (`make test-container`) and one `mpirun -n 2` paper run there. CONTAINER_DOCKERFILE=
+# containers/Dockerfile.sid checks another recipe (its ignore file is the one BuildKit reads:
+# containers/Dockerfile.sid.dockerignore).
 #
 #   FROM debian:<suite>    debootstrap --variant=minbase <suite> build/<suite> (kept for the next
 #                          run; CONTAINER_FRESH=1 makes it again)
@@ -226,8 +227,8 @@ build_args=() # build time only
 
 # --- The suite and a paper run, in the installed image. ---
 [ -x "$rootfs$entrypoint" ] || die "ENTRYPOINT $entrypoint is not an executable in the image"
-say "make test"
-timed "make test" in_chroot "make test"
+say "make test-container"
+timed "make test-container" in_chroot "make test-container"
 say "mpirun -n 2 $entrypoint run paper1"
 out=/tmp/rodfem-container-test/paper1
 timed "mpirun -n 2 paper1" in_chroot "rm -rf $out && mpirun -n 2 $entrypoint run paper1 --out $out"
