@@ -23,6 +23,8 @@ CASES = {
     "impact direct": ("impact", ["mesh.cells=200", "time.dt=5e-3", "time.end=1.5"]),
     "redistributed mass": ("impact", ["mesh.cells=100", "time.dt=1e-2", "time.end=1.5",
                                       "discretisation.mass=redistributed-lumped"]),
+    # the rigid obstacle's impact, its first try where the end's tangent meets the obstacle
+    "rigid paper": ("stiff", ["time.end=0.3", "obstacle.kind=rigid"]),
     # a viscous end without mass against the rigid obstacle: its multiplier jumps at the impact,
     # the step ending there is measured without it and the estimate restarts after the event
     "viscous rigid crank-nicolson": ("stiff", ["time.end=0.3", "time.scheme=crank-nicolson",

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rodfem.solver.adaptive.stepper import EVENT_WIDTH, KEPT
+from rodfem.solver.adaptive.stepper import EVENT_WIDTH, KEPT, PAST
 from rodfem.solver.errors import StepTooSmall
 
 SIZES = 80  # the most of the stepper's step sizes one call can step with (it keeps 64)
@@ -112,7 +112,7 @@ class CompiledSteps:
         R.u_1, R.du_1 = history.u_1, history.du_1
         i, wi, j, wj = history.half
         R.half_i, R.half_j, R.half_wi, R.half_wj = i, j, wi, wj
-        R.event_width = EVENT_WIDTH
+        R.event_width, R.event_past = EVENT_WIDTH, PAST
         if family is not None and family.forms_in_c:  # an event's tries formed in C
             problem = "rk_problem *" if hasattr(lib, "rk_form") else "pk_problem *"
             self._scratch = [ffi.new(problem) for _ in range(2)]

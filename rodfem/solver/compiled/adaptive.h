@@ -126,7 +126,7 @@ typedef struct {
     long problem_bytes;
     void *scratch[2];
     double *scratch_memory[2];
-    double event_width;
+    double event_width, event_past;
     /* the step sizes formed here (family not NULL): a pool of `pool` slots, each a problem
      * (pool_problem[k], completed from a copy of the template) with its memory (pool_memory[k],
      * the family's size), holding the step pool_h[k] (0: none), last used at the count
@@ -555,9 +555,22 @@ static void *ra_sized(ra_run *R, double h, int slot)
     return R->scratch[slot];
 }
 
+/* A side's tries: the newest (c, f) in, the oldest out. */
+static inline void ra_tried(double pairs[4], int *count, double c, double f)
+{
+    pairs[0] = pairs[2];
+    pairs[1] = pairs[3];
+    pairs[2] = c;
+    pairs[3] = f;
+    (*count)++;
+}
+
 /* AdaptiveStepper._locate: the step's size where contact changes, to a bracket event_width
- * wide, by the Illinois method (bisection after 60 tries), from the start of the step (f_a its
- * contact) and the step h tried (problem_b, home at its end); home is left at the far end,
+ * wide, from the start of the step (f_a its contact) and the step h tried (problem_b, home at its
+ * end): the first try where the tangent at the start meets zero (its slope the end's velocity,
+ * AdaptiveStepper._tangent), then the secant through the last two tries on the latest's side,
+ * each tried event_past beyond its root where the bracket's changed end is the farther, else a
+ * quarter bracket short of it; else the Illinois method's point (bisection after 60 tries). Home is left at the far end,
  * contact changed. Returns the size, or 0 where a try could not be formed or solved. */
 static double ra_locate(ra_run *R, double h, void *problem_b, double fa, int before,
                         long step, int iterations, double pressure)
@@ -566,10 +579,34 @@ static double ra_locate(ra_run *R, double h, void *problem_b, double fa, int bef
     const double width = R->event_width;
     double a = 0.0, b = h, fb = ra_contact(R, R->values[3 * (size_t)n - 1], R->pressure);
     int side = 0, at_b = 1, tries = 0;
+    double near[4] = {0.0, 0.0, 0.0, fa}, far[4] = {0.0, 0.0, h, fb};
+    int near_count = 1, far_count = 1;
     while (b - a > width) {
         tries++;
-        double c = fb != fa && tries < 60 ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
-        c = ra_pymin(ra_pymax(c, a + 0.25 * width), b - 0.25 * width);
+        double c = 0.0;
+        int guessed = 0;
+        if (tries == 1) {
+            if (!R->massless_end && !(R->rigid && before)) {
+                const double slope = R->start[2 * (size_t)n - 1] / R->dt0;
+                if (fa * slope < 0.0) {
+                    c = -fa / slope;
+                    guessed = 1;
+                }
+            }
+        } else if (tries < 60) {  /* AdaptiveStepper._secant, (c1, f1, c2, f2) */
+            const double *pairs = side == -1 ? far : near;
+            if ((side == -1 ? far_count : near_count) >= 2 && pairs[3] != pairs[1]) {
+                c = pairs[2] - pairs[3] * (pairs[2] - pairs[0]) / (pairs[3] - pairs[1]);
+                guessed = 1;
+            }
+        }
+        if (guessed && a < c && c < b) {  /* just past the root, or a quarter bracket short */
+            c = b - c > c - a ? c + R->event_past : c - 0.25 * width;
+            c = ra_pymin(ra_pymax(c, a + R->event_past), b - 0.25 * width);
+        } else {
+            c = fb != fa && tries < 60 ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
+            c = ra_pymin(ra_pymax(c, a + 0.25 * width), b - 0.25 * width);
+        }
         void *problem = ra_sized(R, c, problem_b == R->scratch[0] ? 1 : 0);
         if (problem == NULL || !ra_take(R, c, problem, step, iterations, pressure))
             return 0.0;
@@ -579,6 +616,7 @@ static double ra_locate(ra_run *R, double h, void *problem_b, double fa, int bef
             fb = fc;
             at_b = 1;
             problem_b = problem;
+            ra_tried(far, &far_count, c, fc);
             if (side == -1)
                 fa *= 0.5;
             side = -1;
@@ -586,6 +624,7 @@ static double ra_locate(ra_run *R, double h, void *problem_b, double fa, int bef
             a = c;
             fa = fc;
             at_b = 0;
+            ra_tried(near, &near_count, c, fc);
             if (side == 1)
                 fb *= 0.5;
             side = 1;
