@@ -21,7 +21,7 @@ from test_resume import assert_same_run, rodfem
 
 from conftest import serial_only
 from rodfem.output.readers import read_history
-from rodfem.solver.adaptive.stepper import EVENT_WIDTH
+from rodfem.solver.adaptive.events import EVENT_WIDTH
 
 TIGHT = {"mesh.cells": 50, "time.end": 0.2221, "time.adaptive": True, "time.tolerance": 1e-8}
 GAP = 0.1  # stiff's obstacle.gap

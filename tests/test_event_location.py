@@ -1,5 +1,5 @@
 """Where a step changes contact, its size is found by secants on each side of the root
-(AdaptiveStepper._locate; the compiled steps' ra_locate decides the same, tests/
+(rodfem.solver.adaptive.events; the compiled steps' ra_locate decides the same, tests/
 test_adaptive_compiled.py): the contact function of the step's size is smooth on each side and
 both sides vanish at the root, where they meet at an angle (free motion on one side, the
 obstacle's response on the other). A secant across the angle, as the Illinois method's, gains
@@ -13,8 +13,9 @@ import pytest
 
 import rodfem.scene
 from rodfem.run import simulate
-from rodfem.solver.adaptive import compiled
-from rodfem.solver.adaptive.stepper import EVENT_WIDTH, PAST, AdaptiveStepper
+from rodfem.solver.adaptive import compiled, events
+from rodfem.solver.adaptive.events import EVENT_WIDTH, PAST
+from rodfem.solver.adaptive.stepper import AdaptiveStepper
 
 
 class Contact:
@@ -24,7 +25,6 @@ class Contact:
     rigid = False
     nodes, dt0 = 1, 1.0
     norm = SimpleNamespace(massless_end=False)
-    _tangent = AdaptiveStepper._tangent
 
     def __init__(self, f, v: float, h: float):
         self.f, self.value, self.tries = f, f(h), []
@@ -41,7 +41,7 @@ class Contact:
 
     def locate(self, h: float) -> float:
         fa = self.f(0.0)
-        return AdaptiveStepper._locate(self, h, self.start, fa, fa > 0.0)
+        return events.locate(self, h, self.start, fa, fa > 0.0)
 
 
 ROOT, GAP, SPEED, SLOW = 0.3, 0.25, 1.0, 0.4  # the end meets the obstacle at c = ROOT
@@ -73,7 +73,7 @@ def test_the_tangent_is_not_followed_where_it_leads_away():
     """An end moving away from the obstacle gives no first guess; the root is found all the
     same."""
     stepper = Contact(approach, -1.0, h=1.0)
-    assert stepper._tangent(stepper.start, approach(0.0), False) is None
+    assert events.tangent(stepper, stepper.start, approach(0.0), False) is None
     b = stepper.locate(1.0)
     assert ROOT < b <= ROOT + EVENT_WIDTH
 

@@ -32,7 +32,7 @@ from conftest import COMM, serial_only
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.history import History
 from rodfem.solver.adaptive.compiled import CompiledSteps
-from rodfem.solver.adaptive.stepper import EVENT_WIDTH
+from rodfem.solver.adaptive.events import EVENT_WIDTH
 from rodfem.solver.compiled import compiled_loop, laurent
 from rodfem.solver.compiled.family import step_family
 from rodfem.solver.methods import make_method

@@ -34,7 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rodfem.solver.adaptive.stepper import EVENT_WIDTH, KEPT, PAST
+from rodfem.solver.adaptive.events import EVENT_WIDTH, PAST
+from rodfem.solver.adaptive.stepper import KEPT
 from rodfem.solver.errors import StepTooSmall
 
 SIZES = 80  # the most of the stepper's step sizes one call can step with (it keeps 64)

@@ -15,7 +15,7 @@ identity holds exactly, step by step (docs/time-schemes.md).
 **Contact events.** Contact is on where the obstacle pushes: u(1) > g for an elastic obstacle,
 u(1) − g + h p > 0 for the rigid one (its multiplier p > 0 holds u(1) at g; h the cell, any
 positive weight would do). Where a step changes that, the step's size is found where it changes,
-by secants on the step's own results (:meth:`AdaptiveStepper._locate`), to a bracket 1e-10 wide
+by secants on the step's own results (:func:`.events.locate`), to a bracket 1e-10 wide
 in time; the step ends at the far end of the bracket, with contact already changed, and its
 history row is marked. The error estimate then starts again from that state (its derivatives
 jump at an impact).
@@ -66,24 +66,12 @@ from rodfem.model.robin import temperature
 from rodfem.scene.schema import TOLERANCES
 from rodfem.solver.adaptive.control import (Controller, ErrorNorm, extrapolate, force_jumps,
                                            force_measured, milne, rung)
+from rodfem.solver.adaptive.events import locate
 from rodfem.solver.errors import NotConverged, NoUniqueStep, PicardNotConverged, StepTooSmall
 from rodfem.solver.linalg import free_garbage
 
-EVENT_WIDTH = 1e-10  # the located event's bracket in time
-# A guess at the root is tried this far past it, on the changed side (where the step ends): the
-# event's state as close to the root as its contact function's round-off lets the side be told,
-# and the same side told whatever the round-off of the method (tests/test_adaptive.py).
-PAST = 1e-3 * EVENT_WIDTH
 RETRIED = (PicardNotConverged, NoUniqueStep)
 KEPT = 64  # the most step sizes of the ladder whose methods are kept (the least recent go)
-
-
-def _secant(pairs: list[float]) -> float | None:
-    """Where the line through the last two (c, f) of a side meets zero, or None."""
-    if len(pairs) < 4 or pairs[-1] == pairs[-3]:
-        return None
-    c1, f1, c2, f2 = pairs[-4:]
-    return c2 - f2 * (c2 - c1) / (f2 - f1)
 
 
 class AdaptiveStepper:
@@ -370,55 +358,8 @@ class AdaptiveStepper:
         return self.norm((y - whole) / (2.0**self.order - 1.0), y, self.tolerance), kept
 
     def _locate(self, h: float, start: dict, fa: float, before: bool) -> float:
-        """The step's size where contact changes, to a bracket EVENT_WIDTH wide; home is left at
-        the far end, contact changed. The first try follows the end's velocity (the tangent at
-        the start, where the contact function's slope is it); then each try is the secant
-        through the last two tries on the side of the latest (each side's contact function is
-        smooth, and both vanish at the root, where they meet at an angle: a secant across it
-        converges only linearly), within the bracket, tried PAST beyond the root where the
-        bracket's changed end is the farther, else a quarter bracket short of it; where there is
-        none, the Illinois method's point, and bisection after 60 tries."""
-        a, b, fb = 0.0, h, self.contact()
-        side, at_b, tries, made_b = 0, True, 0, None
-        near, far = [0.0, fa], [h, fb]  # each side's last two tries, (c, f) pairs flattened
-        while b - a > EVENT_WIDTH:
-            tries += 1
-            if tries == 1:
-                c = self._tangent(start, fa, before)
-            else:
-                c = _secant(far if side == -1 else near) if tries < 60 else None
-            if c is not None and a < c < b:  # just past the root, or a quarter bracket short
-                c = min(max(c + PAST if b - c > c - a else c - 0.25 * EVENT_WIDTH, a + PAST),
-                        b - 0.25 * EVENT_WIDTH)
-            else:
-                c = b - fb * (b - a) / (fb - fa) if fb != fa and tries < 60 else 0.5 * (a + b)
-                c = min(max(c, a + 0.25 * EVENT_WIDTH), b - 0.25 * EVENT_WIDTH)
-            made = self._take(c, start)
-            fc = self.contact()
-            if (fc > 0.0) != before:
-                b, fb, at_b, made_b = c, fc, True, made
-                far[:] = far[-2:] + [c, fc]
-                if side == -1:
-                    fa *= 0.5
-                side = -1
-            else:
-                a, fa, at_b = c, fc, False
-                near[:] = near[-2:] + [c, fc]
-                if side == 1:
-                    fb *= 0.5
-                side = 1
-        if not at_b:
-            self._take(b, start, made_b)
-        return b
-
-    def _tangent(self, start: dict, f: float, before: bool) -> float | None:
-        """Where the contact function's tangent at the step's start meets zero, or None: its slope
-        is the end's velocity where the end has a mass and the obstacle does not hold it (a
-        rigid obstacle's contact function in contact is its multiplier's)."""
-        if self.norm.massless_end or (self.rigid and before):
-            return None
-        slope = float(start["state"][2 * self.nodes - 1]) / self.dt0
-        return -f / slope if f * slope < 0.0 else None
+        """The step's size where contact changes (:func:`.events.locate`); home is left there."""
+        return locate(self, h, start, fa, before)
 
     def counts(self) -> dict:
         """What the run's summary reports of the steps."""

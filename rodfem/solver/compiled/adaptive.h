@@ -565,13 +565,14 @@ static inline void ra_tried(double pairs[4], int *count, double c, double f)
     (*count)++;
 }
 
-/* AdaptiveStepper._locate: the step's size where contact changes, to a bracket event_width
- * wide, from the start of the step (f_a its contact) and the step h tried (problem_b, home at its
- * end): the first try where the tangent at the start meets zero (its slope the end's velocity,
- * AdaptiveStepper._tangent), then the secant through the last two tries on the latest's side,
- * each tried event_past beyond its root where the bracket's changed end is the farther, else a
- * quarter bracket short of it; else the Illinois method's point (bisection after 60 tries). Home is left at the far end,
- * contact changed. Returns the size, or 0 where a try could not be formed or solved. */
+/* events.locate (rodfem/solver/adaptive/events.py): the step's size where contact changes, to
+ * a bracket event_width wide, from the start of the step (f_a its contact) and the step h tried
+ * (problem_b, home at its end): the first try where the tangent at the start meets zero (its
+ * slope the end's velocity, events.tangent), then the secant through the last two tries on the
+ * latest's side, each tried event_past beyond its root where the bracket's changed end is the
+ * farther, else a quarter bracket short of it; else the Illinois method's point (bisection after
+ * 60 tries). Home is left at the far end, contact changed. Returns the size, or 0 where a try
+ * could not be formed or solved. */
 static double ra_locate(ra_run *R, double h, void *problem_b, double fa, int before,
                         long step, int iterations, double pressure)
 {
@@ -593,7 +594,7 @@ static double ra_locate(ra_run *R, double h, void *problem_b, double fa, int bef
                     guessed = 1;
                 }
             }
-        } else if (tries < 60) {  /* AdaptiveStepper._secant, (c1, f1, c2, f2) */
+        } else if (tries < 60) {  /* events.secant, (c1, f1, c2, f2) */
             const double *pairs = side == -1 ? far : near;
             if ((side == -1 ? far_count : near_count) >= 2 && pairs[3] != pairs[1]) {
                 c = pairs[2] - pairs[3] * (pairs[2] - pairs[0]) / (pairs[3] - pairs[1]);
