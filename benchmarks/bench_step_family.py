@@ -26,7 +26,7 @@ import rodfem.scene
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.history import History
 from rodfem.solver.compiled import compiled_loop
-from rodfem.solver.compiled.family import step_family
+from rodfem.solver.compiled.families import step_family
 from rodfem.solver.methods import make_method
 
 CASES = {

@@ -195,7 +195,7 @@ class Simulation:
         (:mod:`rodfem.solver.compiled.family`), or where there is none a method (and compiled
         loop) made for it."""
         from rodfem.solver.adaptive.stepper import AdaptiveStepper
-        from rodfem.solver.compiled.family import step_family
+        from rodfem.solver.compiled.families import step_family
 
         disc, history, kernel = self.disc, self.history, self.kernel
         family = step_family(self.method, history, kernel)

@@ -27,14 +27,14 @@ import pytest
 
 import rodfem
 import rodfem.scene
-import rodfem.solver.compiled.family as family_module
+import rodfem.solver.compiled.families as families
 from conftest import COMM, serial_only
 from rodfem.discrete.discretisation import Discretisation
 from rodfem.output.history import History
 from rodfem.solver.adaptive.compiled import CompiledSteps
 from rodfem.solver.adaptive.events import EVENT_WIDTH
 from rodfem.solver.compiled import compiled_loop, laurent
-from rodfem.solver.compiled.family import step_family
+from rodfem.solver.compiled.families import step_family
 from rodfem.solver.methods import make_method
 
 EPS = np.finfo(float).eps
@@ -231,7 +231,7 @@ def adaptive_run(name, overrides, monkeypatch, with_family: bool):
         calls.append(self)
         return advance(self, *args)
 
-    monkeypatch.setattr(family_module, "step_family", counted)
+    monkeypatch.setattr(families, "step_family", counted)
     monkeypatch.setattr(CompiledSteps, "advance", kept)
     result = rodfem.simulate(name, {**overrides, "time.adaptive": True})
     assert result.status == "complete"

@@ -27,7 +27,7 @@ paper1, against 3–4 ms for a method made for the size (benchmarks/bench_step_f
 **The paper scheme's first step** (U¹ = U⁰ + h P u₁, Θ¹ from (3.1)) is :meth:`first_step` of the
 loop (its heat solve at h in NumPy), for an adaptive run's first step and its halves.
 
-:func:`step_family` makes none (None: the caller makes methods as before) where the home method
+:func:`.families.step_family` makes none (None: the caller makes methods as before) where the home method
 has no compiled loop (Newton, sources, ``RODFEM_KERNEL=0``, an eliminated end with the power
 law: whatever :func:`~rodfem.solver.compiled.compiled_loop` refuses) and where the parts fail
 their check. On several ranks every rank reads the same parts (the node-ordered operators are the
@@ -41,28 +41,6 @@ import numpy as np
 
 from rodfem.solver.compiled.laurent import LaurentParts, combine, read_parts
 from rodfem.solver.compiled.loop import classes
-
-
-def step_family(home, history, kernel):
-    """The :class:`StepFamily` of the home method and its compiled loop ``kernel``, or None
-    (the module's docstring)."""
-    from rodfem.solver.compiled.direct import DirectKernel
-    from rodfem.solver.compiled.picard import PicardKernel
-
-    if kernel is None:
-        return None
-    parts = read_parts(home)
-    if parts is None:
-        return None
-    if isinstance(kernel, DirectKernel):
-        from rodfem.solver.compiled.family_direct import DirectFamily
-
-        return DirectFamily(home, history, kernel, parts)
-    if isinstance(kernel, PicardKernel):
-        from rodfem.solver.compiled.family_picard import PicardFamily
-
-        return PicardFamily(home, history, kernel, parts)
-    return None
 
 
 def tridiagonal_parts(parts: LaurentParts, key: str, n: int) -> np.ndarray:
