@@ -18,12 +18,6 @@ from rodfem.studies.common import deal
 from rodfem.studies.steady import continuation as ct
 from rodfem.studies.steady import points as pt
 
-POINTS = "points.csv"
-POINT_COLUMNS = ("kind", "parameter", "u_1", "theta_1", "p", "sigma_1", "branch", "turns",
-                 "before", "after", "omega", "period", "growth_rate", "parameter_continuum",
-                 "parameter_error", "period_continuum", "period_error", "asymptotic", "key",
-                 "lyapunov", "lyapunov_error", "criticality")
-
 
 @dataclasses.dataclass
 class Diagram:

@@ -31,6 +31,13 @@ import numpy as np
 from rodfem.studies import asymptotic
 from rodfem.studies.steady import continuation as ct
 
+# points.csv: the points of a diagram, a row each
+POINTS = "points.csv"
+POINT_COLUMNS = ("kind", "parameter", "u_1", "theta_1", "p", "sigma_1", "branch", "turns",
+                 "before", "after", "omega", "period", "growth_rate", "parameter_continuum",
+                 "parameter_error", "period_continuum", "period_error", "asymptotic", "key",
+                 "lyapunov", "lyapunov_error", "criticality")
+
 # An eigenvalue is off the real axis where |Im λ| exceeds this × |λ| (a cluster of nearly equal
 # real ones, the Kelvin–Voigt rod's short waves near −1/ζ, splits by round-off far below it).
 COMPLEX = 1e-6

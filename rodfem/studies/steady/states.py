@@ -179,7 +179,7 @@ def write(out: Path, force: bool, comm, rows: list[dict],
     points followed over a second value) into ``out``, prepared first (OutputError: nothing
     written); rank 0 writes."""
     from rodfem.studies.steady import curves
-    from rodfem.studies.steady.diagram import POINT_COLUMNS, POINTS
+    from rodfem.studies.steady.points import POINT_COLUMNS, POINTS
 
     files = (STATES, *(() if branch_rows is None else (BRANCHES,)),
              *(() if point_rows is None else (POINTS,)),
