@@ -96,7 +96,8 @@ def made(tmp_path_factory, drawn):
     command("stability", "--out", root / "stability", "--dt", "0.01", "--epsilon", "0.01",
             "--zeta", "1", "--a", "0.1", "--end", "0.02", "--methods", "direct")
     from rodfem.post.stability import plot_stability
-    from rodfem.post.verify import plot_orders, plot_work_precision
+    from rodfem.post.verify import plot_orders
+    from rodfem.post.workprecision import plot_work_precision
 
     (root / "api").mkdir()
     result = rodfem.load(root / "stiff")

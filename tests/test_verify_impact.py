@@ -91,7 +91,7 @@ def test_work_precision_quick_impact(shared_dir):
     u(1, ·) falls at every rung, or a rejected choice with the scene's own message (picard with
     the rigid obstacle; Crank–Nicolson with it on a mass at x = 1; the dispersion-free mass with
     the paper scheme); the dispersion-free mass the most accurate."""
-    from rodfem.post.verify import plot_work_precision
+    from rodfem.post.workprecision import plot_work_precision
 
     out = shared_dir / "wp"
     plan = dataclasses.replace(workprecision.default_plan(quick=True), scenes=(),

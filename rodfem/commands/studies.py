@@ -238,7 +238,7 @@ def verify(args: argparse.Namespace) -> int:
         def start(out, plan, force, progress, comm):
             return task.run_verify(out, plan, scenes, force, progress, comm, users, ladders)
     else:
-        from rodfem.post.verify import plot_work_precision as draw
+        from rodfem.post.workprecision import plot_work_precision as draw
         from rodfem.studies.verification import workprecision as task
 
         plan = task.default_plan(args.quick)

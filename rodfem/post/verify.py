@@ -260,7 +260,10 @@ def measures_figure(data: dict, scene: str, path: Path) -> Path | None:
     return _grid(rows, columns, path, draw)
 
 
-def _figures(directory: Path, name: str, draw, prefix: str, format: str = "png") -> list[Path]:
+def scene_figures(directory: Path, name: str, draw, prefix: str,
+                  format: str = "png") -> list[Path]:
+    """``draw(data, scene, path)`` for each scene with a complete point in ``directory``/``name``,
+    into figures/<prefix>_<scene>.<format>."""
     data = read(Path(directory) / name)
     out = Path(directory) / "figures"
     out.mkdir(exist_ok=True)  # an OSError is a write error (exit code 4)
@@ -271,18 +274,10 @@ def _figures(directory: Path, name: str, draw, prefix: str, format: str = "png")
 def plot_orders(directory: Path, format: str = "png") -> list[Path]:
     """orders_<scene>.png for every scene in ``directory``/orders.json, into figures/, and
     measures_<scene>.png for every scene file's measures (or .pdf, .svg: ``format``)."""
-    written = _figures(directory, "orders.json", orders_figure, "orders", format)
+    written = scene_figures(directory, "orders.json", orders_figure, "orders", format)
     data = read(Path(directory) / "orders.json")
     for scene in data.get("user", []):
         path = measures_figure(data, scene, Path(directory) / "figures"
                                 / f"measures_{scene}.{format}")
         written += [path] if path is not None else []
     return written
-
-
-def plot_work_precision(directory: Path, format: str = "png") -> list[Path]:
-    """workprecision_<scene>.png (or .pdf, .svg: ``format``) for every scene in
-    ``directory``/workprecision.json (:mod:`rodfem.post.workprecision`)."""
-    from rodfem.post.workprecision import figure
-
-    return _figures(directory, "workprecision.json", figure, "workprecision", format)

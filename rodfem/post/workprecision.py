@@ -16,7 +16,7 @@ from matplotlib.figure import Figure
 from rodfem.output import figures
 from rodfem.post import style
 from rodfem.post.runs import PlotError
-from rodfem.post.verify import LABELS, adaptive, log_axes, series, value_range
+from rodfem.post.verify import LABELS, adaptive, log_axes, scene_figures, series, value_range
 
 TIME = r"wall time of the run, set-up + time loop [$\mathrm{s}$]"
 # The impact's mass matrices, each a colour of its own (where the file does not list them).
@@ -94,3 +94,9 @@ def impact_work_precision_figure(data: dict, path: Path) -> Path:
                      title="colour: mass; line: scheme;\nmarker: method (○ direct, ■ newton, "
                            "◆ picard)", title_fontsize=style.MPL_TICK_SIZE)
         return figures.save(fig, path, dpi=style.MPL_DPI)
+
+
+def plot_work_precision(directory: Path, format: str = "png") -> list[Path]:
+    """workprecision_<scene>.png (or .pdf, .svg: ``format``) for every scene in
+    ``directory``/workprecision.json."""
+    return scene_figures(directory, "workprecision.json", figure, "workprecision", format)
