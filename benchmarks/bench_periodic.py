@@ -20,6 +20,7 @@ import time
 from mpi4py import MPI
 
 import rodfem.scene
+from rodfem.studies.steady import orbit as po
 from rodfem.studies.steady import periodic as pe
 from rodfem.studies.steady.barber import at_rest
 
@@ -42,10 +43,10 @@ def measure(cells: int, rounds: int) -> dict:
     state, eigenvalues = pe.steady_state(scene)
     flow = pe.flow_of(rodfem.scene.load("barber", [*overrides, *at_rest(state, pe.KICK)]), comm)
     started = CLOCK()
-    start = pe.settle(flow, flow.initial(), state.u_1, 2 * math.pi / abs(eigenvalues[0].imag))
+    start = po.settle(flow, flow.initial(), state.u_1, 2 * math.pi / abs(eigenvalues[0].imag))
     settled = CLOCK() - started
     started = CLOCK()
-    orbit = pe.find(flow, scene, state.u_1, start.state, start.period, comm)
+    orbit = po.find(flow, scene, state.u_1, start.state, start.period, comm)
     found = CLOCK() - started
     shots = []
     for _ in range(rounds):

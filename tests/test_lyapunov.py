@@ -235,6 +235,7 @@ def _orbit_near(overrides, spectral, hopf, lyap, key: str, delta: float, dt: flo
     the prediction |z| and the slope Re λ′."""
     import scipy.linalg
 
+    from rodfem.studies.steady import orbit as po
     from rodfem.studies.steady import periodic as pd
     from rodfem.studies.steady.barber import at_rest
 
@@ -268,8 +269,8 @@ def _orbit_near(overrides, spectral, hopf, lyap, key: str, delta: float, dt: flo
     x[1:n + 1] += kick[:n]
     x[n + 2:2 * n + 2] += kick[2 * n:]
     x[2 * n + 3:] += kick[n:2 * n]
-    orbit = pd.find(flow, rest, float(state.u_1), x, 2 * math.pi / value.imag, MPI.COMM_SELF)
-    record = pd.trace(flow, rest, orbit)
+    orbit = po.find(flow, rest, float(state.u_1), x, 2 * math.pi / value.imag, MPI.COMM_SELF)
+    record = po.trace(flow, rest, orbit)
     u, t = record["u_1"][:-1] - state.u_1, record["t"][:-1]
     harmonic = abs(2.0 * np.mean(u * np.exp(-2j * math.pi * t / orbit.period)))
     return orbit, harmonic, predicted, slope
@@ -284,7 +285,7 @@ def test_the_hot_rods_orbits_are_born_supercritical():
     √(−Re λ′ Δζ/(ω l₁)) (squared: 0.997 of it, its O(Δζ) correction measured as −0.3 % at
     1e-5 and −1.2 % at 4e-5); on the stable side (ζ_H + 1e-5) Newton from the same prediction
     finds no orbit, the state itself."""
-    from rodfem.studies.steady.periodic import NoOrbit
+    from rodfem.studies.steady.orbit import NoOrbit
 
     overrides = [*HOT, "mesh.cells=20"]
     _, spectral, hopf, lyap = _hopf(overrides, *HOT_ZETA)
@@ -322,7 +323,7 @@ def test_barbers_pressed_branch_loses_stability_subcritically():
     is subcritical, l₁ > 0. Its orbits lie on the stable side (θ_O = θ_H + 1e-4, Re λ < 0),
     unstable (a Floquet multiplier 1.034 outside the unit circle), with the first harmonic of
     u(1) the prediction (squared: 0.9994 of it); on the unstable side Newton finds none."""
-    from rodfem.studies.steady.periodic import NoOrbit
+    from rodfem.studies.steady.orbit import NoOrbit
 
     overrides = ["mesh.cells=10"]
     _, spectral, hopf, lyap = _hopf(overrides, "obstacle.temperature", 0.0, 30.0, which=1)

@@ -15,6 +15,7 @@ import rodfem.scene
 from conftest import COMM, assert_refused, serial_only
 from rodfem.cli import main
 from rodfem.studies.steady import barber
+from rodfem.studies.steady import orbit as po
 from rodfem.studies.steady import periodic as pe
 from test_steady_command import MPI_ENV
 
@@ -49,7 +50,7 @@ def test_period_is_the_long_runs(cheap):
     assert orbit.u_min == pytest.approx(cycle.u_min, abs=2e-5)
     assert orbit.u_max == pytest.approx(cycle.u_max, abs=2e-5)
     assert orbit.contact_fraction == pytest.approx(cycle.contact_fraction, abs=2e-3)
-    assert orbit.steps == pe.steps_of(orbit.period, 0.001)
+    assert orbit.steps == po.steps_of(orbit.period, 0.001)
     assert orbit.period / orbit.steps <= 0.001 < orbit.period / (orbit.steps - 1)
 
 
@@ -76,7 +77,7 @@ def test_orbit_reproduces_itself_by_the_petsc_loop(cheap):
     worst = max(np.max(np.abs(end - orbit.state)[k * n:(k + 1) * n]) / sizes[k]
                 for k in range(3))
     assert worst < 1e-9
-    assert orbit.residual <= pe.TOLERANCE
+    assert orbit.residual <= po.TOLERANCE
 
 
 def test_shots_are_bit_for_bit(cheap):

@@ -1,5 +1,5 @@
 r"""The time-T map of a scene's own scheme, from any state: what a periodic orbit is a fixed
-point of (:mod:`rodfem.studies.steady.periodic`).
+point of (:mod:`rodfem.studies.steady.orbit`).
 
 A state of the scheme is s = [Θ; D; U] (n nodes each) with D the displacement the velocity makes
 over one step: Dⁿ = ΔUⁿ in the paper's scheme, Δt Vⁿ in Crank–Nicolson's. To compare states of
