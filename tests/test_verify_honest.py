@@ -25,7 +25,7 @@ from rodfem.output.measures import NAMES, TIMINGS
 from rodfem.scene import load
 from rodfem.scene.measures import REDUCTIONS
 from rodfem.studies import asymptotic
-from rodfem.studies.verification import refine, verify
+from rodfem.studies.verification import ladders, refine, verify
 from rodfem.studies.verification import convergence as cv
 from test_verify_scene import SCENE
 
@@ -161,12 +161,12 @@ def test_a_stepped_measure_gets_no_order_however_it_converges():
 def test_adaptive_h_ladder_runs_at_the_finest_tolerance(tmp_path):
     path = tmp_path / "soft.toml"
     path.write_text(SCENE, encoding="utf-8")
-    user = refine.UserScene("soft", str(path), ("time.adaptive=true",))
-    for ladders in (refine.QUICK, refine.DEFAULT):
-        tol = refine.ladder(user, "tol", ladders)
-        h = refine.ladder(user, "h", ladders)
-        assert {s["tolerance"] for s in h} == {tol[ladders.rungs - 1]["tolerance"]}
-        assert tol[ladders.rungs - 1]["cells"] == h[0]["cells"]  # the same run: its error known
+    user = ladders.UserScene("soft", str(path), ("time.adaptive=true",))
+    for sizes in (ladders.QUICK, ladders.DEFAULT):
+        tol = ladders.ladder(user, "tol", sizes)
+        h = ladders.ladder(user, "h", sizes)
+        assert {s["tolerance"] for s in h} == {tol[sizes.rungs - 1]["tolerance"]}
+        assert tol[sizes.rungs - 1]["cells"] == h[0]["cells"]  # the same run: its error known
 
 
 @pytest.mark.parametrize("time_error, flagged", [(0.04, False), (0.06, True)])
@@ -175,7 +175,7 @@ def test_time_error_flags_the_h_orders(time_error, flagged):
     tolerance (the tolerance ladder's finest against its reference, scaled by
     1/(1 − 16^(−1/2)) = 4/3) above a twentieth of it flags the order in h."""
     measured_error = time_error * 0.75
-    user = refine.UserScene("s", "s.toml", ())
+    user = ladders.UserScene("s", "s.toml", ())
     head = {"scene": "s", "method": "direct", "scheme": "paper", "dt": 0.01}
     records = [{**head, "refined": "h", "cells": c, "tolerance": 1e-5, "status": "complete",
                 **dict.fromkeys(cv.MEASURES, e)} for c, e in ((8, 16.0), (16, 4.0), (32, 1.0))]
@@ -187,7 +187,7 @@ def test_time_error_flags_the_h_orders(time_error, flagged):
     rows = refine.measure_orders(measured, records)
     references = {"s/tol": {"measures": {"m": 3.0}}}
     refine.flag_time_errors(orders, rows, records, measured, references, (user,),
-                            refine.QUICK)
+                            ladders.QUICK)
     h, = [r for r in orders if r["refined"] == "h"]
     assert all((h[f"check_{m}"] == "time error") == flagged for m in cv.MEASURES)
     row, = [r for r in rows if r["refined"] == "h"]
@@ -263,7 +263,7 @@ def test_stiff_adaptive_h_ladder(stiff):
     tol = [p for p in points if p["refined"] == "tol"]
     h = [p for p in points if p["refined"] == "h"]
     assert {p["tolerance"] for p in h} == {tol[-1]["tolerance"]}
-    scale = 1.0 / (1.0 - refine.QUICK.dt_reference ** -0.5)
+    scale = 1.0 / (1.0 - ladders.QUICK.dt_reference ** -0.5)
     row, = [r for r in data["orders"] if r["refined"] == "h"]
     for m in cv.MEASURES:
         polluted = scale * tol[-1][m] > asymptotic.POLLUTION * h[-1][m]
@@ -310,8 +310,8 @@ def test_a_sweep_s_scene_is_verified_as_its_scene_file(swept):
     path = root / f"alone{COMM.rank}.toml"
     path.write_text('scene = "soft.toml"\n\n[obstacle]\nepsilon = 0.01\n\n[time]\nend = 0.2\n',
                     encoding="utf-8")
-    alone = refine.UserGroup(refine.UserScene("alone", str(path), ()), "dt")
-    records, measured, _ = refine.run_user_group(alone, refine.QUICK)
+    alone = ladders.UserGroup(ladders.UserScene("alone", str(path), ()), "dt")
+    records, measured, _ = refine.run_user_group(alone, ladders.QUICK)
     theirs = [(r["measure"], r["value"]) for r in data["measures"]
               if (r["scene"], r["refined"]) == ("study-2", "dt")]
     assert [(r["measure"], r["value"]) for r in measured] == theirs

@@ -21,7 +21,7 @@ import pytest
 from conftest import COMM, assert_refused
 from rodfem.cli import main
 from rodfem.studies.verification import convergence as cv
-from rodfem.studies.verification import refine, verify
+from rodfem.studies.verification import ladders, refine, verify
 
 EPS = np.finfo(float).eps
 SCENE = """description = "paper5's soft obstacle, short"
@@ -158,8 +158,8 @@ def test_richardson_estimates_the_finest_error(verified, scene_file):
     value (Δt/16 of the finest) less the finest's, which is (1 − 16^−p) of it; to 10 %, the next
     term of the expansion. The estimate takes the expected order, 1."""
     _, _, _, measured, values = verified["paper"]
-    user = refine.UserScene("soft", str(scene_file), ("time.scheme=paper",))
-    *_, reference = refine.ladder(user, "dt", refine.QUICK)
+    user = ladders.UserScene("soft", str(scene_file), ("time.scheme=paper",))
+    *_, reference = ladders.ladder(user, "dt", ladders.QUICK)
     run, _ = cv.timed_run(user.at(**reference))
     at_reference = refine.run_measures(run, user.at(**reference))
     for m in SMOOTH:
@@ -194,8 +194,8 @@ def test_same_on_any_number_of_ranks(verified, scene_file):
     """Each ladder is run on one rank (under mpirun -n 2 the two ladders on two ranks): this
     rank's own run of the Δt ladder gives the command's measures and errors bit for bit."""
     _, data, _, _, values = verified["crank-nicolson"]
-    user = refine.UserScene("soft", str(scene_file), ("time.scheme=crank-nicolson",))
-    records, measured, _ = refine.run_user_group(refine.UserGroup(user, "dt"), refine.QUICK)
+    user = ladders.UserScene("soft", str(scene_file), ("time.scheme=crank-nicolson",))
+    records, measured, _ = refine.run_user_group(ladders.UserGroup(user, "dt"), ladders.QUICK)
     mine = [(r["measure"], r["value"]) for r in measured]
     theirs = [(r["measure"], r["value"]) for r in data["measures"] if r["refined"] == "dt"]
     assert mine == theirs
@@ -208,9 +208,9 @@ def test_the_rows_a_scene_keeps_change_nothing(verified, scene_file):
     """The scene keeping every 3rd row of its history (output.history_every = 3): the ladders
     run every step all the same, to the errors and measures of the scene keeping every row."""
     _, data, _, _, _ = verified["crank-nicolson"]
-    user = refine.UserScene("soft", str(scene_file),
+    user = ladders.UserScene("soft", str(scene_file),
                             ("time.scheme=crank-nicolson", "output.history_every=3"))
-    records, measured, _ = refine.run_user_group(refine.UserGroup(user, "dt"), refine.QUICK)
+    records, measured, _ = refine.run_user_group(ladders.UserGroup(user, "dt"), ladders.QUICK)
     points = [p for p in data["points"] if p["refined"] == "dt"]
     assert [[r[m] for m in cv.MEASURES] for r in records] == \
         [[p[m] for m in cv.MEASURES] for p in points]
@@ -236,10 +236,10 @@ def test_a_measure_panel_s_title_fits_its_panel():
 
 
 def test_mixed_with_built_in_scenes(scene_file):
-    built, users = refine.parse_scenes(f"{scene_file}, no-contact,paper1")
+    built, users = ladders.parse_scenes(f"{scene_file}, no-contact,paper1")
     assert built == ("paper1", "no-contact")  # in verify's order
-    assert users == (refine.UserScene("soft", str(scene_file), ()),)
-    assert refine.parse_scenes(None) == (verify.available_scenes(), ())
+    assert users == (ladders.UserScene("soft", str(scene_file), ()),)
+    assert ladders.parse_scenes(None) == (verify.available_scenes(), ())
 
 
 def test_a_failed_rung_keeps_its_place():
@@ -259,9 +259,9 @@ def test_a_failed_rung_keeps_its_place():
 def test_adaptive_ladder_in_the_tolerance(scene_file, tmp_path):
     """With adaptive steps the second ladder refines the tolerance (the scheme's default,
     halved), at the scene's cells."""
-    user = refine.UserScene("soft", str(scene_file), ("time.adaptive=true",))
-    assert [g.refined for g in refine.user_groups((user,))] == ["h", "tol"]
-    sizes = refine.ladder(user, "tol", refine.QUICK)
+    user = ladders.UserScene("soft", str(scene_file), ("time.adaptive=true",))
+    assert [g.refined for g in ladders.user_groups((user,))] == ["h", "tol"]
+    sizes = ladders.ladder(user, "tol", ladders.QUICK)
     assert [s["tolerance"] for s in sizes] == [5e-5, 2.5e-5, 1.25e-5, 1.25e-5 / 16]
     assert {s["cells"] for s in sizes} == {16}
 

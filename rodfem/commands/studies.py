@@ -224,13 +224,15 @@ def verify(args: argparse.Namespace) -> int:
     comm = MPI.COMM_WORLD
     if args.command == "verify":
         from rodfem.post.verify import plot_orders as draw
+        from rodfem.studies.verification import ladders as user_ladders
         from rodfem.studies.verification import refine as task
         from rodfem.studies.verification import verify
 
         plan = verify.QUICK if args.quick else verify.DEFAULT
-        ladders = task.QUICK if args.quick else task.DEFAULT
+        ladders = user_ladders.QUICK if args.quick else user_ladders.DEFAULT
         try:
-            scenes, users = task.parse_scenes(args.scenes, args.overrides, ladders, args.select)
+            scenes, users = user_ladders.parse_scenes(args.scenes, args.overrides, ladders,
+                                                      args.select)
         except verify.VerifyError as err:
             say(f"rodfem: error: {err}")
             return EXIT_INPUT
