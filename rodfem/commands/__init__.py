@@ -3,7 +3,9 @@ them): load and check the input, run, and report in one line per outcome, with t
 :mod:`rodfem.commands.common`. By family: :mod:`~rodfem.commands.runs` (run, resume),
 :mod:`~rodfem.commands.sweeps` (sweep), :mod:`~rodfem.commands.figures` (plot) and
 :mod:`~rodfem.commands.studies` (paper, stability, verify, work-precision, steady);
-:mod:`~rodfem.commands.prepare` (prepare); :mod:`~rodfem.commands.periodic` (periodic).
+:mod:`~rodfem.commands.prepare` (prepare); :mod:`~rodfem.commands.periodic` (periodic). Each
+subcommand's arguments are :mod:`~rodfem.commands.parsers`' (the options several share,
+:mod:`~rodfem.commands.arguments`').
 """
 
 from rodfem.commands.common import EXIT_DIVERGED, EXIT_INPUT, EXIT_IO, say
