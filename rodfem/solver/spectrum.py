@@ -360,6 +360,7 @@ class Spectra:
 
     def _sparse_spectrum(self, scene, lin, count: int):
         from rodfem.solver import banded, rightmost
+        from rodfem.solver.right_half_plane import dissipative
 
         ops = self.sparse_operators(scene)
         a, b, zeta = scene["model.a"], scene["model.b"], scene["model.zeta"]
@@ -368,8 +369,7 @@ class Spectra:
             A0, B0 = banded.pencil(ops, a, b, zeta, lin, exchange=False)
         if not all(np.all(np.isfinite(M.data)) for M in (A, B)):
             return None
-        return rightmost.spectrum(A, B, A0, B0, count, rightmost.dissipative(lin, zeta, b),
-                                  zeta)
+        return rightmost.spectrum(A, B, A0, B0, count, dissipative(lin, zeta, b), zeta)
 
     def rightmost(self, scene, lin, count: int = 6):
         """The ``count`` eigenvalues of largest real part about the state linearised as ``lin``
