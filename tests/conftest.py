@@ -19,7 +19,9 @@ Keeping the suite quick (the native serial suite within 8 minutes on two cores):
 
 import os
 import shutil
+import signal
 import subprocess
+import sys
 import tempfile
 import uuid
 from pathlib import Path
@@ -92,6 +94,23 @@ def cli(*args) -> int:
     from rodfem.cli import main
 
     return main([str(a) for a in args])
+
+
+@pytest.fixture(autouse=True)
+def _process_handlers():
+    """The stop signals' handlers and the unraisable hook that a command run in the test's
+    process (``rodfem.cli.main``) installs for the rest of its process are the test process's
+    again after each test: a signal to a test worker (a CI's time limit) ends it as it would
+    have, without rodfem's handling."""
+    from rodfem.output.interrupts import SIGNALS
+
+    handlers = {s: signal.getsignal(s) for s in SIGNALS}
+    unraisable = sys.unraisablehook
+    yield
+    for s, handler in handlers.items():
+        if handler is not None and signal.getsignal(s) is not handler:
+            signal.signal(s, handler)
+    sys.unraisablehook = unraisable
 
 
 def copied(source: Path, target: Path) -> Path:

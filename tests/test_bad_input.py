@@ -2,6 +2,7 @@
 output directory; nothing runs before the whole scene is valid."""
 
 import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -392,3 +393,20 @@ def test_an_output_directory_that_is_a_loop_of_links_is_refused(force, shared_di
     assert code == 2
     if COMM.rank == 0:
         assert "Too many levels of symbolic links" in err and err.count("\n") == 1, err
+
+
+def test_a_command_in_the_tests_process_leaves_its_handlers_to_the_next_test():
+    """(first of a pair, run in this order) ``main`` installs rodfem's stop-signal handlers
+    for the rest of its process."""
+    from rodfem.output import interrupts
+
+    assert main(["run", "no-such-scene"]) == 2
+    assert any(signal.getsignal(s) is interrupts._handler for s in interrupts.SIGNALS)
+
+
+def test_the_next_test_has_the_test_process_handlers():
+    """(second of the pair) the conftest puts the test process's handlers back after each test:
+    a signal to a test worker (a CI's time limit) ends it without rodfem's handling."""
+    from rodfem.output import interrupts
+
+    assert all(signal.getsignal(s) is not interrupts._handler for s in interrupts.SIGNALS)
