@@ -22,7 +22,9 @@ and an earlier one, and against GetFEM's start, on this machine.
 * GetFEM (``python3-getfem``, if installed; Debian's package ships no demos, so its
   ``demo_dynamic_contact_1D.py`` is not at hand): a stand-in process that imports getfem, makes
   the 1D mesh of 1,000 cells, the P1 space and its integration method, and assembles the mass and
-  stiffness matrices, which is how the demo starts.
+  stiffness matrices, which is how the demo starts; and the same with the demo's own imports
+  (``matplotlib.pyplot``, which it imports whether it draws or not). Each is run once in every
+  repeat, between rodfem's runs, so that all see the same load.
 
     .venv/bin/python benchmarks/bench_startup.py [--repeats 9] [--fresh 3] [--rev 60c163f]
         [--json FILE] [--scenes paper1 impact] [--no-fresh] [--no-cache-variant]
@@ -61,6 +63,11 @@ mim = gf.MeshIm(mesh, gf.Integ("IM_GAUSS1D(4)"))
 M = gf.asm_mass_matrix(mim, mf)
 K = gf.asm_laplacian(mim, mf, mf, np.ones(mf.nbdof()))
 """
+GETFEM_DEMO_IMPORTS = "import matplotlib.pyplot as plt\nimport time, os, sys\n"
+GETFEM = {  # name: the process's script
+    "getfem": GETFEM_STAND_IN,
+    "getfem_demo_imports": GETFEM_DEMO_IMPORTS + GETFEM_STAND_IN,
+}
 
 
 def machine() -> dict:
@@ -176,6 +183,13 @@ def main() -> int:
     for source in (old, ROOT):
         byte_compiled(source)
     results: dict = {"machine": info, "rev": revision, "repeats": args.repeats, "runs": {}}
+    getfem = {}  # name: the script's path, where getfem is installed
+    if _has_getfem():
+        for name, script in GETFEM.items():
+            getfem[name] = work / f"stand_in_{name}.py"  # not getfem.py: it would be imported
+            getfem[name].write_text(script)
+    getfem_times = {name: [] for name in getfem}
+    getfem_cpu = {name: [] for name in getfem}
     try:
         for scene in args.scenes:
             out = work / "out"
@@ -186,6 +200,9 @@ def main() -> int:
             for _ in range(args.repeats):
                 for name, env in versions.items():
                     times[name].append(seconds(run_command(scene, out), env, work, cpu[name]))
+                for name, script in getfem.items():
+                    getfem_times[name].append(seconds([str(script)], dict(os.environ), work,
+                                                      getfem_cpu[name]))
             results["runs"][scene] = {name: {"median": statistics.median(t), "all": t,
                                              "cpu_median": statistics.median(cpu[name]),
                                              "cpu_all": cpu[name]}
@@ -195,11 +212,10 @@ def main() -> int:
             results["runs"][scene]["imports"] = {
                 name: import_breakdown(run_command(scene, out), versions[name], work)
                 for name in list(versions)[:2]}
-        if _has_getfem():
-            stand_in = work / "getfem_stand_in.py"
-            stand_in.write_text(GETFEM_STAND_IN)
-            t = [seconds([str(stand_in)], dict(os.environ), work) for _ in range(args.repeats)]
-            results["getfem"] = {"median": statistics.median(t), "all": t}
+        for name, t in getfem_times.items():
+            results[name] = {"median": statistics.median(t), "all": t,
+                             "cpu_median": statistics.median(getfem_cpu[name]),
+                             "cpu_all": getfem_cpu[name]}
     finally:
         subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(old)],
                        capture_output=True)
@@ -226,8 +242,10 @@ def report(results: dict) -> None:
             parts = ", ".join(f"{p} {s:.3f}" for p, s in breakdown["packages"].items())
             print(f"    imports of {name}: {breakdown['imports']:.3f} ({parts})")
     if "getfem" in results:
-        print(f"  GetFEM stand-in (import getfem, 1D mesh, P1, mass and stiffness): "
-              f"{results['getfem']['median']:.3f}")
+        for name, what in (("getfem", "import getfem, 1D mesh, P1, mass and stiffness"),
+                           ("getfem_demo_imports", "the same with the demo's imports")):
+            print(f"  GetFEM stand-in ({what}), interleaved: {results[name]['median']:.3f} "
+                  f"[{results[name]['cpu_median']:.3f}]")
     else:
         print("  GetFEM: not installed (python3-getfem)")
 
