@@ -35,6 +35,8 @@ import dataclasses
 
 import numpy as np
 
+from rodfem.solver.determinant import positive_real
+
 # |β| ≤ this × eps × ‖B‖: an infinite eigenvalue α/β of the pencil (QZ leaves β at round-off)
 INFINITE = 1e3
 # An eigenvalue not resolved from the imaginary axis, its error below this × the largest |λ|
@@ -223,34 +225,6 @@ def verdict(A: np.ndarray, B: np.ndarray, regular: bool) -> Verdict:
     return Verdict("unresolved", rate, bound)
 
 
-def positive_real(A: np.ndarray, B: np.ndarray, B_sign: float) -> tuple[float, float] | None:
-    """A real eigenvalue μ > 0 of A x = λ B x and the width of its bracket, where the signs of
-    det A and det(−B) differ (then det(A − μB), a real polynomial of degree n for B regular,
-    changes sign an odd number of times on (0, ∞): complex eigenvalues come in pairs), found
-    by bisection on that sign; None where they agree or A is too badly conditioned for the sign
-    of its LU factors to be certain (cond × n × eps ≥ 1/8). ``B_sign``: the sign of det(−B),
-    B regular (:func:`regular`; a balancing's powers of 2 keep the sign)."""
-    eps = np.finfo(float).eps
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
-        return None
-    at_zero, at_infinity = _certain_sign(A), B_sign
-    if at_zero is None or at_zero == at_infinity:
-        return None
-    hi = 2.0 * np.linalg.norm(np.linalg.solve(B, A), np.inf)  # beyond every |λ|
-    if not np.isfinite(hi) or np.linalg.slogdet(A - hi * B)[0] != at_infinity:
-        return None
-    lo = 0.0
-    for _ in range(400):
-        mid = np.sqrt(lo * hi) if lo > 0.0 else 1e-6 * hi
-        if not lo < mid < hi or hi - lo <= 16.0 * eps * hi:
-            break
-        if np.linalg.slogdet(A - mid * B)[0] == at_zero:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi), hi - lo
-
-
 def regular(ops: Operators, b: float, held: bool) -> bool:
     """Whether B is regular: b > 0 and the masses M and M_b (without x = 1 where the end is
     held) positive definite. B is then block triangular with these and I on its diagonal (the
@@ -265,25 +239,13 @@ def regular(ops: Operators, b: float, held: bool) -> bool:
     return b > 0.0
 
 
-def _certain_sign(A: np.ndarray) -> float | None:
-    """The sign of det A from its LU factors, None where A's condition number (LAPACK's
-    estimate) × n × eps ≥ 1/8: the factors' round-off could then change it."""
-    import scipy.linalg
-
-    lu, pivots = scipy.linalg.lu_factor(A, check_finite=False)
-    rcond, info = scipy.linalg.lapack.dgecon(lu, np.linalg.norm(A, 1), norm="1")
-    if info != 0 or not rcond * 0.125 > A.shape[0] * np.finfo(float).eps:
-        return None
-    swaps = np.count_nonzero(pivots != np.arange(A.shape[0]))
-    return float(np.prod(np.sign(np.diag(lu))) * (-1.0) ** swaps)
-
-
 def judged(A: np.ndarray, B: np.ndarray, regular: bool) -> Verdict:
-    """The verdict of two QZ solves, the pencil balanced (:func:`balanced`) and as it is, and
-    of the signs of two determinants (``regular``: whether B is, :func:`regular`). The pencil
-    as it is is solved only where the balanced one is unresolved: where only one resolves the
-    spectrum, that one; where their resolved verdicts differ, unresolved. An odd number of positive real eigenvalues (:func:`positive_real`) makes the
-    state unstable whatever QZ found: its growth rate is then at least that eigenvalue."""
+    """The verdict of two QZ solves, the pencil balanced (:func:`balanced`) and as it is, and of
+    the signs of two determinants (``regular``: whether B is, :func:`regular`). The pencil as it is
+    is solved only where the balanced one is unresolved: where only one resolves the spectrum, that
+    one; where their resolved verdicts differ, unresolved. An odd number of positive real
+    eigenvalues (:func:`~rodfem.solver.determinant.positive_real`) makes the state unstable
+    whatever QZ found: its growth rate is then at least that eigenvalue."""
     Ab, Bb = balanced(A, B)
     first = verdict(Ab, Bb, regular)
     # the second solve only where the first is unresolved (it costs as much again)
