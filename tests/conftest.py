@@ -55,6 +55,7 @@ _leave_the_controllers_mpi()
 from mpi4py import MPI  # noqa: E402  (after the controller's MPI is left)
 
 import rodfem.scene
+from rodfem.output import interrupts
 
 COMM = MPI.COMM_WORLD
 serial_only = pytest.mark.skipif(COMM.size > 1, reason="starts its own processes; run serially")
@@ -96,21 +97,21 @@ def cli(*args) -> int:
     return main([str(a) for a in args])
 
 
+# The test process's own stop-signal handlers, as it started.
+PROCESS_HANDLERS = {s: signal.getsignal(s) for s in interrupts.SIGNALS}
+
+
 @pytest.fixture(autouse=True)
 def _process_handlers():
-    """The stop signals' handlers and the unraisable hook that a command run in the test's
-    process (``rodfem.cli.main``) installs for the rest of its process are the test process's
-    again after each test: a signal to a test worker (a CI's time limit) ends it as it would
-    have, without rodfem's handling."""
-    from rodfem.output.interrupts import SIGNALS
-
-    handlers = {s: signal.getsignal(s) for s in SIGNALS}
-    unraisable = sys.unraisablehook
+    """The stop signals' handlers that a command run in the test's process (``rodfem.cli.main``,
+    in a test or a module's fixture) installs for the rest of its process are the test
+    process's own again after each test (:data:`PROCESS_HANDLERS`): a signal to a test worker
+    (a CI's time limit) ends it as it would have, without rodfem's handling. (The unraisable
+    hook it installs is pytest's to put back, after each phase of a test.)"""
     yield
-    for s, handler in handlers.items():
+    for s, handler in PROCESS_HANDLERS.items():
         if handler is not None and signal.getsignal(s) is not handler:
             signal.signal(s, handler)
-    sys.unraisablehook = unraisable
 
 
 def copied(source: Path, target: Path) -> Path:

@@ -3,6 +3,7 @@ output directory; nothing runs before the whole scene is valid."""
 
 import os
 import signal
+import sys
 from pathlib import Path
 
 import pytest
@@ -405,8 +406,10 @@ def test_a_command_in_the_tests_process_leaves_its_handlers_to_the_next_test():
 
 
 def test_the_next_test_has_the_test_process_handlers():
-    """(second of the pair) the conftest puts the test process's handlers back after each test:
-    a signal to a test worker (a CI's time limit) ends it without rodfem's handling."""
-    from rodfem.output import interrupts
+    """(second of the pair) the conftest puts the test process's own handlers back after each
+    test, whatever ran before it in this process (this file's test before it, or another file's
+    module fixture): a signal to a test worker (a CI's time limit) ends it without rodfem's
+    handling."""
+    from conftest import PROCESS_HANDLERS
 
-    assert all(signal.getsignal(s) is not interrupts._handler for s in interrupts.SIGNALS)
+    assert {s: signal.getsignal(s) for s in PROCESS_HANDLERS} == PROCESS_HANDLERS
