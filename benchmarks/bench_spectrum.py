@@ -1,7 +1,8 @@
 """Benchmark: the stability of the barber scene's three steady states (``rodfem steady barber``),
-per state, dense QZ (rodfem.solver.spectrum) against the sparse path (rodfem.solver.rightmost:
-the banded pencil, SLEPc's shift-and-invert and the count of the right half-plane), at 100, 200,
-500 and 1,000 cells, and the sparse path alone at 10,000 and 100,000 cells.
+per state, dense QZ (rodfem.solver.spectrum) against the sparse path (rodfem.solver.rightmost: the
+banded pencil and SLEPc's shift-and-invert; rodfem.solver.right_half_plane: the count of the right
+half-plane), at 100, 200, 500 and 1,000 cells, and the sparse path alone at 10,000 and 100,000
+cells.
 
 Each state's verdict is timed once (the operators assembled beforehand, not timed), with the
 process's peak resident memory after it (``ru_maxrss``: it only grows, so a dense size's figure

@@ -53,7 +53,7 @@ def write_references(srcdir: Path) -> None:
                      GENERATED.format(source="rodfem/scene/schema.py") + "\n\n"
                      + rodfem_reference.scene_reference())
     write_if_changed(srcdir / "reference" / "cli.md",
-                     GENERATED.format(source="rodfem/cli.py") + "\n\n"
+                     GENERATED.format(source="rodfem/commands/parsers.py") + "\n\n"
                      + rodfem_reference.cli_reference(parser()))
 
 

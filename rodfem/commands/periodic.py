@@ -1,6 +1,6 @@
 """``rodfem periodic``: the periodic orbit of a scene whose steady state has lost stability,
-found by shooting with the scene's own scheme (:mod:`rodfem.studies.steady.periodic`), and with
-``--continue`` the orbits over a scene value."""
+found by shooting with the scene's own scheme (:mod:`rodfem.studies.steady.orbit`), and with
+``--continue`` the orbits over a scene value (:mod:`rodfem.studies.steady.periodic`)."""
 
 from __future__ import annotations
 

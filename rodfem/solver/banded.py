@@ -70,7 +70,8 @@ def pencil(ops: SparseOperators, a: float, b: float, zeta: float, lin,
            exchange: bool = True) -> tuple[sp.csr_matrix, sp.csr_matrix]:
     """(A, B) of :func:`rodfem.solver.spectrum.pencil`, sparse, in node order (:func:`order`).
     Without ``exchange`` the exchange's own change with the end's place and force (c_u, c_p) is
-    left out: the dissipative pencil A₀ − λ B₀ of the count (:mod:`rodfem.solver.right_half_plane`)."""
+    left out: the dissipative pencil A₀ − λ B₀ of the count
+    (:mod:`rodfem.solver.right_half_plane`)."""
     K, G, n = ops.K, ops.G, ops.size
     c_u = lin.exchange_u if exchange else 0.0
     c_p = lin.exchange_p if exchange else 0.0

@@ -29,10 +29,10 @@ eigenvalue with Re λ ≥ 0 far from the target could be missed. It cannot be he
 eigenvalues in the closed right half-plane is taken independently, by the argument principle
 (:mod:`rodfem.solver.right_half_plane`). The verdict takes it only where it is consistent: stable
 where the count is 0 and every eigenvalue found is resolved left of the axis; unstable where one
-found is resolved right of it; where the count and the eigenvalues found disagree, or g comes near
-0 on the axis, or the laws break the identity's conditions (ζ = 0 is allowed by it, but its waves
-then lie near the axis), unresolved, never a guess. The growth rate is the largest real part among
-those found.
+found is resolved right of it; where the count and the eigenvalues found disagree, or the count's g
+comes near 0 on the axis, or the laws break the conditions of its energy identity (ζ = 0 is allowed
+by it, but its waves then lie near the axis), unresolved, never a guess. The growth rate is the
+largest real part among those found.
 """
 
 from __future__ import annotations
@@ -295,7 +295,8 @@ def rightmost(A: sp.csr_matrix, B: sp.csr_matrix, count: int,
 def spectrum(A, B, A0, B0, count: int, dissipative: bool, zeta: float = 0.0) -> Rightmost:
     """The ``count`` rightmost eigenvalues of A x = λ B x found (:func:`rightmost`, on the
     balanced pencil), the zeros of the exchange's g in Re λ ≥ 0 among them, and their count
-    (``right``, None where the energy identity does not hold or the count is not sound)."""
+    (``right``, None where :mod:`~rodfem.solver.right_half_plane`'s energy identity does not
+    hold or the count is not sound)."""
     from rodfem.solver.banded import balanced
 
     right, extra = None, []

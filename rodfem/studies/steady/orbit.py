@@ -22,10 +22,10 @@ direction), and its border is not (e_u(1) is not orthogonal to the flow where u(
 that does not lower the residual is halved. The residual is the largest of ‖P_T(x) − x‖∞ over
 each field's size ‖x‖∞ (Θ, V, U apart).
 
-**The start.** A time run of the scheme from the steady state with a small velocity (the
-docs' 10⁻²x), in windows of 20 periods of the critical pair, until two windows agree on the
-period to 10⁻³ and the amplitude to 10⁻²; then to the next upward crossing of u*. A run that
-returns to the state (its oscillation below 10⁻⁹ of it) has no orbit to find.
+**The start.** A time run of the scheme from the steady state with a small velocity (the caller's:
+:data:`rodfem.studies.steady.periodic.KICK`), in windows of 20 periods of the critical pair, until
+two windows agree on the period to 10⁻³ and the amplitude to 10⁻²; then to the next upward crossing
+of u*. A run that returns to the state (its oscillation below 10⁻⁹ of it) has no orbit to find.
 
 **Floquet multipliers.** The eigenvalues of M at the orbit, M by central differences (the mean
 of forward and backward ones), the trivial multiplier being the one whose eigenvector is closest

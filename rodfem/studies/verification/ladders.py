@@ -30,6 +30,7 @@ from rodfem.scene.schema import TOLERANCES
 from rodfem.studies.sweep import design
 from rodfem.studies.verification import verify
 
+
 @dataclasses.dataclass(frozen=True)
 class Ladders:
     """The ladders of a user's scene."""
