@@ -3,7 +3,6 @@ output directory; nothing runs before the whole scene is valid."""
 
 import os
 import signal
-import sys
 from pathlib import Path
 
 import pytest
