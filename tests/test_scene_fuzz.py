@@ -121,3 +121,16 @@ def test_any_bytes_load_or_are_one_line(tmp_path_factory, data):
     st.text(max_size=40)), max_size=3))
 def test_any_overrides_load_or_are_one_line(overrides):
     loads_or_one_line("paper1", overrides)
+
+
+@pytest.mark.parametrize("override", [
+    'time.adaptive=["\\u001f", ' + "9" * 4000 + "]",  # found by the fuzzing above
+    "time.scheme=" + "9" * 4000,
+    "output.fields=[" + ", ".join(['"u"'] * 2) + ", " + "9" * 4000 + "]",
+    'measures.p={ column = "' + "x" * 4000 + '", reduce = "max" }',
+    'measures.p={ column = "u_1", reduce = "max", target = "' + "x" * 4000 + '" }',
+], ids=["boolean", "choice", "list", "column", "target"])
+def test_a_long_value_is_quoted_short(override):
+    with pytest.raises(SceneError) as err:
+        load("paper1", [override])
+    assert "\n" not in str(err.value) and len(str(err.value)) < 300, str(err.value)

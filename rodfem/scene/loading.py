@@ -326,7 +326,7 @@ def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
         SceneError: if the scene cannot be read or any value is wrong.
     """
     if isinstance(overrides, str):
-        raise SceneError(f"overrides: a list of section.key=value, not the string {overrides!r}")
+        raise SceneError(f"overrides: a list of section.key=value, not the string {shorten(repr(overrides))}")
     data, source = read(scene)
     changes, described = {}, False
     for item in overrides:

@@ -21,7 +21,9 @@ import math
 import re
 from typing import Any
 
+from rodfem.scene.expressions import shorten
 from rodfem.scene.schema import QUANTITIES, SceneError
+from rodfem.scene.values import given
 
 # The columns every history has, those of adaptive steps, and the probes' fields
 # (rodfem.output.columns: COLUMNS, ADAPTIVE, PROBES).
@@ -110,13 +112,13 @@ def _column(what: str, column: Any, adaptive: bool) -> str:
         except ValueError:
             value = math.nan
         if not 0.0 <= value <= 1.0:
-            raise SceneError(f"{what}: column {column!r}: the point x of {field}@x must be a "
+            raise SceneError(f"{what}: column {_quoted(column)}: the point x of {field}@x must be a "
                              "number with 0 <= x <= 1")
         return f"{field}@{point(value + 0.0)}"
     if column not in COLUMN_NAMES or "@" in column:
-        raise SceneError(f"{what}: unknown column {column!r}; allowed: {allowed}")
+        raise SceneError(f"{what}: unknown column {_quoted(column)}; allowed: {allowed}")
     if column in ADAPTIVE_COLUMNS and not adaptive:
-        raise SceneError(f"{what}: column {column!r} is recorded only with time.adaptive = true")
+        raise SceneError(f"{what}: column {_quoted(column)} is recorded only with time.adaptive = true")
     return column
 
 
@@ -142,31 +144,36 @@ def entry(name: Any, spec: Any, adaptive: bool, end: float) -> Declared:
         raise SceneError(f"{what}: a measure's name must be lower-case letters, digits and _, "
                          "not starting with a digit")
     if name in RESERVED:
-        raise SceneError(f"{what}: {name!r} is a built-in measure or a column of results.csv; "
+        raise SceneError(f"{what}: {_quoted(name)} is a built-in measure or a column of results.csv; "
                          f"choose another name (taken: {', '.join(RESERVED)})")
     if not isinstance(spec, dict):
         raise SceneError(f'{what}: must be a table, e.g. {{ column = "contact_force", '
                          'reduce = "max" }')
     for key in spec:
         if key not in ENTRY_KEYS:
-            raise SceneError(f"{what}: unknown key {key!r}; allowed: {', '.join(ENTRY_KEYS)}")
+            raise SceneError(f"{what}: unknown key {_quoted(key)}; allowed: {', '.join(ENTRY_KEYS)}")
     for key in ("column", "reduce"):
         if key not in spec:
             raise SceneError(f"{what}: needs a {key}")
     reduce = spec["reduce"]
     if reduce not in REDUCTIONS:
-        shown = repr(reduce) if isinstance(reduce, str) else "of another kind"
+        shown = _quoted(reduce) if isinstance(reduce, str) else "of another kind"
         raise SceneError(f"{what}: unknown reduce {shown}; allowed: {', '.join(REDUCTIONS)}")
     window = _window(what, spec["window"], end) if "window" in spec else None
     target = _target(what, spec["target"]) if "target" in spec else None
     return Declared(name, _column(what, spec["column"], adaptive), reduce, window, target)
 
 
+def _quoted(value: Any) -> str:
+    """What a user gave, as these messages quote it: its repr, cut short."""
+    return shorten(repr(value))
+
+
 def _target(what: str, target: Any) -> float:
     number = isinstance(target, (int, float)) and not isinstance(target, bool)
     if not number or not 0.0 < target <= MAX_TARGET:
         raise SceneError(f"{what}: target must be a number with 0 < target <= {MAX_TARGET:g} "
-                         f"(a relative error), got {target!r}")
+                         f"(a relative error), got {_quoted(target)}")
     return float(target)
 
 
