@@ -105,11 +105,13 @@ def main() -> None:
     load = os.getloadavg()
     print(f"\nmachine: {machine()}; load average {load[0]:.2f} at the end")
     args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps({
-        "machine": machine(), "date": datetime.datetime.now().isoformat(timespec="seconds"),
-        "command": "python benchmarks/bench_estimates.py " + " ".join(sys.argv[1:]),
-        "scenes": args.scenes, "seed": args.seed, "summary": table, "cases": cases},
-        indent=1) + "\n")
+    head = {"machine": machine(), "date": datetime.datetime.now().isoformat(timespec="seconds"),
+            "load_average_end": list(load),
+            "command": "python benchmarks/bench_estimates.py " + " ".join(sys.argv[1:]),
+            "scenes": args.scenes, "seed": args.seed, "summary": table}
+    text = json.dumps(head, indent=1)[:-2]  # the cases one a line
+    text += ',\n "cases": [\n' + ",\n".join(json.dumps(c) for c in cases) + "\n ]\n}\n"
+    args.json.write_text(text)
 
 
 if __name__ == "__main__":
