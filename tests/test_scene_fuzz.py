@@ -127,10 +127,36 @@ def test_any_overrides_load_or_are_one_line(overrides):
     'time.adaptive=["\\u001f", ' + "9" * 4000 + "]",  # found by the fuzzing above
     "time.scheme=" + "9" * 4000,
     "output.fields=[" + ", ".join(['"u"'] * 2) + ", " + "9" * 4000 + "]",
-    'measures.p={ column = "' + "x" * 4000 + '", reduce = "max" }',
-    'measures.p={ column = "u_1", reduce = "max", target = "' + "x" * 4000 + '" }',
-], ids=["boolean", "choice", "list", "column", "target"])
+    "model.zeta" + "x" * 4000,
+    "time. " + "x" * 4000 + "=1",
+    "model." + "x" * 4000 + "=1",
+    "x" * 4000 + ".zeta=1",
+], ids=["boolean", "choice", "list", "no value", "space", "key", "section"])
 def test_a_long_value_is_quoted_short(override):
     with pytest.raises(SceneError) as err:
         load("paper1", [override])
     assert "\n" not in str(err.value) and len(str(err.value)) < 300, str(err.value)
+
+
+LONG = "x" * 4000
+
+
+@serial_only
+@pytest.mark.parametrize("text", [
+    f'[measures]\np = {{ column = "{LONG}", reduce = "max" }}\n',
+    f'[measures]\np = {{ column = "u_1", reduce = "max", target = "{LONG}" }}\n',
+    f'[measures]\np = {{ column = "u_1", reduce = "{LONG}" }}\n',
+    f'[measures]\np = {{ column = "u_1", reduce = "max", {LONG} = 1 }}\n',
+    f'[measures]\n{LONG} = {{ column = "nothing", reduce = "max" }}\n',
+    f'[measures]\nA{LONG} = {{ column = "u_1", reduce = "max" }}\n',
+    f'[{LONG}]\n',
+    f'[model]\n{LONG} = 1\n',
+    f'[measures]\n{LONG} = {{ column = "t", reduce = "max", target = 0.01 }}\n',
+], ids=["column", "target", "reduce", "key", "name", "bad name", "section", "model key",
+        "stepped target"])
+def test_a_long_name_in_a_scene_file_is_quoted_short(tmp_path_factory, text):
+    path = tmp_path_factory.mktemp("scene") / "s.toml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(SceneError) as err:
+        load(str(path))
+    assert "\n" not in str(err.value) and len(str(err.value)) < 400, str(err.value)

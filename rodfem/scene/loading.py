@@ -35,7 +35,7 @@ from rodfem.scene.schema import (  # noqa: F401 (re-exported)
     Key,
     SceneError,
 )
-from rodfem.scene.values import _check_value, _suggest, _toml_value, with_changes
+from rodfem.scene.values import _check_value, _suggest, _toml_value, quote, with_changes
 
 
 def validate(data: dict[str, Any], source: str = "") -> Scene:
@@ -49,7 +49,8 @@ def validate(data: dict[str, Any], source: str = "") -> Scene:
     values: dict[str, dict[str, Any]] = {}
     for name in data:
         if name not in SCHEMA and name not in TOP_LEVEL:
-            raise SceneError(f"unknown section '{name}': {_suggest(name, [*SCHEMA, *TOP_LEVEL])}")
+            raise SceneError(f"unknown section '{shorten(str(name))}': "
+                             f"{_suggest(name, [*SCHEMA, *TOP_LEVEL])}")
     description = data.get("description", "")
     if not isinstance(description, str):
         raise SceneError("description: must be a string")
@@ -60,7 +61,7 @@ def validate(data: dict[str, Any], source: str = "") -> Scene:
             raise SceneError(f"{section}: must be a section [{section}] with keys {names}")
         for key in given:
             if key not in keys:
-                raise SceneError(f"unknown key '{section}.{key}': {_suggest(key, keys)}")
+                raise SceneError(f"unknown key '{section}.{shorten(key)}': {_suggest(key, keys)}")
         values[section] = {
             key: _check_value(f"{section}.{key}", spec, given.get(key, spec.default))
             for key, spec in keys.items()
@@ -211,11 +212,12 @@ def _check_accuracy(scene: Scene) -> None:
                          "(docs/accuracy-targets.md)")
     for m in scene.measures:
         if m.target is not None and m.stepped:
-            raise SceneError(f"measures.{m.name}: {m.reduce} of {m.column} is set by the steps "
-                             "(its value moves by whole steps as a run is refined) and has no "
-                             "error to hold to a target; remove its target")
+            raise SceneError(f"measures.{shorten(m.name)}: {m.reduce} of {m.column} is set by "
+                             "the steps (its value moves by whole steps as a run is refined) "
+                             "and has no error to hold to a target; remove its target")
         if m.name in scene.targets and f"{m.name}_error" in {d.name for d in scene.measures}:
-            raise SceneError(f"measures.{m.name}_error: the name of {m.name}'s estimated error "
+            name = shorten(m.name)
+            raise SceneError(f"measures.{name}_error: the name of {name}'s estimated error "
                              "(a sweep's results.csv column); choose another name")
     most, cells = scene["accuracy.cells_max"], scene["mesh.cells"]
     if most and most < cells:
@@ -265,7 +267,7 @@ def _parse_override(item: str) -> tuple[str, str, Any]:
     """A ``--set section.key=value`` as (section, key, value): the value as TOML, or else as a
     bare string (an expression, a choice)."""
     if "=" not in item or "." not in item.split("=", 1)[0]:
-        raise SceneError(f"--set {item}: must be section.key=value, e.g. model.zeta=1")
+        raise SceneError(f"--set {shorten(item)}: must be section.key=value, e.g. model.zeta=1")
     dotted, text = item.split("=", 1)
     section, key = split_key(dotted, f"--set {shorten(item)}")
     try:
@@ -285,19 +287,20 @@ def split_key(dotted: Any, what: str) -> tuple[str, str]:
         SceneError: naming ``what`` (where the key was given) if it is not.
     """
     if not isinstance(dotted, str) or dotted.count(".") != 1:
-        raise SceneError(f"{what}: {_toml_value(str(dotted))} must be section.key, e.g. "
-                         "model.zeta")
+        raise SceneError(f"{what}: {quote(str(dotted))} must be section.key, e.g. model.zeta")
     if any(c.isspace() for c in dotted):
-        raise SceneError(f"{what}: {_toml_value(dotted)} has a space in it; write the key alone, "
-                         f"{_toml_value(''.join(dotted.split()))}")
+        raise SceneError(f"{what}: {quote(dotted)} has a space in it; write the key alone, "
+                         f"{quote(''.join(dotted.split()))}")
     section, key = dotted.split(".")
     if section == "measures":
         raise SceneError(f"{what}: measures are declared in a [measures] table of a scene or "
                          "sweep file, not set by key")
     if section not in SCHEMA:
-        raise SceneError(f"{what}: unknown section '{section}': {_suggest(section, SCHEMA)}")
+        raise SceneError(f"{what}: unknown section '{shorten(section)}': "
+                         f"{_suggest(section, SCHEMA)}")
     if key not in SCHEMA[section]:
-        raise SceneError(f"{what}: unknown key '{section}.{key}': {_suggest(key, SCHEMA[section])}")
+        raise SceneError(f"{what}: unknown key '{section}.{shorten(key)}': "
+                         f"{_suggest(key, SCHEMA[section])}")
     return section, key
 
 
@@ -326,7 +329,8 @@ def load(scene: str, overrides: list[str] | tuple[str, ...] = ()) -> Scene:
         SceneError: if the scene cannot be read or any value is wrong.
     """
     if isinstance(overrides, str):
-        raise SceneError(f"overrides: a list of section.key=value, not the string {shorten(repr(overrides))}")
+        raise SceneError("overrides: a list of section.key=value, not the string "
+                         f"{shorten(repr(overrides))}")
     data, source = read(scene)
     changes, described = {}, False
     for item in overrides:

@@ -23,7 +23,6 @@ from typing import Any
 
 from rodfem.scene.expressions import shorten
 from rodfem.scene.schema import QUANTITIES, SceneError
-from rodfem.scene.values import given
 
 # The columns every history has, those of adaptive steps, and the probes' fields
 # (rodfem.output.columns: COLUMNS, ADAPTIVE, PROBES).
@@ -112,13 +111,14 @@ def _column(what: str, column: Any, adaptive: bool) -> str:
         except ValueError:
             value = math.nan
         if not 0.0 <= value <= 1.0:
-            raise SceneError(f"{what}: column {_quoted(column)}: the point x of {field}@x must be a "
-                             "number with 0 <= x <= 1")
+            raise SceneError(f"{what}: column {_quoted(column)}: the point x of {field}@x must "
+                             "be a number with 0 <= x <= 1")
         return f"{field}@{point(value + 0.0)}"
     if column not in COLUMN_NAMES or "@" in column:
         raise SceneError(f"{what}: unknown column {_quoted(column)}; allowed: {allowed}")
     if column in ADAPTIVE_COLUMNS and not adaptive:
-        raise SceneError(f"{what}: column {_quoted(column)} is recorded only with time.adaptive = true")
+        raise SceneError(f"{what}: column {_quoted(column)} is recorded only with "
+                         "time.adaptive = true")
     return column
 
 
@@ -139,19 +139,20 @@ def _window(what: str, window: Any, end: float) -> tuple[float, float]:
 def entry(name: Any, spec: Any, adaptive: bool, end: float) -> Declared:
     """One measure of a ``[measures]`` table, checked (``adaptive``, ``end``: the scene's
     time.adaptive and time.end)."""
-    what = f"measures.{name}"
+    what = f"measures.{shorten(str(name))}"
     if not isinstance(name, str) or not NAME.fullmatch(name):
         raise SceneError(f"{what}: a measure's name must be lower-case letters, digits and _, "
                          "not starting with a digit")
     if name in RESERVED:
-        raise SceneError(f"{what}: {_quoted(name)} is a built-in measure or a column of results.csv; "
-                         f"choose another name (taken: {', '.join(RESERVED)})")
+        raise SceneError(f"{what}: {_quoted(name)} is a built-in measure or a column of "
+                         f"results.csv; choose another name (taken: {', '.join(RESERVED)})")
     if not isinstance(spec, dict):
         raise SceneError(f'{what}: must be a table, e.g. {{ column = "contact_force", '
                          'reduce = "max" }')
     for key in spec:
         if key not in ENTRY_KEYS:
-            raise SceneError(f"{what}: unknown key {_quoted(key)}; allowed: {', '.join(ENTRY_KEYS)}")
+            raise SceneError(f"{what}: unknown key {_quoted(key)}; "
+                             f"allowed: {', '.join(ENTRY_KEYS)}")
     for key in ("column", "reduce"):
         if key not in spec:
             raise SceneError(f"{what}: needs a {key}")

@@ -30,7 +30,7 @@ def _toml_value(value: Any) -> str:
     return repr(value)
 
 
-def given(value: Any) -> str:
+def quote(value: Any) -> str:
     """A value a user gave, as a one-line message quotes it: its TOML, cut short."""
     return shorten(_toml_value(value), 60)
 
@@ -81,7 +81,7 @@ def _check_list(dotted: str, spec: Key, value: Any) -> list:
     example = spec.default or ([spec.choices[0]] if spec.choices else [0.5])
     if not isinstance(value, (list, tuple)):
         raise SceneError(f"{dotted}: must be a list, e.g. {_toml_value(list(example))}, "
-                         f"got {given(value)}")
+                         f"got {quote(value)}")
     element = dataclasses.replace(spec, kind=spec.kind[:-1])  # "reals" -> "real"
     items = [_check_value(f"{dotted}[{i}]", element, v) for i, v in enumerate(value)]
     if spec.kind == "reals":
@@ -91,7 +91,7 @@ def _check_list(dotted: str, spec: Key, value: Any) -> list:
     seen = set()
     for item in items:
         if item in seen:
-            raise SceneError(f"{dotted}: {given(item)} is listed twice")
+            raise SceneError(f"{dotted}: {quote(item)} is listed twice")
         seen.add(item)
     return items  # a list, as JSON holds it (a checkpoint's scene)
 
@@ -100,7 +100,7 @@ def _check_number(dotted: str, spec: Key, value: Any) -> int | float:
     """A real or integer key's value: a finite number of its kind within the key's range."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         noun = "a number" if spec.kind == "real" else "an integer"
-        raise SceneError(f"{dotted}: must be {noun}, got {given(value)}")
+        raise SceneError(f"{dotted}: must be {noun}, got {quote(value)}")
     if spec.kind == "integer" and not isinstance(value, int):
         raise SceneError(f"{dotted}: must be an integer, got {value!r}")
     shown = shorten(repr(value), 30)
@@ -123,12 +123,12 @@ def _check_value(dotted: str, spec: Key, value: Any) -> Any:
         return _check_number(dotted, spec, value)
     if spec.kind == "boolean":
         if not isinstance(value, bool):
-            raise SceneError(f"{dotted}: must be true or false, got {given(value)}")
+            raise SceneError(f"{dotted}: must be true or false, got {quote(value)}")
         return value
     if spec.kind == "choice":
         if value not in spec.choices:
             choices = " | ".join(f'"{c}"' for c in spec.choices)
-            raise SceneError(f"{dotted}: must be one of {choices}, got {given(value)}")
+            raise SceneError(f"{dotted}: must be one of {choices}, got {quote(value)}")
         return value
     assert spec.kind == "expression"
     if isinstance(value, (int, float)) and not isinstance(value, bool):
@@ -136,6 +136,6 @@ def _check_value(dotted: str, spec: Key, value: Any) -> Any:
     try:
         Expression(value, SOURCE_NAMES if dotted.startswith("source.") else MODEL_NAMES)
     except ExpressionError as err:
-        shown = _toml_value(shorten(value)) if isinstance(value, str) else given(value)
+        shown = _toml_value(shorten(value)) if isinstance(value, str) else quote(value)
         raise SceneError(f"{dotted}: {shown} {err}") from None
     return value
