@@ -6,8 +6,8 @@ The runs (each a plain run of the scene, in memory, its mesh and time step set):
 1. the scene's own cells c₀ and time step (``time.tolerance``, the scheme's default where 0, or
    ``time.dt``), then 2c₀ at the same step: the error in h; then 2c₀ at the next time level (a
    tenth of the tolerance, or half the step): the error in time;
-2. then, while some measure's estimate (its error in h plus its error in time, each from the
-   latest pair of runs that differ in that direction alone, :mod:`.estimates`) exceeds its target
+2. then, while some measure's estimate (its errors in h and in time, each from the latest pair
+   of runs that differ in that direction alone, combined: :mod:`.estimates`) exceeds its target
    times |m|, the direction whose estimate is the larger, for the measure furthest from its
    target, is refined once more: cells doubled, or the next time level;
 3. until every measure is within its target (met), or ``accuracy.cells_max`` would be passed, or
@@ -15,15 +15,17 @@ The runs (each a plain run of the scene, in memory, its mesh and time step set):
 4. with fixed steps, where a measure met rests on one pair of meshes for its error in h, a run on
    a quarter of the cells gives that error an observed order and a sign (:func:`.estimates.
    combined` then adds the two directions' errors by their signs), and the targets are checked
-   again.
+   again (not where the cells are not a multiple of 4, a quarter of them would be below the
+   schema's least mesh, or no run is left: the error in h then rests on one pair).
 
-The run reported is the last (the finest in both), made again into the run directory with its
-files. Each direction's error is measured where the runs differ in it alone: the error in h at
-the time level where it was last refined, and the error in time on the mesh where it was last
-refined, each taken to hold at the other's refinement (the adaptive steps hold a relative error
-whatever the mesh; a mesh's error does not depend on a time step far smaller than its own
-scales). Every run is deterministic, so the whole ladder is reproducible bit for bit from the
-scene, serially and on any number of ranks (each run uses them all).
+The run reported is the finest in both directions (the last made but a check in h), made again
+into the run directory with its files. Each direction's error is measured where the runs differ
+in it alone: the error in h at the time level where it was last refined, and the error in time
+on the mesh where it was last refined, each taken to hold at the other's refinement (the
+adaptive steps hold a relative error whatever the mesh; a mesh's error does not depend on a time
+step far smaller than its own scales). Every run is deterministic, so the whole ladder is
+reproducible bit for bit from the scene, serially and on any number of ranks (each run uses them
+all).
 """
 
 from __future__ import annotations
@@ -195,7 +197,7 @@ class Ladder:
 
     def errors(self, cells: int, level: int) -> dict[str, dict]:
         """Each targeted measure at (cells, level): its value, error in h and in time, their
-        sum, and whether it is within its target."""
+        combination (:func:`.estimates.combined`), and whether it is within its target."""
         out = {}
         rung = self.rungs[cells, level]
         for name, target in self.targets.items():
