@@ -216,6 +216,24 @@ def test_errors_of_opposite_signs_in_a_run_are_estimated_as_cancelled(shared):
     assert accuracy["cells"] // 4 in {int(row.split(",")[1]) for row in rows}
 
 
+def test_an_order_outside_its_band_is_refined_once_more(shared):
+    """The paper scheme's u(1, T) on a scene whose error in time, met, has the order 1.28 where
+    1 is expected (bench_estimates.py's seed 7): outside the band, that error has no sign to
+    combine, and its size beside the cancelling error in h was 47 times the exact error. The
+    time step is halved once more: the order is 1.16, in the band, and the two cancel."""
+    text = ('scene = "manufactured"\n[model]\na = 0.46114351105432305\nb = 1.0918991888892842\n'
+            'zeta = 0.45068334851673886\n[mesh]\ncells = 8\n[time]\nend = 0.5\ndt = 0.025\n'
+            'scheme = "paper"\n[accuracy]\ntarget = 0.01\n' + MEASURES)
+    result = rodfem.simulate(scene_file(shared, text, "band.toml"))
+    accuracy = result.summary["accuracy"]
+    entry = accuracy["measures"]["u_end"]
+    true = abs(result.measures["u_end"] - exact(0.5)["u_end"])
+    assert accuracy["met"] is True and true <= result.errors["u_end"] <= 5.0 * true
+    assert entry["time"]["asymptotic"] is True and entry["space"]["asymptotic"] is True
+    # the targets were met at a fourth of the scene's step: the step reported is an eighth
+    assert accuracy["dt"] == pytest.approx(0.025 / 8.0) and accuracy["runs"] == 7
+
+
 def test_a_target_not_met_is_said_and_the_finest_run_reported(shared):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -297,8 +315,7 @@ def test_estimates_cover_the_exact_errors_of_random_scenes(shared):
     cases, and in these 30 are never more than 30 times them: where the errors in h and in time
     have opposite signs and nearly the same size, they cancel in the estimate as in the run
     (before, 184 times on one of these cases). Over 400 such scenes (benchmarks/
-    bench_estimates.py, docs/accuracy-targets.md) one case of 1,200 is beyond 30 times: 47
-    times, where the error in time is outside its order's band and so has no sign."""
+    bench_estimates.py, docs/accuracy-targets.md): 99.9 % covered, 19.5 times at most."""
     rng = random.Random(20261206)
     covered, ratios = [], []
     for i in range(10):

@@ -16,7 +16,9 @@ The runs (each a plain run of the scene, in memory, its mesh and time step set):
    a quarter of the cells gives that error an observed order and a sign (:func:`.estimates.
    combined` then adds the two directions' errors by their signs), and the targets are checked
    again (not where the cells are not a multiple of 4, a quarter of them would be below the
-   schema's least mesh, or no run is left: the error in h then rests on one pair).
+   schema's least mesh, or no run is left: the error in h then rests on one pair); then, once a
+   ladder, a direction whose order is outside its band for some measure met (no sign to
+   combine it by) is refined once more, and the targets checked again at that finer run.
 
 The run reported is the finest in both directions (the last made but a check in h), made again
 into the run directory with its files. Each direction's error is measured where the runs differ
@@ -101,6 +103,7 @@ class Ladder:
         self.runs_max = scene["accuracy.runs_max"]
         self.rungs: dict[tuple[int, int], Rung] = {}
         self.limit: str | None = None  # what stopped the refinement short of the targets
+        self.into_band = False  # whether a direction out of its band was refined once more
         from rodfem.run import SetUps
 
         self.setups = setups if setups is not None else SetUps()
@@ -230,9 +233,15 @@ class Ladder:
             errors = self.errors(cells, level)
             if all(e["met"] for e in errors.values()):
                 check = self._space_check(cells, level, errors)
-                if check is None:
+                if check is not None:
+                    self.run(*check)
+                    continue
+                nxt = self._into_band(cells, level, errors)
+                if nxt is None:
                     return cells, level, errors
-                self.run(*check)
+                for key in self.plan(*nxt):
+                    self.run(*key)
+                cells, level = nxt
                 continue
             worst = max(errors.values(), key=_shortfall)
             # within its target on one pair of time levels: the time step refined to check it
@@ -264,6 +273,26 @@ class Ladder:
                  if (cells // 2, k) in self.rungs and (cells, k) in self.rungs)
         key = (cells // 4, k)
         return None if key in self.rungs or len(self.rungs) >= self.runs_max else key
+
+    def _into_band(self, cells: int, level: int, errors: dict[str, dict]):
+        """With fixed steps, once a ladder, where every target is met but some measure's error in
+        h or in time has its order outside the band (and so no sign to combine by): the next
+        refinement in that direction, as ``rodfem verify`` advises for an order outside the
+        band; of the two, the one whose error is the larger share of its measure's target (None:
+        none, done already, or no room for it)."""
+        if self.adaptive or self.into_band:
+            return None
+        shares = [(e[d].error / wanted if (wanted := e["target"] * abs(e["value"])) else math.inf,
+                   d) for e in errors.values() for d in ("space", "time")
+                  if e[d].asymptotic is False]
+        if not shares:
+            return None
+        self.into_band = True
+        space = max(shares)[1] == "space"
+        nxt = (2 * cells, level) if space else (cells, level + 1)
+        if (2 * cells > self.cells_max) if space else not self._time_room(level + 1):
+            return None
+        return None if len(self.rungs) + len(self.plan(*nxt)) > self.runs_max else nxt
 
     def _time_room(self, level: int) -> bool:
         """Whether a time level can be run: a tolerance above 0 (its bound's floor), a fixed
