@@ -17,8 +17,9 @@ The runs (each a plain run of the scene, in memory, its mesh and time step set):
    combined` then adds the two directions' errors by their signs), and the targets are checked
    again (not where the cells are not a multiple of 4, a quarter of them would be below the
    schema's least mesh, or no run is left: the error in h then rests on one pair); then, once a
-   ladder, a direction whose order is outside its band for some measure met (no sign to
-   combine it by) is refined once more, and the targets checked again at that finer run.
+   ladder, a direction whose order is outside its band (or has none) for some measure met, and
+   so no sign to combine it by, is refined once more where the limits leave room, and the
+   targets are checked again at that finer run (and refined on from there if no longer met).
 
 The run reported is the finest in both directions (the last made but a check in h), made again
 into the run directory with its files. Each direction's error is measured where the runs differ
